@@ -1,0 +1,221 @@
+#include "calibration/display_model_json.h"
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "common/input_error.h"
+
+namespace parallax {
+namespace {
+
+using nlohmann::json;
+
+[[noreturn]] void fail(const std::string& field, const std::string& reason) {
+  throw InputError(InputLocation{"", field, 0}, reason);
+}
+
+const char* typeName(const json& j) { return j.type_name(); }
+
+const json& member(const json& object, const std::string& key, const std::string& path) {
+  if (!object.is_object()) fail(path, fmt::format("must be an object, got {}", typeName(object)));
+  const auto it = object.find(key);
+  if (it == object.end()) fail(path.empty() ? key : path + "." + key, "missing key");
+  return *it;
+}
+
+std::string join(const std::string& path, const std::string& key) {
+  return path.empty() ? key : path + "." + key;
+}
+
+double number(const json& object, const std::string& key, const std::string& path) {
+  const json& j = member(object, key, path);
+  const std::string field = join(path, key);
+  if (!j.is_number()) fail(field, fmt::format("must be a number, got {}", typeName(j)));
+  const double value = j.get<double>();
+  if (!std::isfinite(value)) fail(field, "must be a finite number");
+  return value;
+}
+
+std::vector<double> numbers(const json& object, const std::string& key, const std::string& path,
+                            size_t count) {
+  const json& j = member(object, key, path);
+  const std::string field = join(path, key);
+  if (!j.is_array() || j.size() != count) {
+    fail(field, fmt::format("must be an array of {} numbers, got {}", count,
+                            j.is_array() ? fmt::format("{} elements", j.size()) : typeName(j)));
+  }
+  std::vector<double> out;
+  for (size_t i = 0; i < count; ++i) {
+    if (!j[i].is_number()) {
+      fail(fmt::format("{}[{}]", field, i), fmt::format("must be a number, got {}", typeName(j[i])));
+    }
+    out.push_back(j[i].get<double>());
+    if (!std::isfinite(out.back())) fail(fmt::format("{}[{}]", field, i), "must be a finite number");
+  }
+  return out;
+}
+
+int integer(const json& j, const std::string& field) {
+  if (!j.is_number_integer()) fail(field, fmt::format("must be an integer, got {}", typeName(j)));
+  const auto value = j.get<long long>();
+  if (value < -(1LL << 30) || value > (1LL << 30)) fail(field, "integer out of range");
+  return static_cast<int>(value);
+}
+
+Eigen::Vector3d vec3(const json& object, const std::string& key, const std::string& path) {
+  const auto v = numbers(object, key, path, 3);
+  return {v[0], v[1], v[2]};
+}
+
+json vec3Json(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+OpticalModule moduleFromJson(const json& j, const std::string& path) {
+  OpticalModule m;
+  m.id = integer(member(j, "id", path), join(path, "id"));
+  m.position = vec3(j, "position", path);
+  const auto q = numbers(j, "orientation", path, 4);
+  m.orientation = Eigen::Quaterniond(q[0], q[1], q[2], q[3]);
+  const auto f = numbers(j, "focal_px", path, 2);
+  m.fx = f[0];
+  m.fy = f[1];
+  const auto c = numbers(j, "principal_px", path, 2);
+  m.cx = c[0];
+  m.cy = c[1];
+  const auto k = numbers(j, "distortion", path, 2);
+  m.k1 = k[0];
+  m.k2 = k[1];
+  const json& res = member(j, "resolution", path);
+  if (!res.is_array() || res.size() != 2) fail(join(path, "resolution"), "must be [width, height]");
+  m.width = integer(res[0], join(path, "resolution") + "[0]");
+  m.height = integer(res[1], join(path, "resolution") + "[1]");
+  const json& mirror = member(j, "mirror", path);
+  if (!mirror.is_boolean()) {
+    fail(join(path, "mirror"), fmt::format("must be true or false, got {}", typeName(mirror)));
+  }
+  m.mirror = mirror.get<bool>();
+  return m;
+}
+
+}  // namespace
+
+json displayModelToJson(const DisplayModel& model) {
+  json modules = json::array();
+  for (const OpticalModule& m : model.modules) {
+    const Eigen::Quaterniond& q = m.orientation;
+    modules.push_back({{"id", m.id},
+                       {"position", vec3Json(m.position)},
+                       {"orientation", {q.w(), q.x(), q.y(), q.z()}},
+                       {"focal_px", {m.fx, m.fy}},
+                       {"principal_px", {m.cx, m.cy}},
+                       {"distortion", {m.k1, m.k2}},
+                       {"resolution", {m.width, m.height}},
+                       {"mirror", m.mirror}});
+  }
+  return {{"format", kDisplayFormatName},
+          {"version", kDisplayFormatVersion},
+          {"name", model.name},
+          {"screen",
+           {{"width", model.screen.width},
+            {"height", model.screen.height},
+            {"curvature", model.screen.curvature},
+            {"transfer", transferName(model.screen.transfer)},
+            {"diffusion_deg", model.screen.diffusionDeg}}},
+          {"observer", {{"y", model.observer.y}, {"z", model.observer.z}}},
+          {"displayable_box",
+           {{"min", vec3Json(model.displayableBox.min)}, {"max", vec3Json(model.displayableBox.max)}}},
+          {"modules", modules}};
+}
+
+DisplayModel displayModelFromJson(const json& j) {
+  if (!j.is_object()) fail("", fmt::format("the document must be an object, got {}", typeName(j)));
+  const json& format = member(j, "format", "");
+  if (!format.is_string() || format.get<std::string>() != kDisplayFormatName) {
+    fail("format", fmt::format("must be \"{}\", got {}", kDisplayFormatName, format.dump()));
+  }
+  const json& version = member(j, "version", "");
+  if (!version.is_number_integer() || version.get<long long>() != kDisplayFormatVersion) {
+    fail("version", fmt::format("unknown version {} (this build reads version {})", version.dump(),
+                                kDisplayFormatVersion));
+  }
+  DisplayModel model;
+  if (j.contains("name")) {
+    if (!j["name"].is_string()) fail("name", "must be a string");
+    model.name = j["name"].get<std::string>();
+  }
+  const json& screen = member(j, "screen", "");
+  model.screen.width = number(screen, "width", "screen");
+  model.screen.height = number(screen, "height", "screen");
+  model.screen.curvature = number(screen, "curvature", "screen");
+  model.screen.diffusionDeg = number(screen, "diffusion_deg", "screen");
+  const json& transfer = member(screen, "transfer", "screen");
+  if (!transfer.is_string() || !parseTransfer(transfer.get<std::string>(), &model.screen.transfer)) {
+    fail("screen.transfer", fmt::format("must be \"conical\" or \"linear\", got {}", transfer.dump()));
+  }
+  const json& observer = member(j, "observer", "");
+  model.observer.y = number(observer, "y", "observer");
+  model.observer.z = number(observer, "z", "observer");
+  const json& box = member(j, "displayable_box", "");
+  model.displayableBox.min = vec3(box, "min", "displayable_box");
+  model.displayableBox.max = vec3(box, "max", "displayable_box");
+  const json& modules = member(j, "modules", "");
+  if (!modules.is_array()) fail("modules", fmt::format("must be an array, got {}", typeName(modules)));
+  if (modules.size() > static_cast<size_t>(kMaxModules)) {
+    fail("modules", fmt::format("at most {} modules, got {}", kMaxModules, modules.size()));
+  }
+  for (size_t i = 0; i < modules.size(); ++i) {
+    model.modules.push_back(moduleFromJson(modules[i], fmt::format("modules[{}]", i)));
+  }
+  model.validate();
+  return model;
+}
+
+DisplayModel loadDisplayModel(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError({path, "", 0}, "cannot open the display file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  json j;
+  try {
+    j = json::parse(text);
+  } catch (const json::parse_error& e) {
+    // Turn the byte offset into a line number a person can jump to.
+    const size_t end = std::min(text.size(), static_cast<size_t>(e.byte));
+    const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(end), '\n'));
+    std::string reason = e.what();
+    const size_t colon = reason.find(": ");
+    if (colon != std::string::npos) reason = reason.substr(colon + 2);
+    throw InputError({path, "", line}, "not valid JSON: " + reason);
+  }
+  try {
+    return displayModelFromJson(j);
+  } catch (const InputError& e) {
+    throw e.inFile(path);
+  }
+}
+
+void saveDisplayModel(const DisplayModel& model, const std::string& path) {
+  const std::string temporary = path + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    if (!out) throw InputError({path, "", 0}, "cannot write the display file");
+    out << displayModelToJson(model).dump(2) << "\n";
+    out.flush();
+    if (!out) {
+      std::remove(temporary.c_str());
+      throw InputError({path, "", 0}, "writing the display file failed");
+    }
+  }
+  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
+    std::remove(temporary.c_str());
+    throw InputError({path, "", 0}, "cannot move the display file into place");
+  }
+}
+
+}  // namespace parallax

@@ -1,0 +1,40 @@
+#pragma once
+// The forward map, physical point → module pixel (the "double perspective" rasterizers use):
+// the inverse of the ray function. Under `linear` it is closed form: in the top view the module
+// p, the screen point s, the point P and the origin o are collinear, so the top-view line p→P
+// gives s.x and o.x, and the line o→P gives s.y. Under `conical` there is no closed form: Newton
+// on (u, v) over the ray function, started from the linear answer. Not projective, which is
+// why interpolating linearly inside a rasterized triangle is wrong.
+
+#include <Eigen/Core>
+
+#include "calibration/display_model.h"
+#include "calibration/ray_function.h"
+
+namespace parallax {
+
+struct ForwardMapResult {
+  bool ok = false;
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  // (u, v), continuous; may lie off the image
+  int iterations = 0;                               // Newton steps (conical)
+};
+
+class ForwardMap {
+ public:
+  ForwardMap(const DisplayModel& model, int moduleIndex);
+
+  // Pixel position whose primary ray passes through the physical point; not ok when none does
+  // (the point is off every ray of the module, or the solve does not converge).
+  ForwardMapResult pixelOf(const Eigen::Vector3d& physicalPoint) const;
+
+ private:
+  ForwardMapResult linearPixelOf(const Eigen::Vector3d& point) const;
+  ForwardMapResult refineConical(const Eigen::Vector3d& point, Eigen::Vector2d start) const;
+  // Where the primary ray of (u, v) crosses the plane z = point.z, minus the point (x, y).
+  bool residual(const Eigen::Vector2d& uv, const Eigen::Vector3d& point, Eigen::Vector2d* r) const;
+
+  const DisplayModel& model_;
+  RayFunction rays_;
+};
+
+}  // namespace parallax

@@ -1,0 +1,39 @@
+#pragma once
+// A progress bar on stderr for anything that runs longer than a second. Thread-safe: workers
+// call advance() from any thread. On a terminal it redraws one line; elsewhere (CI logs, the
+// journal) it prints a line at every 10%, so logs stay short.
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <mutex>
+#include <string>
+
+namespace parallax {
+
+class ProgressBar {
+ public:
+  ProgressBar(std::string label, std::int64_t total, bool enabled = true);
+  ~ProgressBar();
+  ProgressBar(const ProgressBar&) = delete;
+  ProgressBar& operator=(const ProgressBar&) = delete;
+
+  void advance(std::int64_t steps = 1);
+  void finish();
+
+ private:
+  void draw(std::int64_t done, bool final);
+
+  std::string label_;
+  std::int64_t total_;
+  bool enabled_;
+  bool interactive_;
+  std::atomic<std::int64_t> done_{0};
+  std::mutex drawMutex_;
+  int lastDecile_ = -1;
+  int lastPermille_ = -1;
+  bool finished_ = false;
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace parallax

@@ -1,0 +1,12 @@
+#pragma once
+// The `parallax` subcommands. Each registers itself on the app and runs through the callback
+// it installs; errors propagate as exceptions to main(), which prints one line and exits 1.
+
+#include <CLI/CLI.hpp>
+
+namespace parallax::cli {
+
+void addDisplayCommand(CLI::App& app);
+void addRaytexCommand(CLI::App& app);
+
+}  // namespace parallax::cli

@@ -1,0 +1,27 @@
+// `parallax`: the offline command-line tool (DESIGN.md, "Processes and interfaces").
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <exception>
+
+#include "common/input_error.h"
+#include "daemon/cli/commands.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"parallax: drive horizontal-parallax light field displays"};
+  app.require_subcommand(1);
+  parallax::cli::addDisplayCommand(app);
+  parallax::cli::addRaytexCommand(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const parallax::InputError& e) {
+    std::fprintf(stderr, "parallax: %s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "parallax: error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

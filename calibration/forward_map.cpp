@@ -36,7 +36,7 @@ ForwardMapResult ForwardMap::linearPixelOf(const Eigen::Vector3d& point) const {
 
 bool ForwardMap::residual(const Eigen::Vector2d& uv, const Eigen::Vector3d& point,
                           Eigen::Vector2d* r) const {
-  const PixelRay ray = rays_.at(uv.x(), uv.y());
+  const PixelRay ray = rays_.atUnclipped(uv.x(), uv.y());
   if (!ray.valid()) return false;
   const Eigen::Vector3d along = ray.screenPoint - ray.origin;
   const double lambda = (point.z() - ray.origin.z()) / along.z();
@@ -76,7 +76,9 @@ ForwardMapResult ForwardMap::refineConical(const Eigen::Vector3d& point, Eigen::
     r = rNext;
     result.iterations = iter;
     if (step.norm() < 1e-10) {
-      result.ok = true;
+      // Converged; it is an answer only if the ray really passes through the point and the
+      // pixel's module ray lands on the screen itself, not on its continuation.
+      result.ok = r.norm() <= 1e-9 * (1.0 + point.norm()) && rays_.at(uv.x(), uv.y()).valid();
       result.pixel = uv;
       return result;
     }
@@ -84,13 +86,74 @@ ForwardMapResult ForwardMap::refineConical(const Eigen::Vector3d& point, Eigen::
   return result;
 }
 
+bool ForwardMap::coneMismatch(double x, const Eigen::Vector3d& point, double* mismatch,
+                              Eigen::Vector3d* s) const {
+  const Eigen::Vector3d o = model_.observer.pointAt(x);
+  double t;
+  // The surface past the screen's edges too, so a root lying right at an edge stays bracketed;
+  // the ray function rejects off-screen answers when Newton polishes them.
+  if (!model_.screen.intersectFrom(o, point - o, -1.0, false, &t, s)) return false;
+  const Eigen::Vector3d tangent = model_.screen.tangent(s->x());
+  const Eigen::Vector3d incoming = (*s - rays_.optics().position()).normalized();
+  *mismatch = (o - *s).normalized().dot(tangent) - incoming.dot(tangent);
+  return std::isfinite(*mismatch);
+}
+
+std::vector<Eigen::Vector2d> ForwardMap::conicalStarts(const Eigen::Vector3d& point) const {
+  std::vector<Eigen::Vector2d> starts;
+  const double depth = model_.observer.z - point.z();
+  if (!(depth > 0.0)) return starts;
+  // X = P.x + depth·tan φ over φ ∈ (−89.5°, 89.5°): every origin whose line to P can be steep
+  // enough to reach the screen.
+  constexpr int kSamples = 256;
+  constexpr double kMaxAngle = 1.5620696805349213;  // 89.5° in radians
+  auto originAt = [&](int i) {
+    return point.x() + depth * std::tan(-kMaxAngle + 2.0 * kMaxAngle * i / kSamples);
+  };
+  double prevX = 0.0, prevF = 0.0;
+  bool prevOk = false;
+  Eigen::Vector3d s;
+  for (int i = 0; i <= kSamples; ++i) {
+    const double x = originAt(i);
+    double f;
+    const bool ok = coneMismatch(x, point, &f, &s);
+    if (ok && prevOk && (f == 0.0 || (f > 0.0) != (prevF > 0.0))) {
+      double lo = prevX, hi = x, fLo = prevF;
+      for (int k = 0; k < 200 && hi - lo > 1e-15 * (1.0 + std::abs(lo)); ++k) {
+        const double mid = 0.5 * (lo + hi);
+        double fMid;
+        if (!coneMismatch(mid, point, &fMid, &s)) break;
+        if ((fMid > 0.0) == (fLo > 0.0)) {
+          lo = mid;
+          fLo = fMid;
+        } else {
+          hi = mid;
+        }
+      }
+      double f0;
+      Eigen::Vector2d pixel;
+      if (coneMismatch(0.5 * (lo + hi), point, &f0, &s) &&
+          rays_.optics().project((s - rays_.optics().position()).normalized(), &pixel)) {
+        starts.push_back(pixel);
+      }
+    }
+    prevX = x;
+    prevF = f;
+    prevOk = ok;
+  }
+  return starts;
+}
+
 ForwardMapResult ForwardMap::pixelOf(const Eigen::Vector3d& point) const {
-  const ForwardMapResult linear = linearPixelOf(point);
-  if (model_.screen.transfer == ScreenTransfer::kLinear) return linear;
-  // Conical: start from the linear answer, or from the image centre when that has none.
-  const OpticalModule& m = rays_.module();
-  const Eigen::Vector2d start = linear.ok ? linear.pixel : Eigen::Vector2d(m.cx, m.cy);
-  return refineConical(point, start);
+  if (model_.screen.transfer == ScreenTransfer::kLinear) return linearPixelOf(point);
+  // Conical: every root of the 1-D cone condition is a candidate; Newton on the ray function
+  // itself polishes each, and the one whose ray passes through P is the answer (the others
+  // belong to the mirror branch the ray function's root rule rejects).
+  for (const Eigen::Vector2d& start : conicalStarts(point)) {
+    const ForwardMapResult result = refineConical(point, start);
+    if (result.ok) return result;
+  }
+  return {};
 }
 
 }  // namespace parallax

@@ -5,8 +5,15 @@
 // gives s.x and o.x, and the line o→P gives s.y. Under `conical` there is no closed form: Newton
 // on (u, v) over the ray function, started from the linear answer. Not projective, which is
 // why interpolating linearly inside a rasterized triangle is wrong.
+//
+// The conical start: a candidate origin X on the observer line fixes the line o → P, hence the
+// screen point s where it crosses the screen, hence the module ray p → s; X is right when the
+// outgoing and incoming directions have the same cosine along the tangent at s. That scalar
+// equation in X is bracketed by a scan over the angle of o → P and solved by bisection, which
+// is robust for grazing pixels far from the linear answer; Newton then polishes (u, v).
 
 #include <Eigen/Core>
+#include <vector>
 
 #include "calibration/display_model.h"
 #include "calibration/ray_function.h"
@@ -30,6 +37,10 @@ class ForwardMap {
  private:
   ForwardMapResult linearPixelOf(const Eigen::Vector3d& point) const;
   ForwardMapResult refineConical(const Eigen::Vector3d& point, Eigen::Vector2d start) const;
+  // Pixel candidates from the bracketed 1-D solve over the origin X (see above).
+  std::vector<Eigen::Vector2d> conicalStarts(const Eigen::Vector3d& point) const;
+  // Cosine mismatch for origin X: (o − s)/|o − s|·t − d·t; false where o → P misses the screen.
+  bool coneMismatch(double x, const Eigen::Vector3d& point, double* mismatch, Eigen::Vector3d* s) const;
   // Where the primary ray of (u, v) crosses the plane z = point.z, minus the point (x, y).
   bool residual(const Eigen::Vector2d& uv, const Eigen::Vector3d& point, Eigen::Vector2d* r) const;
 

@@ -19,14 +19,15 @@ RayFunction::RayFunction(const DisplayModel& model, int moduleIndex)
       module_(model.modules.at(static_cast<size_t>(moduleIndex))),
       optics_(module_) {}
 
-PixelRay RayFunction::at(double u, double v) const {
+PixelRay RayFunction::trace(double u, double v, bool withinExtent) const {
   PixelRay ray;
   if (!optics_.rayDirection(u, v, &ray.moduleDirection)) {
     ray.status = RayStatus::kOutsideLens;
     return ray;
   }
   double t;
-  if (!model_.screen.intersect(optics_.position(), ray.moduleDirection, &t, &ray.screenPoint)) {
+  if (!model_.screen.intersectFrom(optics_.position(), ray.moduleDirection, +1.0, withinExtent, &t,
+                                   &ray.screenPoint)) {
     ray.status = RayStatus::kMissesScreen;
     return ray;
   }

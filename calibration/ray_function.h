@@ -36,7 +36,10 @@ class RayFunction {
  public:
   RayFunction(const DisplayModel& model, int moduleIndex);
 
-  PixelRay at(double u, double v) const;
+  PixelRay at(double u, double v) const { return trace(u, v, true); }
+  // The same map continued past the screen's edges: smooth everywhere the transfer is, so
+  // solvers (the forward map's Newton) can difference it right at an edge.
+  PixelRay atUnclipped(double u, double v) const { return trace(u, v, false); }
   PixelRay atPixel(int column, int row) const { return at(column + 0.5, row + 0.5); }
 
   const DisplayModel& model() const { return model_; }
@@ -44,6 +47,8 @@ class RayFunction {
   const ModuleOptics& optics() const { return optics_; }
 
  private:
+  PixelRay trace(double u, double v, bool withinExtent) const;
+
   const DisplayModel& model_;
   const OpticalModule& module_;
   ModuleOptics optics_;

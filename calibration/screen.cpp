@@ -29,8 +29,8 @@ Eigen::Vector3d Screen::frontNormal(double x) const {
   return {-kx, 0.0, std::sqrt(1.0 - kx * kx)};
 }
 
-bool Screen::intersect(const Eigen::Vector3d& p, const Eigen::Vector3d& d, double* t,
-                       Eigen::Vector3d* hit) const {
+bool Screen::intersectFrom(const Eigen::Vector3d& p, const Eigen::Vector3d& d, double side,
+                           bool withinExtent, double* t, Eigen::Vector3d* hit) const {
   // The cylinder x² + (z − R)² = R², multiplied by k so that k = 0 is the plane z = 0:
   //   k (x² + z²) − 2 z = 0.
   // Along p + t d:  A t² + B t + C = 0 with
@@ -47,9 +47,10 @@ bool Screen::intersect(const Eigen::Vector3d& p, const Eigen::Vector3d& d, doubl
     // The screen is the branch through the origin (k z < 1), not the far side of the circle.
     const double z = p.z() + ti * d.z();
     if (!(k * z < 1.0)) continue;
-    if (!contains(x, y)) continue;
-    // Light that reaches this branch from the viewers' side is not projected light.
-    if (!(d.dot(frontNormal(x)) > 0.0)) return false;
+    if (withinExtent && !contains(x, y)) continue;
+    // A crossing from the other side is not what the caller traces (for a module ray: it is
+    // light that went round an edge); the ray goes on to its next crossing.
+    if (!(side * d.dot(frontNormal(x)) > 0.0)) continue;
     *t = ti;
     *hit = pointAt(x, y);
     return true;

@@ -55,11 +55,23 @@ struct Screen {
   }
 
   // The ray p + t·d (d need not be unit) meets the screen surface: the smallest t > 0 where it
-  // crosses the screen's own branch of the cylinder inside the screen's extent, arriving from
-  // behind. Returns false when it does not. The hit point is projected onto the surface
+  // crosses the screen's own branch of the cylinder inside the screen's extent arriving from
+  // behind (crossings from the front are passed through). Returns false when there is none. The hit point is projected onto the surface
   // (z = sag(x)), so it lies on the screen exactly even for k = 0 and grazing rays.
   bool intersect(const Eigen::Vector3d& p, const Eigen::Vector3d& d, double* t,
-                 Eigen::Vector3d* hit) const;
+                 Eigen::Vector3d* hit) const {
+    return intersectFrom(p, d, +1.0, true, t, hit);
+  }
+  // The same for a ray arriving from the viewers' side (a primary ray from the observer line).
+  bool intersectFromFront(const Eigen::Vector3d& p, const Eigen::Vector3d& d, double* t,
+                          Eigen::Vector3d* hit) const {
+    return intersectFrom(p, d, -1.0, true, t, hit);
+  }
+  // side = +1: the ray must arrive from behind (d·n > 0); −1: from the front. Without
+  // withinExtent the surface continues past the screen's edges (searches that must bracket a
+  // root lying right at an edge need that).
+  bool intersectFrom(const Eigen::Vector3d& p, const Eigen::Vector3d& d, double side,
+                     bool withinExtent, double* t, Eigen::Vector3d* hit) const;
 };
 
 }  // namespace parallax

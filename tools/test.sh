@@ -6,7 +6,11 @@ root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 fuzz_seconds=${PARALLAX_FUZZ_SECONDS:-60}
 
 "$root/tools/setup.sh"
-ctest --test-dir "$root/build" --output-on-failure --timeout 900 -j "$(nproc)"
+ctest_log=$root/build/ctest.log
+ctest --test-dir "$root/build" --output-on-failure --timeout 900 -j "$(nproc)" | tee "$ctest_log"
+ctest_passed=$(sed -nE 's/.*tests passed, ([0-9]+) tests failed out of ([0-9]+).*/\2 \1/p' "$ctest_log" |
+  awk '{print $1 - $2}')
+fuzz_passed=0
 
 if [ "$fuzz_seconds" -gt 0 ]; then
   fuzz_dir=$root/build-fuzz
@@ -28,5 +32,8 @@ if [ "$fuzz_seconds" -gt 0 ]; then
       exit 1
     fi
     grep -E "stat::number_of_executed_runs|Done" "$log" | tail -n 2
+    fuzz_passed=$((fuzz_passed + 1))
   done < "$fuzz_dir/fuzz_targets.txt"
 fi
+# One closing line for the whole run (CTest cases + fuzz targets); any failure exited above.
+echo "tests: $((ctest_passed + fuzz_passed)) passed, 0 failed"

@@ -35,24 +35,28 @@ ModuleOptics::ModuleOptics(const OpticalModule& module)
 }
 
 double ModuleOptics::undistortRadius(double rd) const {
-  // Newton on g(r) = r (1 + k1 r² + k2 r⁴) − rd, safeguarded by bisection on [0, maxRadius]
-  // where g is monotone, so it always converges to the one root.
+  // Newton on g(r) = r (1 + k1 r² + k2 r⁴) − rd, safeguarded by bisection on [lo, hi] where g is
+  // monotone, so it always converges to the one root. Starting from the series inverse
+  // rd (1 − k1 rd² + (3 k1² − k2) rd⁴), Newton needs 1–3 steps for a real lens; it stops once a
+  // step no longer changes r by more than a few ulp (asking for less never ends in floating point).
   double lo = 0.0;
   double hi = std::isinf(maxRadius_) ? std::max(1.0, 2.0 * rd) : maxRadius_;
   // Without a fold g grows without bound; widen until it brackets rd.
   while (std::isinf(maxRadius_) && hi * (1.0 + k1_ * hi * hi + k2_ * hi * hi * hi * hi) < rd) {
     hi *= 2.0;
   }
-  double r = rd;
+  const double rd2 = rd * rd;
+  double r = rd * (1.0 - k1_ * rd2 + (3.0 * k1_ * k1_ - k2_) * rd2 * rd2);
   if (!(r > lo && r < hi)) r = 0.5 * (lo + hi);
   for (int iter = 0; iter < 60; ++iter) {
     const double r2 = r * r;
     const double g = r * (1.0 + k1_ * r2 + k2_ * r2 * r2) - rd;
+    if (g == 0.0) return r;
     if (g > 0.0) hi = r; else lo = r;
     const double dg = 1.0 + 3.0 * k1_ * r2 + 5.0 * k2_ * r2 * r2;
     double next = r - g / dg;
     if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-    if (std::abs(next - r) <= 1e-15 * std::max(1.0, r)) return next;
+    if (std::abs(next - r) <= 4e-16 * r) return next;
     r = next;
   }
   return r;

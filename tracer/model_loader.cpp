@@ -135,16 +135,21 @@ ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& opt
   // Drop points and lines (nothing a ray can hit); triangulate quads and polygons; make normals
   // where the file has none; reject NaN data; merge identical vertices so smooth normals smooth.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const unsigned flags = aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_GenSmoothNormals |
-                         aiProcess_SortByPType | aiProcess_FindInvalidData | aiProcess_ValidateDataStructure |
-                         aiProcess_FindDegenerates;
-  const aiScene* model = importer.ReadFile(path, flags);
-  if (!model || !model->mRootNode || (model->mFlags & AI_SCENE_FLAGS_INCOMPLETE)) {
-    std::string reason = importer.GetErrorString();
-    if (reason.empty()) reason = "the file holds no complete scene";
-    throw InputError({path, "", 0}, "cannot read the model: " + reason);
-  }
+  const aiScene* model =
+      importer.ReadFile(path, aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_ValidateDataStructure);
+  auto failed = [&](const aiScene* s) { return !s || !s->mRootNode || (s->mFlags & AI_SCENE_FLAGS_INCOMPLETE); };
+  auto reason = [&] {
+    std::string r = importer.GetErrorString();
+    return r.empty() ? std::string("the file holds no complete scene") : r;
+  };
+  if (failed(model)) throw InputError({path, "", 0}, "cannot read the model: " + reason());
   ModelLoadReport report;
+  // The rest runs as a second step so the report can say which meshes came without normals
+  // (GenSmoothNormals leaves meshes that have them alone).
+  for (unsigned i = 0; i < model->mNumMeshes; ++i) report.generatedNormals += model->mMeshes[i]->mNormals ? 0 : 1;
+  model = importer.ApplyPostProcessing(aiProcess_GenSmoothNormals | aiProcess_JoinIdenticalVertices |
+                                       aiProcess_FindInvalidData | aiProcess_FindDegenerates);
+  if (failed(model)) throw InputError({path, "", 0}, "cannot post-process the model: " + reason());
   const std::string directory = fs::path(path).parent_path().string();
 
   // Materials (and the textures they reference).
@@ -222,8 +227,6 @@ ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& opt
         mesh.normals.emplace_back(std::isfinite(n.x) ? n.x : 0.0f, std::isfinite(n.y) ? n.y : 0.0f,
                                   std::isfinite(n.z) ? n.z : 0.0f);
       }
-    } else {
-      ++report.generatedNormals;
     }
     if (source.mTextureCoords[0]) {
       for (unsigned v = 0; v < source.mNumVertices; ++v) {

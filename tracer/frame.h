@@ -1,0 +1,35 @@
+#pragma once
+// A module frame: linear RGB floats, row-major, row 0 at the top (pixel rows as in the ray
+// textures). Written as sRGB 8-bit PNG (what a module shows) or float EXR.
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "tracer/scene.h"
+
+namespace parallax {
+
+struct Frame {
+  int width = 0;
+  int height = 0;
+  std::vector<Rgb> pixels;
+
+  Frame() = default;
+  Frame(int w, int h) : width(w), height(h), pixels(static_cast<size_t>(w) * static_cast<size_t>(h), Rgb::Zero()) {}
+  Rgb& at(int column, int row) { return pixels[static_cast<size_t>(row) * static_cast<size_t>(width) + static_cast<size_t>(column)]; }
+  const Rgb& at(int column, int row) const {
+    return pixels[static_cast<size_t>(row) * static_cast<size_t>(width) + static_cast<size_t>(column)];
+  }
+
+  // sRGB-encoded, clamped to [0, 1], rounded: RGB RGB ... row-major.
+  std::vector<std::uint8_t> toSrgb8() const;
+};
+
+std::uint8_t srgb8FromLinear(float linear);
+
+// Both throw InputError naming the file when it cannot be written.
+void writePng(const Frame& frame, const std::string& path);
+void writeExr(const Frame& frame, const std::string& path);
+
+}  // namespace parallax

@@ -1,0 +1,253 @@
+#include "tracer/physical_scene.h"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include <fmt/format.h>
+
+#include "common/check.h"
+#include "tracer/embree_device.h"
+
+namespace parallax {
+namespace {
+
+// A polygon vertex during clipping: its physical position and its barycentric coordinates in
+// the source triangle (to interpolate normals, uvs and colours of the new vertices).
+struct ClipVertex {
+  Eigen::Vector3d p;
+  Eigen::Vector3d bary;
+};
+
+// Sutherland–Hodgman against the six faces of `box`. Returns the inside polygon (possibly
+// empty). Vertices within `tolerance` of a face count as inside, so geometry that lies exactly
+// on B_P's boundary (a scene filling B_W) is not shaved by rounding.
+std::vector<ClipVertex> clipToBox(std::vector<ClipVertex> polygon, const Box3& box, double tolerance) {
+  for (int axis = 0; axis < 3 && !polygon.empty(); ++axis) {
+    for (int side = 0; side < 2 && !polygon.empty(); ++side) {
+      // Signed distance inside the face: >= 0 keeps.
+      auto inside = [&](const ClipVertex& v) {
+        return side == 0 ? v.p[axis] - (box.min[axis] - tolerance) : (box.max[axis] + tolerance) - v.p[axis];
+      };
+      std::vector<ClipVertex> out;
+      for (size_t i = 0; i < polygon.size(); ++i) {
+        const ClipVertex& a = polygon[i];
+        const ClipVertex& b = polygon[(i + 1) % polygon.size()];
+        const double da = inside(a), db = inside(b);
+        if (da >= 0.0) out.push_back(a);
+        if ((da >= 0.0) != (db >= 0.0)) {
+          const double t = da / (da - db);
+          out.push_back({a.p + t * (b.p - a.p), a.bary + t * (b.bary - a.bary)});
+        }
+      }
+      polygon = std::move(out);
+    }
+  }
+  if (polygon.size() < 3) polygon.clear();
+  return polygon;
+}
+
+bool insideBox(const Eigen::Vector3d& p, const Box3& box, double tolerance) {
+  return (p.array() >= box.min.array() - tolerance).all() && (p.array() <= box.max.array() + tolerance).all();
+}
+
+bool degenerate(const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c) {
+  const Eigen::Vector3f n = (b - a).cross(c - a);
+  // Zero (or non-finite) area in float is what the tracer would see: Embree never reports a hit
+  // on it and its normal is undefined.
+  return !(n.squaredNorm() > 0.0f) || !n.allFinite();
+}
+
+}  // namespace
+
+PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox) {
+  const auto start = std::chrono::steady_clock::now();
+  scene.validate();
+  physicalFromWorld_ = parallax::physicalFromWorld(scene.effectiveWorldBox(), displayableBox);
+  features_ = analyseScene(scene);
+  materials_ = scene.materials;
+  background_ = scene.background;
+  ambient_ = scene.ambient;
+  animated_ = scene.animated;
+
+  for (const Light& light : scene.lights) {
+    PhysicalLight l;
+    l.kind = light.kind;
+    l.intensity = light.intensity;
+    // A uniform scale keeps directions; only positions move.
+    l.toLight = (-light.direction.normalized()).cast<float>();
+    l.position = physicalFromWorld_.point(light.position).cast<float>();
+    lights_.push_back(l);
+  }
+
+  for (const Instance& instance : scene.instances) addInstance(scene, instance, displayableBox);
+  for (const std::string& name : features_.unsampledTextureMaterials) {
+    warnings_.push_back("material " + name + " has a texture but its mesh has no UVs: texture ignored");
+  }
+
+  // Build: high-quality SAH for a static scene (built once, traced for many frames); the
+  // dynamic flags and a fast build for an animated one (rebuilt every frame).
+  RTCDevice device = embreeDevice();
+  scene_ = rtcNewScene(device);
+  rtcSetSceneFlags(scene_, animated_ ? RTC_SCENE_FLAG_DYNAMIC : RTC_SCENE_FLAG_NONE);
+  rtcSetSceneBuildQuality(scene_, animated_ ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_HIGH);
+  boundsMin_ = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
+  boundsMax_ = -boundsMin_;
+  for (size_t g = 0; g < meshes_.size(); ++g) {
+    const PhysicalMesh& mesh = meshes_[g];
+    RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    rtcSetGeometryBuildQuality(geometry, animated_ ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_HIGH);
+    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
+        geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.positions.size()));
+    auto* indices = static_cast<std::uint32_t*>(rtcSetNewGeometryBuffer(
+        geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(std::uint32_t), mesh.triangles.size()));
+    throwIfEmbreeFailed("geometry allocation");
+    for (size_t i = 0; i < mesh.positions.size(); ++i) {
+      for (int k = 0; k < 3; ++k) vertices[3 * i + static_cast<size_t>(k)] = mesh.positions[i][k];
+    }
+    for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+      for (int k = 0; k < 3; ++k) {
+        const std::uint32_t index = mesh.triangles[t][static_cast<size_t>(k)];
+        indices[3 * t + static_cast<size_t>(k)] = index;
+        boundsMin_ = boundsMin_.cwiseMin(mesh.positions[index]);
+        boundsMax_ = boundsMax_.cwiseMax(mesh.positions[index]);
+      }
+    }
+    rtcCommitGeometry(geometry);
+    const unsigned id = rtcAttachGeometry(scene_, geometry);
+    PARALLAX_CHECK_OP(id, ==, static_cast<unsigned>(g));
+    rtcReleaseGeometry(geometry);
+  }
+  rtcCommitScene(scene_);
+  throwIfEmbreeFailed("the scene build");
+  if (counters_.trianglesBuilt == 0) {
+    boundsMin_ = boundsMax_ = Eigen::Vector3f::Zero();
+    warnings_.push_back("no triangle lies inside the displayable box: the frame shows only the background");
+  }
+  loadTextures(scene);
+  counters_.buildMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+}
+
+PhysicalScene::~PhysicalScene() {
+  if (scene_) rtcReleaseScene(scene_);
+}
+
+void PhysicalScene::addInstance(const Scene& scene, const Instance& instance, const Box3& clipBox) {
+  const Mesh& source = scene.meshes[static_cast<size_t>(instance.mesh)];
+  const double tolerance = 1e-6 * clipBox.size().norm();
+  PhysicalMesh mesh;
+  mesh.material = source.material;
+  const bool hasNormals = !source.normals.empty();
+  const bool hasUvs = !source.uvs.empty();
+  const bool hasColors = !source.colors.empty();
+
+  // Positions go through double all the way to physical space: a scene 1e4 units from its
+  // origin keeps its sub-unit detail.
+  std::vector<Eigen::Vector3d> physical(source.positions.size());
+  for (size_t i = 0; i < source.positions.size(); ++i) {
+    physical[i] = physicalFromWorld_.point(instance.worldFromObject * source.positions[i]);
+  }
+  // Normals transform with the inverse transpose of the instance's linear part.
+  const Eigen::Matrix3d normalFromObject = instance.worldFromObject.linear().inverse().transpose();
+  const bool mirrored = instance.worldFromObject.linear().determinant() < 0.0;
+
+  auto normalOf = [&](std::uint32_t i) -> Eigen::Vector3f {
+    const Eigen::Vector3d n = normalFromObject * source.normals[i].cast<double>();
+    const double length = n.norm();
+    return length > 0.0 ? Eigen::Vector3f((n / length).cast<float>()) : Eigen::Vector3f::Zero();
+  };
+  // Vertices are copied on first use, so unused vertices and dropped triangles cost nothing.
+  std::vector<std::uint32_t> remap(source.positions.size(), std::numeric_limits<std::uint32_t>::max());
+  auto useVertex = [&](std::uint32_t i) {
+    if (remap[i] == std::numeric_limits<std::uint32_t>::max()) {
+      remap[i] = static_cast<std::uint32_t>(mesh.positions.size());
+      mesh.positions.push_back(physical[i].cast<float>());
+      if (hasNormals) mesh.normals.push_back(normalOf(i));
+      if (hasUvs) mesh.uvs.push_back(source.uvs[i]);
+      if (hasColors) mesh.colors.push_back(source.colors[i]);
+    }
+    return remap[i];
+  };
+  auto addTriangle = [&](std::uint32_t a, std::uint32_t b, std::uint32_t c) {
+    // A mirroring transform turns counter-clockwise into clockwise; swap to keep normals out.
+    if (mirrored) std::swap(b, c);
+    mesh.triangles.push_back({a, b, c});
+  };
+
+  for (const auto& tri : source.triangles) {
+    ++counters_.trianglesIn;
+    const Eigen::Vector3d& a = physical[tri[0]];
+    const Eigen::Vector3d& b = physical[tri[1]];
+    const Eigen::Vector3d& c = physical[tri[2]];
+    if (degenerate(a.cast<float>(), b.cast<float>(), c.cast<float>())) {
+      ++counters_.trianglesDegenerate;
+      continue;
+    }
+    if (insideBox(a, clipBox, tolerance) && insideBox(b, clipBox, tolerance) && insideBox(c, clipBox, tolerance)) {
+      addTriangle(useVertex(tri[0]), useVertex(tri[1]), useVertex(tri[2]));
+      ++counters_.trianglesBuilt;
+      continue;
+    }
+    const std::vector<ClipVertex> polygon =
+        clipToBox({{a, {1, 0, 0}}, {b, {0, 1, 0}}, {c, {0, 0, 1}}}, clipBox, tolerance);
+    if (polygon.empty()) {
+      ++counters_.trianglesOutside;
+      continue;
+    }
+    ++counters_.trianglesClipped;
+    // New vertices interpolate the source triangle's attributes at their barycentrics.
+    std::vector<std::uint32_t> ids;
+    for (const ClipVertex& v : polygon) {
+      ids.push_back(static_cast<std::uint32_t>(mesh.positions.size()));
+      mesh.positions.push_back(v.p.cast<float>());
+      const Eigen::Vector3f w = v.bary.cast<float>();
+      if (hasNormals) {
+        const Eigen::Vector3f n = w[0] * normalOf(tri[0]) + w[1] * normalOf(tri[1]) + w[2] * normalOf(tri[2]);
+        mesh.normals.push_back(n.norm() > 0.0f ? Eigen::Vector3f(n.normalized()) : n);
+      }
+      if (hasUvs) mesh.uvs.push_back(w[0] * source.uvs[tri[0]] + w[1] * source.uvs[tri[1]] + w[2] * source.uvs[tri[2]]);
+      if (hasColors) {
+        mesh.colors.push_back(w[0] * source.colors[tri[0]] + w[1] * source.colors[tri[1]] + w[2] * source.colors[tri[2]]);
+      }
+    }
+    for (size_t k = 1; k + 1 < ids.size(); ++k) {
+      const auto& p0 = mesh.positions[ids[0]];
+      if (degenerate(p0, mesh.positions[ids[k]], mesh.positions[ids[k + 1]])) continue;
+      addTriangle(ids[0], ids[k], ids[k + 1]);
+      ++counters_.trianglesBuilt;
+    }
+  }
+  if (!mesh.triangles.empty()) meshes_.push_back(std::move(mesh));
+}
+
+void PhysicalScene::loadTextures(const Scene& scene) {
+  textures_.resize(scene.textures.size());
+  for (size_t i = 0; i < scene.textures.size(); ++i) {
+    const Texture& t = scene.textures[i];
+    if (!features_.textureNeeded[i]) {
+      ++counters_.texturesSkipped;
+      continue;
+    }
+    if (t.path.empty()) {
+      textures_[i] = TextureImage(t.width, t.height, t.pixels);
+      ++counters_.texturesLoaded;
+      continue;
+    }
+    std::string error;
+    if (TextureImage::load(t.path, t.srgb, &textures_[i], &error)) {
+      ++counters_.texturesLoaded;
+    } else {
+      ++counters_.texturesFailed;
+      const std::string message =
+          fmt::format("texture {}: {}; using the fallback colour ({}, {}, {})", t.path, error, t.fallback.x(),
+                      t.fallback.y(), t.fallback.z());
+      spdlog::warn("{}", message);
+      warnings_.push_back(message);
+      textures_[i] = TextureImage::constant(t.fallback);
+    }
+  }
+}
+
+}  // namespace parallax

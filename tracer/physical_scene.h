@@ -1,0 +1,99 @@
+#pragma once
+// A Scene mapped into the display's physical space and built into an Embree BVH: the form the
+// integrator traces. World → physical is physicalFromWorld(B_W, B_P) (uniform scale, centred);
+// instances are flattened into one triangle geometry each (positions transformed in double,
+// stored as float); triangles outside B_P are dropped and those crossing its faces clipped;
+// degenerate triangles are dropped; textures are loaded only when a drawn surface samples them.
+
+#include <embree3/rtcore.h>
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "calibration/box3.h"
+#include "calibration/world_to_physical.h"
+#include "tracer/scene.h"
+#include "tracer/scene_features.h"
+#include "tracer/texture_image.h"
+
+namespace parallax {
+
+struct SceneBuildCounters {
+  long trianglesIn = 0;          // drawn triangles over all instances
+  long trianglesDegenerate = 0;  // zero area after mapping: dropped
+  long trianglesOutside = 0;     // wholly outside B_P: dropped
+  long trianglesClipped = 0;     // crossing B_P's faces: replaced by their inside part
+  long trianglesBuilt = 0;       // in the BVH
+  int texturesLoaded = 0;
+  int texturesFailed = 0;        // unreadable: warned, replaced by their fallback colour
+  int texturesSkipped = 0;       // nothing samples them: never read
+  double buildMs = 0.0;
+};
+
+// One Embree geometry: a flattened instance in physical space.
+struct PhysicalMesh {
+  std::vector<Eigen::Vector3f> positions;
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+  std::vector<Eigen::Vector3f> normals;  // empty or per position
+  std::vector<Eigen::Vector2f> uvs;      // empty or per position
+  std::vector<Rgb> colors;               // empty or per position
+  int material = 0;
+};
+
+struct PhysicalLight {
+  LightKind kind = LightKind::kDirectional;
+  Eigen::Vector3f toLight = Eigen::Vector3f::UnitY();  // directional: unit, toward the light
+  Eigen::Vector3f position = Eigen::Vector3f::Zero();  // point
+  Rgb intensity = Rgb::Ones();
+};
+
+class PhysicalScene {
+ public:
+  // Validates the scene (InputError), maps it into `displayableBox` and builds the BVH.
+  PhysicalScene(const Scene& scene, const Box3& displayableBox);
+  ~PhysicalScene();
+  PhysicalScene(const PhysicalScene&) = delete;
+  PhysicalScene& operator=(const PhysicalScene&) = delete;
+
+  RTCScene handle() const { return scene_; }
+  const WorldToPhysical& physicalFromWorld() const { return physicalFromWorld_; }
+  const SceneFeatures& features() const { return features_; }
+  const SceneBuildCounters& counters() const { return counters_; }
+  const std::vector<PhysicalMesh>& meshes() const { return meshes_; }
+  const std::vector<Material>& materials() const { return materials_; }
+  const std::vector<PhysicalLight>& lights() const { return lights_; }
+  // Per Scene::textures; empty TextureImage for textures that were left out.
+  const std::vector<TextureImage>& textures() const { return textures_; }
+  const Rgb& background() const { return background_; }
+  const Rgb& ambient() const { return ambient_; }
+  // Bounds of the built triangles (physical); rays that miss it are never traversed.
+  const Eigen::Vector3f& boundsMin() const { return boundsMin_; }
+  const Eigen::Vector3f& boundsMax() const { return boundsMax_; }
+  // World units per physical metre (absorption and point-light falloff are in world units).
+  float worldPerPhysical() const { return static_cast<float>(1.0 / physicalFromWorld_.scale); }
+  bool animated() const { return animated_; }
+  std::vector<std::string> warnings() const { return warnings_; }
+
+ private:
+  void addInstance(const Scene& scene, const Instance& instance, const Box3& clipBox);
+  void loadTextures(const Scene& scene);
+
+  RTCScene scene_ = nullptr;
+  WorldToPhysical physicalFromWorld_;
+  SceneFeatures features_;
+  SceneBuildCounters counters_;
+  std::vector<PhysicalMesh> meshes_;
+  std::vector<Material> materials_;
+  std::vector<PhysicalLight> lights_;
+  std::vector<TextureImage> textures_;
+  Rgb background_ = Rgb::Zero();
+  Rgb ambient_ = Rgb::Zero();
+  Eigen::Vector3f boundsMin_ = Eigen::Vector3f::Zero();
+  Eigen::Vector3f boundsMax_ = Eigen::Vector3f::Zero();
+  bool animated_ = false;
+  std::vector<std::string> warnings_;
+};
+
+}  // namespace parallax

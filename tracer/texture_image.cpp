@@ -1,0 +1,116 @@
+#include "tracer/texture_image.h"
+
+#include <OpenImageIO/imagebuf.h>
+#include <OpenImageIO/imagebufalgo.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/check.h"
+
+namespace parallax {
+namespace {
+
+float linearFromSrgb(float c) {
+  return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
+
+int wrap(int i, int n) {
+  const int m = i % n;
+  return m < 0 ? m + n : m;
+}
+
+}  // namespace
+
+TextureImage::TextureImage(int width, int height, std::vector<float> rgb) {
+  PARALLAX_CHECK(width > 0 && height > 0);
+  PARALLAX_CHECK_OP(rgb.size(), ==, static_cast<size_t>(width) * static_cast<size_t>(height) * 3);
+  levels_.push_back({width, height, std::move(rgb)});
+  buildPyramid();
+}
+
+TextureImage TextureImage::constant(const Rgb& color) {
+  return TextureImage(1, 1, {color.x(), color.y(), color.z()});
+}
+
+bool TextureImage::load(const std::string& path, bool srgb, TextureImage* out, std::string* error) {
+  OIIO::ImageBuf source(path);
+  if (!source.read(0, 0, true, OIIO::TypeDesc::FLOAT)) {
+    *error = source.geterror();
+    if (error->empty()) *error = "cannot read the image";
+    return false;
+  }
+  const OIIO::ImageSpec& spec = source.spec();
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.width > 65536 || spec.height > 65536) {
+    *error = "unsupported image size or channel count";
+    return false;
+  }
+  const bool decode = srgb && (spec.format == OIIO::TypeDesc::UINT8 || spec.format == OIIO::TypeDesc::UINT16);
+  std::vector<float> rgb(static_cast<size_t>(spec.width) * static_cast<size_t>(spec.height) * 3);
+  std::vector<float> pixel(static_cast<size_t>(spec.nchannels));
+  size_t k = 0;
+  for (int y = 0; y < spec.height; ++y) {
+    for (int x = 0; x < spec.width; ++x) {
+      source.getpixel(spec.x + x, spec.y + y, pixel.data(), spec.nchannels);
+      for (int c = 0; c < 3; ++c) {
+        // Grey (1 or 2 channels) replicates; alpha is ignored.
+        const float value = pixel[static_cast<size_t>(spec.nchannels >= 3 ? c : 0)];
+        const float v = std::isfinite(value) ? std::max(value, 0.0f) : 0.0f;
+        rgb[k++] = decode ? linearFromSrgb(v) : v;
+      }
+    }
+  }
+  *out = TextureImage(spec.width, spec.height, std::move(rgb));
+  return true;
+}
+
+void TextureImage::buildPyramid() {
+  while (levels_.back().width > 1 || levels_.back().height > 1) {
+    const Level& fine = levels_.back();
+    Level coarse;
+    coarse.width = std::max(1, fine.width / 2);
+    coarse.height = std::max(1, fine.height / 2);
+    OIIO::ImageSpec fineSpec(fine.width, fine.height, 3, OIIO::TypeDesc::FLOAT);
+    OIIO::ImageBuf fineBuf(fineSpec, const_cast<float*>(fine.rgb.data()));
+    OIIO::ImageBuf coarseBuf;
+    // A box filter over each 2×2 block (the footprint a level stands for); OIIO handles odd sizes.
+    OIIO::ImageBufAlgo::resize(coarseBuf, fineBuf, "box", 0.0f, OIIO::ROI(0, coarse.width, 0, coarse.height, 0, 1, 0, 3));
+    coarse.rgb.resize(static_cast<size_t>(coarse.width) * static_cast<size_t>(coarse.height) * 3);
+    coarseBuf.get_pixels(OIIO::ROI(0, coarse.width, 0, coarse.height, 0, 1, 0, 3), OIIO::TypeDesc::FLOAT,
+                         coarse.rgb.data());
+    levels_.push_back(std::move(coarse));
+  }
+}
+
+Rgb TextureImage::texel(int level, int x, int y) const {
+  const Level& l = levels_[static_cast<size_t>(level)];
+  const size_t i = (static_cast<size_t>(wrap(y, l.height)) * static_cast<size_t>(l.width) +
+                    static_cast<size_t>(wrap(x, l.width))) * 3;
+  return {l.rgb[i], l.rgb[i + 1], l.rgb[i + 2]};
+}
+
+Rgb TextureImage::bilinear(int level, float u, float v) const {
+  const Level& l = levels_[static_cast<size_t>(level)];
+  // uv (0,0) is the bottom-left corner; texel centres sit at half-integers.
+  const float x = u * static_cast<float>(l.width) - 0.5f;
+  const float y = (1.0f - v) * static_cast<float>(l.height) - 0.5f;
+  const float fx = std::floor(x), fy = std::floor(y);
+  const float ax = x - fx, ay = y - fy;
+  // Wrap the integer part before converting so huge uvs cannot overflow an int.
+  const int x0 = wrap(static_cast<int>(std::fmod(fx, static_cast<float>(l.width))), l.width);
+  const int y0 = wrap(static_cast<int>(std::fmod(fy, static_cast<float>(l.height))), l.height);
+  return (1 - ay) * ((1 - ax) * texel(level, x0, y0) + ax * texel(level, x0 + 1, y0)) +
+         ay * ((1 - ax) * texel(level, x0, y0 + 1) + ax * texel(level, x0 + 1, y0 + 1));
+}
+
+Rgb TextureImage::lookup(float u, float v, float lod) const {
+  if (!std::isfinite(u) || !std::isfinite(v)) return texel(static_cast<int>(levels_.size()) - 1, 0, 0);
+  const float maxLevel = static_cast<float>(levels_.size() - 1);
+  const float level = std::isfinite(lod) ? std::clamp(lod, 0.0f, maxLevel) : 0.0f;
+  const int l0 = static_cast<int>(level);
+  const float a = level - static_cast<float>(l0);
+  if (a <= 0.0f || l0 + 1 >= static_cast<int>(levels_.size())) return bilinear(l0, u, v);
+  return (1.0f - a) * bilinear(l0, u, v) + a * bilinear(l0 + 1, u, v);
+}
+
+}  // namespace parallax

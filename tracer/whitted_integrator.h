@@ -1,0 +1,73 @@
+#pragma once
+// The Whitted integrator over one module's ray textures (the paper's Section 4): for every
+// unmasked pixel the primary ray from o through s, then at every hit a shadow ray per light for
+// diffuse surfaces, a reflection ray for mirrors, and Fresnel-weighted reflection and
+// refraction rays for glass, to the depth the scene needs (scene_features.h).
+//
+// It runs wavefront-style per tile: the rays of one generation of a tile are gathered into an
+// array and traced together (ray_batch.h), shadow rays likewise, so Embree can use packets or
+// streams; tiles run in parallel under TBB. Every ray it traces is counted.
+
+#include <atomic>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "calibration/ray_textures.h"
+#include "tracer/frame.h"
+#include "tracer/physical_scene.h"
+#include "tracer/ray_batch.h"
+
+namespace parallax {
+
+struct RenderOptions {
+  Traversal traversal = Traversal::kPacket16;  // chosen by `parallax bench tracer`
+  int tileWidth = 32;
+  int tileHeight = 16;
+  // A branch whose weight falls below this on every channel is not traced: its contribution
+  // cannot change an 8-bit pixel by more than half a step. 0 traces every branch.
+  float minWeight = 1.0f / 512.0f;
+  int maxDepth = 0;  // 0: the scene's own (always capped at what its materials need)
+  bool textureFiltering = true;  // false: bilinear on the full-resolution level only
+
+  // Throws InputError naming the option.
+  void validate() const;
+};
+
+struct RenderCounters {
+  long pixels = 0;
+  long masked = 0;        // no ray: never traced
+  long missedBounds = 0;  // ray misses the scene's bounding box: background, never traversed
+  long primary = 0;
+  long shadow = 0;
+  long reflection = 0;
+  long refraction = 0;
+  long pruned = 0;        // branches below RenderOptions::minWeight
+  long textureLookups = 0;
+  int deepest = 0;        // highest ray generation traced (1 = primary only)
+
+  RenderCounters& operator+=(const RenderCounters& o);
+  long rays() const { return primary + shadow + reflection + refraction; }
+  std::vector<std::string> lines() const;
+};
+
+// Every batch a render traced, kept for replay without shading (the bench's "raw Embree cost
+// of the same rays").
+struct RayLog {
+  struct Batch {
+    bool occlusion = false;
+    bool coherent = false;
+    std::vector<RTCRay> rays;
+  };
+  std::mutex mutex;
+  std::vector<Batch> batches;
+};
+
+// Renders one module frame. `textures` must come from the display the scene was mapped into.
+Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options,
+                  RenderCounters* counters = nullptr, RayLog* log = nullptr);
+
+// Traces the logged batches again (in parallel, no shading) with `traversal`; returns ms.
+double replayRayLog(const PhysicalScene& scene, RayLog& log, Traversal traversal);
+
+}  // namespace parallax

@@ -17,6 +17,10 @@ std::uint8_t srgb8FromLinear(float linear) {
   return static_cast<std::uint8_t>(std::lround(encoded * 255.0f));
 }
 
+float linearFromSrgb(float encoded) {
+  return encoded <= 0.04045f ? encoded / 12.92f : std::pow((encoded + 0.055f) / 1.055f, 2.4f);
+}
+
 std::vector<std::uint8_t> Frame::toSrgb8() const {
   std::vector<std::uint8_t> out(pixels.size() * 3);
   for (size_t i = 0; i < pixels.size(); ++i) {
@@ -52,6 +56,30 @@ void writeExr(const Frame& frame, const std::string& path) {
   OIIO::ImageSpec spec(frame.width, frame.height, 3, OIIO::TypeDesc::FLOAT);
   spec.attribute("oiio:ColorSpace", "Linear");
   writeImage(path, spec, floats.data());
+}
+
+Frame readFrame(const std::string& path) {
+  auto input = OIIO::ImageInput::open(path);
+  if (!input) throw InputError({path, "", 0}, "cannot read the image: " + OIIO::geterror());
+  const OIIO::ImageSpec& spec = input->spec();
+  if (spec.width < 1 || spec.height < 1 || spec.width > 16384 || spec.height > 16384 || spec.nchannels < 1) {
+    throw InputError({path, "", 0}, "unsupported image size or channel count");
+  }
+  std::vector<float> data(static_cast<size_t>(spec.width) * static_cast<size_t>(spec.height) *
+                          static_cast<size_t>(spec.nchannels));
+  if (!input->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, data.data())) {
+    throw InputError({path, "", 0}, "cannot read the pixels: " + input->geterror());
+  }
+  const bool decode = spec.format == OIIO::TypeDesc::UINT8 || spec.format == OIIO::TypeDesc::UINT16;
+  Frame frame(spec.width, spec.height);
+  const size_t channels = static_cast<size_t>(spec.nchannels);
+  for (size_t i = 0; i < frame.pixels.size(); ++i) {
+    for (size_t c = 0; c < 3; ++c) {
+      const float v = data[i * channels + std::min(c, channels - 1)];
+      frame.pixels[i][static_cast<int>(c)] = decode ? linearFromSrgb(v) : v;
+    }
+  }
+  return frame;
 }
 
 }  // namespace parallax

@@ -27,9 +27,13 @@ struct Frame {
 };
 
 std::uint8_t srgb8FromLinear(float linear);
+float linearFromSrgb(float encoded);  // encoded in [0, 1]
 
 // Both throw InputError naming the file when it cannot be written.
 void writePng(const Frame& frame, const std::string& path);
 void writeExr(const Frame& frame, const std::string& path);
+// Reads a frame back: 8/16-bit files are sRGB-decoded, float files taken as linear; grey and
+// RGBA files are reduced to RGB. Throws InputError naming the file.
+Frame readFrame(const std::string& path);
 
 }  // namespace parallax

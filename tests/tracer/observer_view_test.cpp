@@ -8,6 +8,7 @@
 #include <algorithm>
 
 #include "calibration/display_presets.h"
+#include "common/input_error.h"
 #include "tracer/physical_scene.h"
 #include "tracer/scene_fixtures.h"
 #include "tracer/whitted_integrator.h"
@@ -100,6 +101,28 @@ TEST(ObserverView, ModuleFramesSeenThroughThePhysicsMatchTheViewTracedDirectly) 
     // And a viewer elsewhere sees something else: the comparison is not trivially satisfied.
     const Frame elsewhere = renderFrame(scene, observerViewRays(model, x + 0.6, options), render);
     EXPECT_LT(psnrDb(assembled, elsewhere, &coverage), psnr - 1.0) << "viewer at x = " << x;
+  }
+}
+
+}  // namespace
+}  // namespace parallax
+
+namespace parallax {
+namespace {
+
+TEST(FrameFiles, PngRoundTripKeepsEveryByteAndBadFilesAreNamed) {
+  Frame frame(37, 11);
+  for (size_t i = 0; i < frame.pixels.size(); ++i) {
+    frame.pixels[i] = Rgb(static_cast<float>(i % 7) / 6.0f, static_cast<float>(i % 13) / 12.0f, 0.25f);
+  }
+  const std::string path = ::testing::TempDir() + "frame_round_trip.png";
+  writePng(frame, path);
+  EXPECT_EQ(readFrame(path).toSrgb8(), frame.toSrgb8());
+  try {
+    readFrame(::testing::TempDir() + "no_such_frame.png");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no_such_frame.png"), std::string::npos);
   }
 }
 

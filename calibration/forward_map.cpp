@@ -146,9 +146,16 @@ std::vector<Eigen::Vector2d> ForwardMap::conicalStarts(const Eigen::Vector3d& po
 
 ForwardMapResult ForwardMap::pixelOf(const Eigen::Vector3d& point) const {
   if (model_.screen.transfer == ScreenTransfer::kLinear) return linearPixelOf(point);
-  // Conical: every root of the 1-D cone condition is a candidate; Newton on the ray function
-  // itself polishes each, and the one whose ray passes through P is the answer (the others
-  // belong to the mirror branch the ray function's root rule rejects).
+  // Conical: Newton from the closed-form linear answer converges in a few steps for almost
+  // every point. Where it does not (grazing pixels far from it), every root of the 1-D cone
+  // condition is a candidate; Newton on the ray function itself polishes each, and the one whose
+  // ray passes through P is the answer (the others belong to the mirror branch the ray
+  // function's root rule rejects).
+  const ForwardMapResult linear = linearPixelOf(point);
+  if (linear.ok) {
+    const ForwardMapResult quick = refineConical(point, linear.pixel);
+    if (quick.ok) return quick;
+  }
   for (const Eigen::Vector2d& start : conicalStarts(point)) {
     const ForwardMapResult result = refineConical(point, start);
     if (result.ok) return result;

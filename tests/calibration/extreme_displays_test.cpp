@@ -36,7 +36,7 @@ Verdict independentScreenHit(const Screen& screen, const Eigen::Vector3d& p, con
     const double x = std::clamp(p.x() + t * d.x(), -half, half);
     return (p.z() + t * d.z()) - screen.sag(x);
   };
-  constexpr int kSteps = 20000;
+  constexpr int kSteps = 2000;
   double prevT = t0, prevG = g(t0);
   for (int i = 1; i <= kSteps; ++i) {
     const double t = t0 + (t1 - t0) * i / kSteps;
@@ -73,7 +73,7 @@ Verdict independentConeReachesLine(const Screen& screen, const ObserverLine& obs
     return Eigen::Vector3d(length * std::tan(phi), yy, zz).normalized().dot(t);
   };
   double lo = 2.0, hi = -2.0, argLo = 0.0, argHi = 0.0;
-  constexpr int kSamples = 4001;
+  constexpr int kSamples = 1001;
   const double step = std::numbers::pi / (kSamples + 1);
   for (int i = 1; i <= kSamples; ++i) {
     const double phi = -0.5 * std::numbers::pi + i * step;

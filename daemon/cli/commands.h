@@ -6,6 +6,7 @@
 
 namespace parallax::cli {
 
+void addBenchCommand(CLI::App& app);
 void addDisplayCommand(CLI::App& app);
 void addRaytexCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);

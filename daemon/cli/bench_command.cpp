@@ -175,6 +175,7 @@ void addBenchCommand(CLI::App& app) {
   tracer->add_option("--frames", args->frames, "frames to time per figure (median)");
   tracer->add_option("--scenes", args->scenes, "comma-separated scene names or model files");
   tracer->callback([args] { runBenchTracer(*args); });
+  addBenchTextureSubcommand(bench);
 }
 
 }  // namespace parallax::cli

@@ -12,6 +12,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   parallax::cli::addDisplayCommand(app);
   parallax::cli::addRaytexCommand(app);
+  parallax::cli::addBenchLinkCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

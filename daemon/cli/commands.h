@@ -8,5 +8,6 @@ namespace parallax::cli {
 
 void addDisplayCommand(CLI::App& app);
 void addRaytexCommand(CLI::App& app);
+void addBenchLinkCommand(CLI::App& app);
 
 }  // namespace parallax::cli

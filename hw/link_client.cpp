@@ -403,11 +403,9 @@ bool LinkClient::injectFault(int module, const Fault& fault) {
   return decodeAck(reply.payload, &ack) == ProtocolError::kOk && ack.status == AckStatus::kOk;
 }
 
-Image LinkClient::capture(int viewModule, uint32_t exposureUs, double gain) {
-  CaptureRequest r;
+Image LinkClient::capture(int viewModule, const CaptureRequest& settings) {
+  CaptureRequest r = settings;
   r.viewModule = static_cast<uint16_t>(viewModule);
-  r.exposureUs = exposureUs;
-  r.gainCenti = static_cast<uint16_t>(std::clamp(gain * 100.0, 0.0, 65535.0));
   const std::vector<uint8_t> body = encodeCaptureRequest(r);
   ReceivedPacket reply;
   if (!request(PacketType::kCaptureRequest, kCameraModule, body,

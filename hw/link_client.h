@@ -86,8 +86,9 @@ class LinkClient {
   bool setMode(DisplayMode mode);
   // Arms a fault on the simulator (ignored by real devices: they answer kUnsupported).
   bool injectFault(int module, const Fault& fault);
-  // Asks the calibration camera for an image of what `viewModule` shows.
-  Image capture(int viewModule, uint32_t exposureUs = 0, double gain = 0.0);
+  // Asks the calibration camera for an image of what `viewModule` shows, with the given
+  // settings (zeros keep the camera's current ones). Empty when there is no answer.
+  Image capture(int viewModule, const CaptureRequest& settings = {});
 
   const LinkStats& stats() const { return stats_; }
   const LinkOptions& options() const { return options_; }

@@ -251,14 +251,17 @@ std::vector<uint8_t> encodeCaptureRequest(const CaptureRequest& r) {
   put16(&b[2], r.gainCenti);
   put32(&b[4], r.exposureUs);
   put32(&b[8], r.flags);
+  put16(&b[12], r.whiteBalanceRedCenti);
+  put16(&b[14], r.whiteBalanceBlueCenti);
   return b;
 }
 
 ProtocolError decodeCaptureRequest(std::span<const uint8_t> body, CaptureRequest* r) {
   if (auto e = checkSize(body, kCaptureRequestSize); e != ProtocolError::kOk) return e;
   const uint8_t* b = body.data();
-  if (!allZero(b + 12, 4)) return ProtocolError::kReservedNonZero;
   r->viewModule = get16(b);
+  r->whiteBalanceRedCenti = get16(b + 12);
+  r->whiteBalanceBlueCenti = get16(b + 14);
   r->gainCenti = get16(b + 2);
   r->exposureUs = get32(b + 4);
   r->flags = get32(b + 8);

@@ -130,6 +130,8 @@ struct CaptureRequest {  // 16 bytes
   uint32_t exposureUs = 0;     // 0 = keep the locked value
   uint16_t gainCenti = 0;      // gain × 100, 0 = keep
   uint32_t flags = 0;
+  uint16_t whiteBalanceRedCenti = 0;   // red / green × 100, 0 = keep
+  uint16_t whiteBalanceBlueCenti = 0;  // blue / green × 100, 0 = keep
 };
 constexpr size_t kCaptureRequestSize = 16;
 

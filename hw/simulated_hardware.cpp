@@ -356,6 +356,10 @@ ProtocolError SimulatedHardware::capture(const PacketHeader& header,
   }
   if (request.exposureUs != 0) camera_.exposureUs = request.exposureUs;
   if (request.gainCenti != 0) camera_.gain = request.gainCenti / 100.0;
+  if (request.whiteBalanceRedCenti != 0) camera_.whiteBalanceRed = request.whiteBalanceRedCenti / 100.0;
+  if (request.whiteBalanceBlueCenti != 0) {
+    camera_.whiteBalanceBlue = request.whiteBalanceBlueCenti / 100.0;
+  }
   std::vector<const Image*> frames(modules_.size());
   for (size_t i = 0; i < modules_.size(); ++i) {
     frames[i] = modules_[i].shown.empty() ? nullptr : &modules_[i].shown;

@@ -86,6 +86,7 @@ class SimulatedHardware {
   uint64_t shownContentHash(int module) const;
   const ModuleCounters& counters(int module) const;
   DisplayMode mode() const { return mode_; }
+  const CameraSettings& cameraSettings() const { return camera_; }
   const SimulatedHardwareOptions& options() const { return options_; }
 
  private:

@@ -1,9 +1,9 @@
 #include "hw/camera.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
-
-#include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 
@@ -50,8 +50,10 @@ Image SimulatedCamera::capture(std::string* error) {
   }
   Image image = link_.capture(viewModule_, request);
   if (image.empty()) {
-    *error = fmt::format("the simulated camera returned no image of module {} (nothing shown "
-                         "yet, or no answer)", viewModule_);
+    *error = fmt::format(
+        "the simulated camera returned no image of module {} (nothing shown "
+        "yet, or no answer)",
+        viewModule_);
   }
   return image;
 }

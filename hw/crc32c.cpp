@@ -82,7 +82,8 @@ __attribute__((target("sse4.2"))) uint32_t updateHardware(uint32_t reg, const ui
       c1 = _mm_crc32_u64(c1, v1);
       c2 = _mm_crc32_u64(c2, v2);
     }
-    uint32_t merged = multiplyModP(kLaneShift, static_cast<uint32_t>(c0)) ^ static_cast<uint32_t>(c1);
+    uint32_t merged =
+        multiplyModP(kLaneShift, static_cast<uint32_t>(c0)) ^ static_cast<uint32_t>(c1);
     merged = multiplyModP(kLaneShift, merged) ^ static_cast<uint32_t>(c2);
     c0 = merged;
     p += 3 * kLaneBytes;

@@ -1,9 +1,9 @@
 #include "hw/fault_spec.h"
 
+#include <fmt/format.h>
+
 #include <charconv>
 #include <vector>
-
-#include <fmt/format.h>
 
 #include "common/input_error.h"
 
@@ -14,9 +14,9 @@ uint32_t parseNumber(const std::string& text, const std::string& part, const cha
   uint32_t value = 0;
   const auto [end, ec] = std::from_chars(part.data(), part.data() + part.size(), value);
   if (ec != std::errc() || end != part.data() + part.size() || part.empty()) {
-    throw InputError({"", "--fault", 0},
-                     fmt::format("\"{}\": {} must be a non-negative integer, got \"{}\"", text,
-                                 what, part));
+    throw InputError(
+        {"", "--fault", 0},
+        fmt::format("\"{}\": {} must be a non-negative integer, got \"{}\"", text, what, part));
   }
   return value;
 }
@@ -48,7 +48,8 @@ FaultSpec parseFaultSpec(const std::string& text) {
   if (!known) {
     throw InputError({"", "--fault", 0},
                      fmt::format("\"{}\": unknown fault \"{}\" (drop, flip, stall, slow, "
-                                 "disconnect, crash)", text, parts[1]));
+                                 "disconnect, crash)",
+                                 text, parts[1]));
   }
   spec.fault.count = parts.size() > 2 ? parseNumber(text, parts[2], "COUNT") : 1;
   spec.fault.param = parts.size() > 3 ? parseNumber(text, parts[3], "PARAM") : 0;

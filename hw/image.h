@@ -13,9 +13,7 @@ struct Image {
   PixelFormat format = PixelFormat::kRgb8;
   std::vector<uint8_t> pixels;  // row-major, tightly packed
 
-  size_t byteSize() const {
-    return static_cast<size_t>(width) * height * bytesPerPixel(format);
-  }
+  size_t byteSize() const { return static_cast<size_t>(width) * height * bytesPerPixel(format); }
   bool empty() const { return pixels.empty(); }
 };
 

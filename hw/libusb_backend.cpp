@@ -2,11 +2,10 @@
 // libusb_handle_events_timeout_completed, hotplug through libusb's callback where the
 // platform has it (Linux with udev or netlink), everything else returned as UsbResult.
 
+#include <fmt/format.h>
 #include <libusb.h>
 
 #include <map>
-
-#include <fmt/format.h>
 
 #include "hw/usb_backend.h"
 
@@ -15,21 +14,31 @@ namespace {
 
 UsbResult fromError(int error) {
   switch (error) {
-    case LIBUSB_SUCCESS: return UsbResult::kOk;
-    case LIBUSB_ERROR_TIMEOUT: return UsbResult::kTimeout;
-    case LIBUSB_ERROR_PIPE: return UsbResult::kStall;
-    case LIBUSB_ERROR_NO_DEVICE: return UsbResult::kNoDevice;
-    default: return UsbResult::kError;
+    case LIBUSB_SUCCESS:
+      return UsbResult::kOk;
+    case LIBUSB_ERROR_TIMEOUT:
+      return UsbResult::kTimeout;
+    case LIBUSB_ERROR_PIPE:
+      return UsbResult::kStall;
+    case LIBUSB_ERROR_NO_DEVICE:
+      return UsbResult::kNoDevice;
+    default:
+      return UsbResult::kError;
   }
 }
 
 UsbResult fromStatus(libusb_transfer_status status) {
   switch (status) {
-    case LIBUSB_TRANSFER_COMPLETED: return UsbResult::kOk;
-    case LIBUSB_TRANSFER_TIMED_OUT: return UsbResult::kTimeout;
-    case LIBUSB_TRANSFER_STALL: return UsbResult::kStall;
-    case LIBUSB_TRANSFER_NO_DEVICE: return UsbResult::kNoDevice;
-    default: return UsbResult::kError;
+    case LIBUSB_TRANSFER_COMPLETED:
+      return UsbResult::kOk;
+    case LIBUSB_TRANSFER_TIMED_OUT:
+      return UsbResult::kTimeout;
+    case LIBUSB_TRANSFER_STALL:
+      return UsbResult::kStall;
+    case LIBUSB_TRANSFER_NO_DEVICE:
+      return UsbResult::kNoDevice;
+    default:
+      return UsbResult::kError;
   }
 }
 
@@ -215,8 +224,8 @@ class LibusbBackend : public UsbBackend {
     hotplug_ = r == LIBUSB_SUCCESS;
   }
 
-  static int LIBUSB_CALL onHotplug(libusb_context*, libusb_device*,
-                                   libusb_hotplug_event event, void* user) {
+  static int LIBUSB_CALL onHotplug(libusb_context*, libusb_device*, libusb_hotplug_event event,
+                                   void* user) {
     // No serial here: opening a device from inside the callback is not allowed, and one that
     // left cannot be asked. The transport re-enumerates on arrival and learns departures from
     // LIBUSB_ERROR_NO_DEVICE on its transfers.
@@ -247,11 +256,16 @@ class LibusbBackend : public UsbBackend {
 
 std::string_view usbResultName(UsbResult result) {
   switch (result) {
-    case UsbResult::kOk: return "ok";
-    case UsbResult::kTimeout: return "timeout";
-    case UsbResult::kStall: return "stall";
-    case UsbResult::kNoDevice: return "no device";
-    case UsbResult::kError: return "I/O error";
+    case UsbResult::kOk:
+      return "ok";
+    case UsbResult::kTimeout:
+      return "timeout";
+    case UsbResult::kStall:
+      return "stall";
+    case UsbResult::kNoDevice:
+      return "no device";
+    case UsbResult::kError:
+      return "I/O error";
   }
   return "unknown";
 }

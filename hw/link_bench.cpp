@@ -1,5 +1,6 @@
 #include "hw/link_bench.h"
 
+#include <fmt/format.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/resource.h>
@@ -14,8 +15,6 @@
 #include <stdexcept>
 #include <thread>
 #include <vector>
-
-#include <fmt/format.h>
 
 #include "common/input_error.h"
 #include "hw/link_client.h"
@@ -40,15 +39,19 @@ class BenchSimulator {
  public:
   BenchSimulator(const LinkBenchOptions& o, const std::string& path) {
     if (!o.simhwPath.empty()) {
-      const std::vector<std::string> args = {
-          o.simhwPath, "--socket", path, "--modules", std::to_string(o.modules),
-          "--resolution", fmt::format("{}x{}", o.width, o.height)};
+      const std::vector<std::string> args = {o.simhwPath,
+                                             "--socket",
+                                             path,
+                                             "--modules",
+                                             std::to_string(o.modules),
+                                             "--resolution",
+                                             fmt::format("{}x{}", o.width, o.height)};
       std::vector<char*> argv;
       for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
       argv.push_back(nullptr);
       if (posix_spawn(&child_, o.simhwPath.c_str(), nullptr, nullptr, argv.data(), environ) != 0) {
-        throw std::runtime_error(fmt::format("cannot start {}: {}", o.simhwPath,
-                                             std::strerror(errno)));
+        throw std::runtime_error(
+            fmt::format("cannot start {}: {}", o.simhwPath, std::strerror(errno)));
       }
       return;
     }
@@ -173,8 +176,7 @@ LinkBenchResult runLinkBench(const LinkBenchOptions& o) {
       }
     }
     link->flush();
-    phase.seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    phase.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     phase.hostCpuSeconds = cpuSeconds(RUSAGE_SELF) - cpu0;
     const LinkStats& after = link->stats();
     phase.framesOnWire = after.attempts - before.attempts;

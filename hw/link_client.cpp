@@ -1,11 +1,11 @@
 #include "hw/link_client.h"
 
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <stdexcept>
 #include <thread>
-
-#include <fmt/format.h>
-#include <spdlog/spdlog.h>
 
 #include "common/input_error.h"
 #include "hw/content_hash.h"
@@ -17,8 +17,9 @@ void LinkOptions::validate() const {
   auto require = [](bool ok, const char* field, const std::string& why) {
     if (!ok) throw InputError({"", field, 0}, why);
   };
-  require(chunkSize >= 4096 && chunkSize <= kMaxPayloadSize - kChunkPrefixSize, "chunk_size",
-          fmt::format("must be in 4096..{}, got {}", kMaxPayloadSize - kChunkPrefixSize, chunkSize));
+  require(
+      chunkSize >= 4096 && chunkSize <= kMaxPayloadSize - kChunkPrefixSize, "chunk_size",
+      fmt::format("must be in 4096..{}, got {}", kMaxPayloadSize - kChunkPrefixSize, chunkSize));
   require(windowFrames >= 1 && windowFrames <= 1024, "window_frames", "must be in 1..1024");
   require(ackTimeoutMs >= 1, "ack_timeout_ms", "must be positive");
   require(maxRetries >= 0 && maxRetries <= 100, "max_retries", "must be in 0..100");
@@ -30,10 +31,14 @@ void LinkOptions::validate() const {
 
 std::string_view frameStatusName(FrameStatus status) {
   switch (status) {
-    case FrameStatus::kPending: return "pending";
-    case FrameStatus::kDelivered: return "delivered";
-    case FrameStatus::kSkippedUnchanged: return "skipped (unchanged)";
-    case FrameStatus::kFailed: return "failed";
+    case FrameStatus::kPending:
+      return "pending";
+    case FrameStatus::kDelivered:
+      return "delivered";
+    case FrameStatus::kSkippedUnchanged:
+      return "skipped (unchanged)";
+    case FrameStatus::kFailed:
+      return "failed";
   }
   return "unknown";
 }
@@ -46,7 +51,8 @@ LinkClient::LinkClient(std::unique_ptr<LinkTransport> transport, LinkOptions opt
     throw std::runtime_error(error);
   }
   if (!helloOk()) {
-    throw std::runtime_error(fmt::format("{}: the device did not answer Hello", transport_->name()));
+    throw std::runtime_error(
+        fmt::format("{}: the device did not answer Hello", transport_->name()));
   }
 }
 
@@ -91,8 +97,8 @@ bool LinkClient::helloOk() {
 
 uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame) {
   if (module < 0 || module >= static_cast<int>(modules_.size())) {
-    throw InputError({"", "module", 0}, fmt::format("no module {} (the link has {})", module,
-                                                    modules_.size()));
+    throw InputError({"", "module", 0},
+                     fmt::format("no module {} (the link has {})", module, modules_.size()));
   }
   const DeviceInfo& info = modules_[module].info;
   if (!frame || frame->width != static_cast<int>(info.width) ||
@@ -166,24 +172,29 @@ bool LinkClient::sendFrame(Pending& p) {
   scratchPrefixes_.resize(chunks);
   std::vector<iovec>& iov = scratchIov_;
   iov.clear();
-  scratchHeaders_[0] = encodeHeader({PacketType::kFrameBegin, 0, module, p.sequence, 0, 0},
-                                    beginBody);
+  scratchHeaders_[0] =
+      encodeHeader({PacketType::kFrameBegin, 0, module, p.sequence, 0, 0}, beginBody);
   iov.push_back({scratchHeaders_[0].data(), kHeaderSize});
   iov.push_back({const_cast<uint8_t*>(beginBody.data()), beginBody.size()});
   for (size_t c = 0; c < chunks; ++c) {
     const size_t offset = c * chunkSize_;
     const size_t n = std::min<size_t>(chunkSize_, size - offset);
     scratchPrefixes_[c] = encodeChunkPrefix(p.sequence, static_cast<uint32_t>(offset));
-    PacketHeader h{PacketType::kFrameChunk, 0, module, p.sequence,
-                   static_cast<uint32_t>(kChunkPrefixSize + n), 0};
-    h.payloadCrc = crc32cCombine(crc32c(scratchPrefixes_[c].data(), kChunkPrefixSize),
-                                 p.chunkCrcs[c], n);
+    PacketHeader h{PacketType::kFrameChunk,
+                   0,
+                   module,
+                   p.sequence,
+                   static_cast<uint32_t>(kChunkPrefixSize + n),
+                   0};
+    h.payloadCrc =
+        crc32cCombine(crc32c(scratchPrefixes_[c].data(), kChunkPrefixSize), p.chunkCrcs[c], n);
     scratchHeaders_[c + 1] = encodeHeaderRaw(h);
     iov.push_back({scratchHeaders_[c + 1].data(), kHeaderSize});
     iov.push_back({scratchPrefixes_[c].data(), kChunkPrefixSize});
     iov.push_back({const_cast<uint8_t*>(f.pixels.data() + offset), n});
   }
-  scratchHeaders_[chunks + 1] = encodeHeader({PacketType::kFrameEnd, 0, module, p.sequence, 0, 0}, {});
+  scratchHeaders_[chunks + 1] =
+      encodeHeader({PacketType::kFrameEnd, 0, module, p.sequence, 0, 0}, {});
   iov.push_back({scratchHeaders_[chunks + 1].data(), kHeaderSize});
   if (transport_->send(module, iov) != TransportStatus::kOk) return false;
   stats_.payloadBytesSent += size;
@@ -222,11 +233,10 @@ TransportStatus LinkClient::pump(int timeoutMs) {
   const TransportStatus status = transport_->receive(&packets, timeoutMs);
   for (const ReceivedPacket& packet : packets) handle(packet);
   if (status == TransportStatus::kDisconnected || status == TransportStatus::kProtocolError) {
-    const std::string why =
-        status == TransportStatus::kProtocolError
-            ? fmt::format("device sent a bad packet ({})",
-                          protocolErrorName(transport_->lastProtocolError()))
-            : "device closed the connection";
+    const std::string why = status == TransportStatus::kProtocolError
+                                ? fmt::format("device sent a bad packet ({})",
+                                              protocolErrorName(transport_->lastProtocolError()))
+                                : "device closed the connection";
     if (!reconnecting_) reconnect(why);
   }
   checkDeadlines();

@@ -31,8 +31,8 @@ struct LinkOptions {
   int maxRetries = 3;             // attempts = 1 + maxRetries
   int keepAliveMs = 1000;         // idle time after which the link is probed before sending
   int reconnectAttempts = 5;
-  int reconnectDelayMs = 50;      // doubled after each failed attempt
-  bool skipUnchanged = true;      // content hash: unchanged frames are not re-sent
+  int reconnectDelayMs = 50;  // doubled after each failed attempt
+  bool skipUnchanged = true;  // content hash: unchanged frames are not re-sent
 
   // Throws InputError naming the field.
   void validate() const;
@@ -137,7 +137,7 @@ class LinkClient {
   std::vector<uint64_t> submittedHash_;  // per module: content of the last accepted submit
   std::vector<bool> hashValid_;
   std::vector<FrameOutcome> outcomes_;
-  std::vector<ReceivedPacket> inbox_;    // control replies that arrived while pumping
+  std::vector<ReceivedPacket> inbox_;  // control replies that arrived while pumping
   std::vector<HeaderBytes> scratchHeaders_;
   std::vector<std::array<uint8_t, kChunkPrefixSize>> scratchPrefixes_;
   std::vector<iovec> scratchIov_;

@@ -36,48 +36,72 @@ bool allZero(const uint8_t* p, size_t n) {
 
 std::string_view protocolErrorName(ProtocolError error) {
   switch (error) {
-    case ProtocolError::kOk: return "ok";
-    case ProtocolError::kTruncated: return "truncated packet";
-    case ProtocolError::kBadMagic: return "wrong magic";
-    case ProtocolError::kBadVersion: return "unsupported protocol version";
-    case ProtocolError::kBadHeaderCrc: return "header CRC mismatch";
-    case ProtocolError::kUnknownType: return "unknown packet type";
-    case ProtocolError::kOversized: return "oversized packet";
-    case ProtocolError::kReservedNonZero: return "reserved field not zero";
-    case ProtocolError::kBadPayloadCrc: return "payload CRC mismatch";
-    case ProtocolError::kBadBody: return "malformed packet body";
-    case ProtocolError::kUnexpected: return "unexpected packet";
+    case ProtocolError::kOk:
+      return "ok";
+    case ProtocolError::kTruncated:
+      return "truncated packet";
+    case ProtocolError::kBadMagic:
+      return "wrong magic";
+    case ProtocolError::kBadVersion:
+      return "unsupported protocol version";
+    case ProtocolError::kBadHeaderCrc:
+      return "header CRC mismatch";
+    case ProtocolError::kUnknownType:
+      return "unknown packet type";
+    case ProtocolError::kOversized:
+      return "oversized packet";
+    case ProtocolError::kReservedNonZero:
+      return "reserved field not zero";
+    case ProtocolError::kBadPayloadCrc:
+      return "payload CRC mismatch";
+    case ProtocolError::kBadBody:
+      return "malformed packet body";
+    case ProtocolError::kUnexpected:
+      return "unexpected packet";
   }
   return "unknown protocol error";
 }
 
 std::string_view ackStatusName(AckStatus status) {
   switch (status) {
-    case AckStatus::kOk: return "ok";
-    case AckStatus::kCrcMismatch: return "CRC mismatch";
-    case AckStatus::kMissingChunks: return "missing chunks";
-    case AckStatus::kBadFrame: return "bad frame";
-    case AckStatus::kUnsupported: return "unsupported";
+    case AckStatus::kOk:
+      return "ok";
+    case AckStatus::kCrcMismatch:
+      return "CRC mismatch";
+    case AckStatus::kMissingChunks:
+      return "missing chunks";
+    case AckStatus::kBadFrame:
+      return "bad frame";
+    case AckStatus::kUnsupported:
+      return "unsupported";
   }
   return "unknown ack status";
 }
 
 std::string_view faultKindName(FaultKind kind) {
   switch (kind) {
-    case FaultKind::kDropChunks: return "drop";
-    case FaultKind::kFlipBytes: return "flip";
-    case FaultKind::kStall: return "stall";
-    case FaultKind::kSlowLink: return "slow";
-    case FaultKind::kDisconnect: return "disconnect";
-    case FaultKind::kCrash: return "crash";
+    case FaultKind::kDropChunks:
+      return "drop";
+    case FaultKind::kFlipBytes:
+      return "flip";
+    case FaultKind::kStall:
+      return "stall";
+    case FaultKind::kSlowLink:
+      return "slow";
+    case FaultKind::kDisconnect:
+      return "disconnect";
+    case FaultKind::kCrash:
+      return "crash";
   }
   return "unknown";
 }
 
 int bytesPerPixel(PixelFormat format) {
   switch (format) {
-    case PixelFormat::kRgb8: return 3;
-    case PixelFormat::kGray8: return 1;
+    case PixelFormat::kRgb8:
+      return 3;
+    case PixelFormat::kGray8:
+      return 1;
   }
   return 0;
 }
@@ -287,8 +311,7 @@ ProtocolError decodeCaptureReplyHeader(std::span<const uint8_t> body, CaptureRep
   r->height = get32(b + 4);
   r->format = static_cast<PixelFormat>(b[8]);
   r->requestSequence = get32(b + 12);
-  const uint64_t pixels =
-      static_cast<uint64_t>(r->width) * r->height * bytesPerPixel(r->format);
+  const uint64_t pixels = static_cast<uint64_t>(r->width) * r->height * bytesPerPixel(r->format);
   if (r->width == 0 || r->height == 0) return ProtocolError::kBadBody;
   if (body.size() - kCaptureReplyHeaderSize < pixels) return ProtocolError::kTruncated;
   if (body.size() - kCaptureReplyHeaderSize > pixels) return ProtocolError::kOversized;

@@ -43,16 +43,16 @@ constexpr uint8_t kMaxPacketType = 12;
 // Why a packet or a stream was rejected. Stable numbers: they travel in kError packets.
 enum class ProtocolError : uint8_t {
   kOk = 0,
-  kTruncated = 1,       // fewer bytes than the header or the body needs
+  kTruncated = 1,  // fewer bytes than the header or the body needs
   kBadMagic = 2,
   kBadVersion = 3,
   kBadHeaderCrc = 4,
   kUnknownType = 5,
-  kOversized = 6,       // payloadSize above kMaxPayloadSize or the body's limit
+  kOversized = 6,  // payloadSize above kMaxPayloadSize or the body's limit
   kReservedNonZero = 7,
   kBadPayloadCrc = 8,
-  kBadBody = 9,         // a body field out of range (size mismatch, bad format, ...)
-  kUnexpected = 10,     // valid packet at the wrong time (chunk without a frame, ...)
+  kBadBody = 9,      // a body field out of range (size mismatch, bad format, ...)
+  kUnexpected = 10,  // valid packet at the wrong time (chunk without a frame, ...)
 };
 std::string_view protocolErrorName(ProtocolError error);
 
@@ -86,8 +86,8 @@ ProtocolError verifyPayload(const PacketHeader& header, std::span<const uint8_t>
 
 // ---- bodies (fixed little-endian layouts, see PROTOCOL.md) ----
 
-struct DeviceInfo {              // 64 bytes
-  uint16_t moduleCount = 0;      // modules behind this device (the simulator: all of them)
+struct DeviceInfo {          // 64 bytes
+  uint16_t moduleCount = 0;  // modules behind this device (the simulator: all of them)
   uint32_t width = 0, height = 0;
   uint32_t pixelFormats = 0;     // bit (1 << PixelFormat)
   uint32_t firmwareVersion = 0;  // major << 16 | minor
@@ -101,10 +101,10 @@ struct FrameBegin {  // 28 bytes
   uint32_t width = 0, height = 0;
   PixelFormat format = PixelFormat::kRgb8;
   DisplayMode mode = DisplayMode::kPlayback;
-  uint32_t totalSize = 0;   // width · height · bytesPerPixel
+  uint32_t totalSize = 0;  // width · height · bytesPerPixel
   uint32_t chunkCount = 0;
-  uint32_t frameCrc = 0;    // CRC-32C of the whole frame, checked end to end
-  uint64_t contentHash = 0; // the host's content hash (diagnostics; the device keeps it)
+  uint32_t frameCrc = 0;     // CRC-32C of the whole frame, checked end to end
+  uint64_t contentHash = 0;  // the host's content hash (diagnostics; the device keeps it)
 };
 constexpr size_t kFrameBeginSize = 32;
 constexpr size_t kChunkPrefixSize = 8;  // FrameChunk: u32 frameSequence, u32 offset, then data
@@ -125,10 +125,10 @@ struct Ack {  // 12 bytes
 };
 constexpr size_t kAckSize = 12;
 
-struct CaptureRequest {  // 16 bytes
-  uint16_t viewModule = 0;     // which module's light the simulated camera looks at
-  uint32_t exposureUs = 0;     // 0 = keep the locked value
-  uint16_t gainCenti = 0;      // gain × 100, 0 = keep
+struct CaptureRequest {     // 16 bytes
+  uint16_t viewModule = 0;  // which module's light the simulated camera looks at
+  uint32_t exposureUs = 0;  // 0 = keep the locked value
+  uint16_t gainCenti = 0;   // gain × 100, 0 = keep
   uint32_t flags = 0;
   uint16_t whiteBalanceRedCenti = 0;   // red / green × 100, 0 = keep
   uint16_t whiteBalanceBlueCenti = 0;  // blue / green × 100, 0 = keep
@@ -143,12 +143,12 @@ struct CaptureReplyHeader {  // 16 bytes, then width · height · bpp pixel byte
 constexpr size_t kCaptureReplyHeaderSize = 16;
 
 enum class FaultKind : uint8_t {
-  kDropChunks = 1,   // the next `count` chunks to this module vanish
-  kFlipBytes = 2,    // the next `count` chunks arrive with one byte flipped
-  kStall = 3,        // the next `count` frames are never acknowledged
-  kSlowLink = 4,     // each chunk costs `param` microseconds, for `count` chunks
-  kDisconnect = 5,   // the device drops the connection (the host must reconnect)
-  kCrash = 6,        // the simulator process aborts
+  kDropChunks = 1,  // the next `count` chunks to this module vanish
+  kFlipBytes = 2,   // the next `count` chunks arrive with one byte flipped
+  kStall = 3,       // the next `count` frames are never acknowledged
+  kSlowLink = 4,    // each chunk costs `param` microseconds, for `count` chunks
+  kDisconnect = 5,  // the device drops the connection (the host must reconnect)
+  kCrash = 6,       // the simulator process aborts
 };
 constexpr uint8_t kMaxFaultKind = 6;
 std::string_view faultKindName(FaultKind kind);

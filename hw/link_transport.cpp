@@ -49,7 +49,8 @@ Registry& registry() {
       };
       if (!endpoint.empty()) {
         if (parts.size() < 2 || parts.size() > 3) {
-          throw InputError({"", "link", 0}, "expected usb:VID:PID[:SERIAL,...], got usb:" + endpoint);
+          throw InputError({"", "link", 0},
+                           "expected usb:VID:PID[:SERIAL,...], got usb:" + endpoint);
         }
         options.vendorId = hex(parts[0], "link.vid");
         options.productId = hex(parts[1], "link.pid");
@@ -73,11 +74,16 @@ Registry& registry() {
 
 std::string_view transportStatusName(TransportStatus status) {
   switch (status) {
-    case TransportStatus::kOk: return "ok";
-    case TransportStatus::kTimeout: return "timeout";
-    case TransportStatus::kDisconnected: return "disconnected";
-    case TransportStatus::kProtocolError: return "protocol error";
-    case TransportStatus::kUnavailable: return "unavailable";
+    case TransportStatus::kOk:
+      return "ok";
+    case TransportStatus::kTimeout:
+      return "timeout";
+    case TransportStatus::kDisconnected:
+      return "disconnected";
+    case TransportStatus::kProtocolError:
+      return "protocol error";
+    case TransportStatus::kUnavailable:
+      return "unavailable";
   }
   return "unknown";
 }

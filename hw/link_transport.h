@@ -20,10 +20,10 @@ namespace parallax::hw {
 // Expected runtime events are returned, not thrown (STYLE.md habit 4).
 enum class TransportStatus {
   kOk,
-  kTimeout,       // nothing happened within the time given
-  kDisconnected,  // the peer went away; open() again to reconnect
-  kProtocolError, // the peer sent bytes that are not our protocol (see lastProtocolError)
-  kUnavailable,   // cannot open at all (no socket, no USB devices)
+  kTimeout,        // nothing happened within the time given
+  kDisconnected,   // the peer went away; open() again to reconnect
+  kProtocolError,  // the peer sent bytes that are not our protocol (see lastProtocolError)
+  kUnavailable,    // cannot open at all (no socket, no USB devices)
 };
 std::string_view transportStatusName(TransportStatus status);
 
@@ -49,7 +49,8 @@ class LinkTransport {
   virtual ProtocolError lastProtocolError() const = 0;
 };
 
-using LinkTransportFactory = std::function<std::unique_ptr<LinkTransport>(const std::string& endpoint)>;
+using LinkTransportFactory =
+    std::function<std::unique_ptr<LinkTransport>(const std::string& endpoint)>;
 
 // Registers a backend under a name (done once per backend at startup, see link_transport.cpp).
 void registerLinkTransport(const std::string& name, LinkTransportFactory factory);

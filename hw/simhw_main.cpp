@@ -4,14 +4,14 @@
 //   parallax-simhw --socket /tmp/simhw.sock [--display demo|default|file.json]
 //                  [--modules N --resolution WxH] [--fault 3:drop:2 ...] [--dump DIR]
 
+#include <fmt/format.h>
+
+#include <CLI/CLI.hpp>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <regex>
-
-#include <CLI/CLI.hpp>
-#include <fmt/format.h>
 
 #include "calibration/display_presets.h"
 #include "common/input_error.h"
@@ -64,8 +64,8 @@ int run(const Args& args) {
   for (const std::string& text : args.faults) {
     const hw::FaultSpec spec = hw::parseFaultSpec(text);
     if (spec.module >= hardware.moduleCount()) {
-      throw InputError({"", "--fault", 0}, fmt::format("\"{}\": no module {} (there are {})",
-                                                       text, spec.module, hardware.moduleCount()));
+      throw InputError({"", "--fault", 0}, fmt::format("\"{}\": no module {} (there are {})", text,
+                                                       spec.module, hardware.moduleCount()));
     }
     hardware.arm(spec.module, spec.fault);
   }

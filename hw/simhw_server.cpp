@@ -1,5 +1,6 @@
 #include "hw/simhw_server.h"
 
+#include <fmt/format.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -10,8 +11,6 @@
 #include <cstring>
 #include <stdexcept>
 #include <thread>
-
-#include <fmt/format.h>
 
 #include "hw/socket_transport.h"
 
@@ -103,8 +102,8 @@ ConnectionEnd SimhwServer::serveConnection(int fd, const std::atomic<bool>* stop
   };
 
   while (true) {
-    if (!in.need(kHeaderSize)) return finish(stop && stop->load() ? ConnectionEnd::kStopped
-                                                                  : ConnectionEnd::kPeerClosed);
+    if (!in.need(kHeaderSize))
+      return finish(stop && stop->load() ? ConnectionEnd::kStopped : ConnectionEnd::kPeerClosed);
     PacketHeader header;
     replies.clear();
     const ProtocolError headerError = decodeHeader({in.data(), kHeaderSize}, &header);

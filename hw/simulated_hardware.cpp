@@ -65,21 +65,30 @@ void SimulatedHardware::resetSession() {
 void SimulatedHardware::arm(int module, const Fault& fault) {
   ArmedFaults& f = modules_.at(module).faults;
   switch (fault.kind) {
-    case FaultKind::kDropChunks: f.dropChunks += fault.count; break;
-    case FaultKind::kFlipBytes: f.flipChunks += fault.count; break;
-    case FaultKind::kStall: f.stallFrames += fault.count; break;
+    case FaultKind::kDropChunks:
+      f.dropChunks += fault.count;
+      break;
+    case FaultKind::kFlipBytes:
+      f.flipChunks += fault.count;
+      break;
+    case FaultKind::kStall:
+      f.stallFrames += fault.count;
+      break;
     case FaultKind::kSlowLink:
       f.slowChunks += fault.count;
       f.slowMicroseconds = fault.param;
       break;
-    case FaultKind::kDisconnect: f.disconnects += fault.count; break;
-    case FaultKind::kCrash: f.crash = true; break;
+    case FaultKind::kDisconnect:
+      f.disconnects += fault.count;
+      break;
+    case FaultKind::kCrash:
+      f.crash = true;
+      break;
   }
 }
 
 void SimulatedHardware::appendReply(PacketType type, uint16_t module, uint32_t sequence,
-                                    std::span<const uint8_t> body,
-                                    std::vector<uint8_t>* replies) {
+                                    std::span<const uint8_t> body, std::vector<uint8_t>* replies) {
   PacketHeader h;
   h.type = type;
   h.module = module;
@@ -291,9 +300,9 @@ SimAction SimulatedHardware::finishChunk(const PacketHeader& header, uint32_t fr
   }
   // The packet CRC covers prefix + data; the data was read in place, so combine the two.
   const auto prefix = encodeChunkPrefix(frameSequence, offset);
-  const bool crcOk = crc32cCombine(crc32c(prefix.data(), prefix.size()),
-                                   crc32c(data.data(), data.size()),
-                                   data.size()) == header.payloadCrc;
+  const bool crcOk =
+      crc32cCombine(crc32c(prefix.data(), prefix.size()), crc32c(data.data(), data.size()),
+                    data.size()) == header.payloadCrc;
   if (!u.active || frameSequence != u.sequence || header.sequence != u.sequence ||
       static_cast<uint64_t>(offset) + data.size() > u.buffer.size()) {
     // A chunk for no frame in progress (its FrameBegin was rejected, or it is a stray from an
@@ -356,7 +365,8 @@ ProtocolError SimulatedHardware::capture(const PacketHeader& header,
   }
   if (request.exposureUs != 0) camera_.exposureUs = request.exposureUs;
   if (request.gainCenti != 0) camera_.gain = request.gainCenti / 100.0;
-  if (request.whiteBalanceRedCenti != 0) camera_.whiteBalanceRed = request.whiteBalanceRedCenti / 100.0;
+  if (request.whiteBalanceRedCenti != 0)
+    camera_.whiteBalanceRed = request.whiteBalanceRedCenti / 100.0;
   if (request.whiteBalanceBlueCenti != 0) {
     camera_.whiteBalanceBlue = request.whiteBalanceBlueCenti / 100.0;
   }
@@ -374,9 +384,9 @@ ProtocolError SimulatedHardware::capture(const PacketHeader& header,
     ack(kCameraModule, header.sequence, AckStatus::kUnsupported, 0, replies);
     return ProtocolError::kOk;
   }
-  std::vector<uint8_t> body = encodeCaptureReplyHeader(
-      {static_cast<uint32_t>(image.width), static_cast<uint32_t>(image.height), image.format,
-       header.sequence});
+  std::vector<uint8_t> body = encodeCaptureReplyHeader({static_cast<uint32_t>(image.width),
+                                                        static_cast<uint32_t>(image.height),
+                                                        image.format, header.sequence});
   body.insert(body.end(), image.pixels.begin(), image.pixels.end());
   appendReply(PacketType::kCaptureReply, kCameraModule, header.sequence, body, replies);
   return ProtocolError::kOk;

@@ -50,8 +50,8 @@ struct ModuleCounters {
 
 // What the connection must do after a packet.
 struct SimAction {
-  bool close = false;  // drop the connection (a disconnect fault or a protocol error)
-  bool crash = false;  // abort the process (a crash fault)
+  bool close = false;              // drop the connection (a disconnect fault or a protocol error)
+  bool crash = false;              // abort the process (a crash fault)
   uint32_t sleepMicroseconds = 0;  // a slow link
 };
 

@@ -1,6 +1,7 @@
 #include "hw/socket_transport.h"
 
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -9,8 +10,6 @@
 #include <cerrno>
 #include <climits>
 #include <cstring>
-
-#include <fmt/format.h>
 
 namespace parallax::hw {
 
@@ -129,7 +128,8 @@ TransportStatus SocketTransport::receive(std::vector<ReceivedPacket>* packets, i
         return TransportStatus::kProtocolError;
       }
       if (reader_.ready()) {
-        packets->push_back({reader_.header(), {reader_.payload().begin(), reader_.payload().end()}});
+        packets->push_back(
+            {reader_.header(), {reader_.payload().begin(), reader_.payload().end()}});
         reader_.next();
       }
     }

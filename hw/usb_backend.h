@@ -12,11 +12,11 @@
 namespace parallax::hw {
 
 enum class UsbResult {
-  kOk,         // completed; `transferred` may still be short of the request
-  kTimeout,    // LIBUSB_TRANSFER_TIMED_OUT: `transferred` bytes went through
-  kStall,      // LIBUSB_TRANSFER_STALL: the endpoint halted; clear it before retrying
-  kNoDevice,   // LIBUSB_TRANSFER_NO_DEVICE / LIBUSB_ERROR_NO_DEVICE: unplugged
-  kError,      // anything else (overflow, I/O error, cancelled)
+  kOk,        // completed; `transferred` may still be short of the request
+  kTimeout,   // LIBUSB_TRANSFER_TIMED_OUT: `transferred` bytes went through
+  kStall,     // LIBUSB_TRANSFER_STALL: the endpoint halted; clear it before retrying
+  kNoDevice,  // LIBUSB_TRANSFER_NO_DEVICE / LIBUSB_ERROR_NO_DEVICE: unplugged
+  kError,     // anything else (overflow, I/O error, cancelled)
 };
 std::string_view usbResultName(UsbResult result);
 

@@ -1,11 +1,11 @@
 #include "hw/usb_transport.h"
 
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <chrono>
 #include <deque>
-
-#include <fmt/format.h>
-#include <spdlog/spdlog.h>
 
 #include "common/input_error.h"
 
@@ -76,9 +76,10 @@ TransportStatus UsbTransport::open(std::string* error) {
   for (size_t i = 0; i < serials.size(); ++i) devices_[i].serial = serials[i];
   rescan();
   if (connectedModules() == 0) {
-    *error = fmt::format("no USB devices could be opened ({} with VID:PID {:04x}:{:04x} found, "
-                         "none with a configured serial, or no permission)",
-                         found.size(), options_.vendorId, options_.productId);
+    *error = fmt::format(
+        "no USB devices could be opened ({} with VID:PID {:04x}:{:04x} found, "
+        "none with a configured serial, or no permission)",
+        found.size(), options_.vendorId, options_.productId);
     devices_.clear();
     return TransportStatus::kUnavailable;
   }
@@ -94,7 +95,8 @@ void UsbTransport::rescan() {
                                      [&](const UsbDeviceId& id) { return id.serial == d.serial; });
     if (!present) continue;
     int handle = 0;
-    if (backend_->open(options_.vendorId, options_.productId, d.serial, &handle) == UsbResult::kOk) {
+    if (backend_->open(options_.vendorId, options_.productId, d.serial, &handle) ==
+        UsbResult::kOk) {
       d.handle = handle;
       d.reader = PacketReader();
       d.inFlight = false;
@@ -154,7 +156,8 @@ void UsbTransport::onInCompletion(Device& device, const UsbCompletion& c,
   }
   if (c.result == UsbResult::kStall) backend_->clearHalt(device.handle, options_.endpointIn);
   const int module = static_cast<int>(&device - devices_.data());
-  std::span<const uint8_t> bytes(device.inBuffer.data(), std::min(c.transferred, device.inBuffer.size()));
+  std::span<const uint8_t> bytes(device.inBuffer.data(),
+                                 std::min(c.transferred, device.inBuffer.size()));
   while (!bytes.empty()) {
     bytes = bytes.subspan(device.reader.feed(bytes));
     if (device.reader.error() != ProtocolError::kOk) {
@@ -258,9 +261,9 @@ TransportStatus UsbTransport::sendTo(Device& device, std::vector<uint8_t>& bytes
     while (static_cast<int>(inFlight.size()) < options_.transfersInFlight && next < bytes.size()) {
       const size_t n = std::min(options_.transferSize, bytes.size() - next);
       const uint64_t id = ++nextTransferId_;
-      const UsbResult r = backend_->submitBulkOut(device.handle, options_.endpointOut,
-                                                  bytes.data() + next, n,
-                                                  options_.transferTimeoutMs, id);
+      const UsbResult r =
+          backend_->submitBulkOut(device.handle, options_.endpointOut, bytes.data() + next, n,
+                                  options_.transferTimeoutMs, id);
       if (r == UsbResult::kNoDevice) return gone();
       if (r != UsbResult::kOk) {
         drain();
@@ -296,15 +299,20 @@ TransportStatus UsbTransport::sendTo(Device& device, std::vector<uint8_t>& bytes
       }
       if (c.result == UsbResult::kNoDevice) return gone();
       switch (c.result) {
-        case UsbResult::kOk: ++stats_.shortWrites; break;
-        case UsbResult::kTimeout: ++stats_.timeouts; break;
+        case UsbResult::kOk:
+          ++stats_.shortWrites;
+          break;
+        case UsbResult::kTimeout:
+          ++stats_.timeouts;
+          break;
         case UsbResult::kStall:
           ++stats_.stalls;
           if (backend_->clearHalt(device.handle, options_.endpointOut) == UsbResult::kNoDevice) {
             return gone();
           }
           break;
-        default: break;
+        default:
+          break;
       }
       const size_t through = std::min(c.transferred, head.size);
       failuresHere = through > 0 ? 0 : failuresHere + 1;
@@ -315,8 +323,8 @@ TransportStatus UsbTransport::sendTo(Device& device, std::vector<uint8_t>& bytes
       next = confirmed;
       ++stats_.resubmits;
       if (failuresHere > options_.maxTransferRetries) {
-        spdlog::warn("usb: device {}: {} failures in a row at byte {}; resetting it",
-                     device.serial, failuresHere, confirmed);
+        spdlog::warn("usb: device {}: {} failures in a row at byte {}; resetting it", device.serial,
+                     failuresHere, confirmed);
         markGone(device);
         return TransportStatus::kDisconnected;
       }
@@ -346,9 +354,9 @@ TransportStatus UsbTransport::receive(std::vector<ReceivedPacket>* packets, int 
       any = true;
       if (d.inFlight) continue;
       d.inTransferId = ++nextTransferId_;
-      const UsbResult r = backend_->submitBulkIn(d.handle, options_.endpointIn, d.inBuffer.data(),
-                                                 d.inBuffer.size(), options_.transferTimeoutMs,
-                                                 d.inTransferId);
+      const UsbResult r =
+          backend_->submitBulkIn(d.handle, options_.endpointIn, d.inBuffer.data(),
+                                 d.inBuffer.size(), options_.transferTimeoutMs, d.inTransferId);
       if (r == UsbResult::kNoDevice) {
         ++stats_.noDevice;
         markGone(d);

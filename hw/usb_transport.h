@@ -25,7 +25,7 @@
 namespace parallax::hw {
 
 struct UsbTransportOptions {
-  uint16_t vendorId = 0x1209;   // pid.codes; configure for the real modules
+  uint16_t vendorId = 0x1209;  // pid.codes; configure for the real modules
   uint16_t productId = 0x7078;
   std::vector<std::string> serials;  // serials[i] is module i; empty: enumeration order
   uint8_t endpointOut = 0x01, endpointIn = 0x81;

@@ -3,13 +3,13 @@
 // Pushes frames to simulated modules over the socket transport and prints frames/s, MB/s and
 // CPU per frame (hw/link_bench.h). Figures only; nothing passes or fails on time.
 
+#include <fmt/format.h>
+#include <unistd.h>
+
 #include <filesystem>
 #include <iostream>
 #include <memory>
 #include <regex>
-
-#include <fmt/format.h>
-#include <unistd.h>
 
 #include "common/input_error.h"
 #include "daemon/cli/commands.h"
@@ -68,12 +68,12 @@ void runBenchLink(BenchLinkArgs args) {
       "payload; {:.1f} full refreshes/s of all modules\n",
       c.framesOnWire, c.seconds, c.framesOnWire / c.seconds, c.payloadBytes / c.seconds / mb,
       c.payloadBytes / c.seconds / 1e9, c.framesOnWire / c.seconds / o.modules);
-  std::cout << fmt::format("  host CPU {:.3f} ms/frame ({:.0f}% of one core)", 
+  std::cout << fmt::format("  host CPU {:.3f} ms/frame ({:.0f}% of one core)",
                            1e3 * c.hostCpuSeconds / c.frames, 100.0 * c.hostCpuSeconds / c.seconds);
   if (r.simulatorCpuSeconds >= 0) {
-    std::cout << fmt::format(", simulator process CPU {:.3f} ms/frame over the whole run",
-                             1e3 * r.simulatorCpuSeconds /
-                                 (c.framesOnWire + o.modules));  // + the warm-up round
+    std::cout << fmt::format(
+        ", simulator process CPU {:.3f} ms/frame over the whole run",
+        1e3 * r.simulatorCpuSeconds / (c.framesOnWire + o.modules));  // + the warm-up round
   }
   std::cout << fmt::format("; retries {}, failed {}\n", c.retries, c.failed);
   const hw::LinkPhase& u = r.unchanged;
@@ -96,8 +96,9 @@ void addBenchLinkCommand(CLI::App& app) {
     bench->require_subcommand(1);
   }
   auto args = std::make_shared<BenchLinkArgs>();
-  CLI::App* link = bench->add_subcommand("link", "frames/s, MB/s and CPU per frame over the "
-                                                 "socket link to simulated modules");
+  CLI::App* link = bench->add_subcommand("link",
+                                         "frames/s, MB/s and CPU per frame over the "
+                                         "socket link to simulated modules");
   link->add_option("--modules", args->options.modules, "simulated modules (default 72)");
   link->add_option("--resolution", args->resolution, "module resolution (default 1024x768)");
   link->add_option("--rounds", args->options.rounds, "changed frames per module (default 20)");

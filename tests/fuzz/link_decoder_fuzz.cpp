@@ -26,16 +26,35 @@ void decodeBody(PacketType type, std::span<const uint8_t> body) {
   DisplayMode mode;
   uint32_t sequence, offset;
   switch (type) {
-    case PacketType::kDeviceInfo: decodeDeviceInfo(body, &info); break;
-    case PacketType::kFrameBegin: decodeFrameBegin(body, &begin); break;
-    case PacketType::kAck: decodeAck(body, &ack); break;
-    case PacketType::kCaptureRequest: decodeCaptureRequest(body, &request); break;
-    case PacketType::kCaptureReply: decodeCaptureReplyHeader(body, &reply); break;
-    case PacketType::kFault: decodeFault(body, &fault); break;
-    case PacketType::kError: decodeError(body, &error); break;
-    case PacketType::kSetMode: decodeSetMode(body, &mode); break;
-    case PacketType::kFrameChunk: decodeChunkPrefix(body, &sequence, &offset); break;
-    default: break;
+    case PacketType::kDeviceInfo:
+      decodeDeviceInfo(body, &info);
+      break;
+    case PacketType::kFrameBegin:
+      decodeFrameBegin(body, &begin);
+      break;
+    case PacketType::kAck:
+      decodeAck(body, &ack);
+      break;
+    case PacketType::kCaptureRequest:
+      decodeCaptureRequest(body, &request);
+      break;
+    case PacketType::kCaptureReply:
+      decodeCaptureReplyHeader(body, &reply);
+      break;
+    case PacketType::kFault:
+      decodeFault(body, &fault);
+      break;
+    case PacketType::kError:
+      decodeError(body, &error);
+      break;
+    case PacketType::kSetMode:
+      decodeSetMode(body, &mode);
+      break;
+    case PacketType::kFrameChunk:
+      decodeChunkPrefix(body, &sequence, &offset);
+      break;
+    default:
+      break;
   }
 }
 

@@ -29,7 +29,8 @@ TEST(SimulatedCamera, LockedSettingsReachTheSimulatorAndCapturesShowThePattern) 
     pattern->width = 16;
     pattern->height = 8;
     pattern->pixels.resize(pattern->byteSize());
-    for (size_t i = 0; i < pattern->pixels.size(); ++i) pattern->pixels[i] = static_cast<uint8_t>(i * 7);
+    for (size_t i = 0; i < pattern->pixels.size(); ++i)
+      pattern->pixels[i] = static_cast<uint8_t>(i * 7);
     ASSERT_TRUE(link.setMode(DisplayMode::kPattern));
     link.submit(1, pattern);
     link.flush();

@@ -100,7 +100,7 @@ class FakeUsbBackend : public UsbBackend {
   UsbResult clearHalt(int handle, uint8_t) override {
     ++clearHalts;
     return handles_.count(handle) && handles_[handle]->present ? UsbResult::kOk
-                                                                : UsbResult::kNoDevice;
+                                                               : UsbResult::kNoDevice;
   }
 
   void handleEvents(int timeoutMs, std::vector<UsbCompletion>* done) override {

@@ -47,7 +47,8 @@ std::shared_ptr<const Image> makeFrame(uint32_t seed) {
   return f;
 }
 
-std::unique_ptr<LinkClient> connect(const InProcessSimhw& sim, LinkOptions options = fastOptions()) {
+std::unique_ptr<LinkClient> connect(const InProcessSimhw& sim,
+                                    LinkOptions options = fastOptions()) {
   return std::make_unique<LinkClient>(createLinkTransport(sim.spec()), options);
 }
 

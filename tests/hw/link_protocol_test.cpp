@@ -4,9 +4,9 @@
 
 #include <cstring>
 
+#include "common/input_error.h"
 #include "hw/crc32c.h"
 #include "hw/fault_spec.h"
-#include "common/input_error.h"
 
 namespace parallax::hw {
 namespace {

@@ -2,13 +2,13 @@
 // An in-process parallax-simhw: SimulatedHardware served on a Unix socket by a thread, so
 // tests can inspect the modules after stopping it (no race: the thread is joined first).
 
+#include <unistd.h>
+
 #include <atomic>
 #include <filesystem>
 #include <memory>
 #include <string>
 #include <thread>
-
-#include <unistd.h>
 
 #include "hw/simhw_server.h"
 #include "hw/simulated_hardware.h"
@@ -19,9 +19,10 @@ class InProcessSimhw {
  public:
   explicit InProcessSimhw(SimulatedHardwareOptions options)
       : hardware_(std::move(options)),
-        path_((std::filesystem::temp_directory_path() /
-               ("plx-simhw-" + std::to_string(::getpid()) + "-" + std::to_string(counter_++) +
-                ".sock")).string()) {
+        path_(
+            (std::filesystem::temp_directory_path() / ("plx-simhw-" + std::to_string(::getpid()) +
+                                                       "-" + std::to_string(counter_++) + ".sock"))
+                .string()) {
     start();
   }
   ~InProcessSimhw() { stop(); }
@@ -46,7 +47,8 @@ class InProcessSimhw {
   }
   // Waits for the server thread to end by itself (a crash fault), for at most `ms`.
   bool waitForEnd(int ms) {
-    for (int i = 0; i < ms && !ended_; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    for (int i = 0; i < ms && !ended_; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
     if (ended_ && thread_.joinable()) thread_.join();
     return !thread_.joinable();
   }

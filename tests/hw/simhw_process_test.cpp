@@ -26,12 +26,13 @@ class SimhwProcess {
   explicit SimhwProcess(std::vector<std::string> extra, std::string path = "") : path_(path) {
     static int counter = 0;
     if (path_.empty()) {
-      path_ = (fs::temp_directory_path() /
-               ("plx-simhw-proc-" + std::to_string(getpid()) + "-" + std::to_string(counter++) +
-                ".sock")).string();
+      path_ = (fs::temp_directory_path() / ("plx-simhw-proc-" + std::to_string(getpid()) + "-" +
+                                            std::to_string(counter++) + ".sock"))
+                  .string();
     }
-    std::vector<std::string> args = {PARALLAX_SIMHW_PATH, "--socket", path_, "--modules", "3",
-                                     "--resolution", "32x16", "--max-chunk", "4096"};
+    std::vector<std::string> args = {
+        PARALLAX_SIMHW_PATH, "--socket", path_,         "--modules", "3",
+        "--resolution",      "32x16",    "--max-chunk", "4096"};
     args.insert(args.end(), extra.begin(), extra.end());
     std::vector<char*> argv;
     for (std::string& a : args) argv.push_back(a.data());
@@ -97,8 +98,8 @@ LinkOptions options() {
 TEST(SimhwProcess, FlagFaultsAreSurvivedAndDumpWritesPngs) {
   const fs::path dump = fs::temp_directory_path() / ("plx-dump-" + std::to_string(getpid()));
   fs::remove_all(dump);
-  SimhwProcess sim({"--fault", "0:drop:1", "--fault", "1:flip:1", "--fault", "2:stall:1",
-                    "--dump", dump.string()});
+  SimhwProcess sim({"--fault", "0:drop:1", "--fault", "1:flip:1", "--fault", "2:stall:1", "--dump",
+                    dump.string()});
   auto link = connectWhenUp(sim.path(), options());
   ASSERT_TRUE(link);
   for (int m = 0; m < 3; ++m) link->submit(m, frame(m));

@@ -7,8 +7,8 @@
 
 #include <random>
 
-#include "fake_usb_backend.h"
 #include "common/input_error.h"
+#include "fake_usb_backend.h"
 #include "hw/link_client.h"
 
 namespace parallax::hw {
@@ -113,9 +113,9 @@ TEST(UsbTransport, SerialMapDecidesWhichDeviceIsWhichModule) {
 TEST(UsbTransport, TimeoutsStallsAndShortWritesAreResubmittedWithoutLoss) {
   UsbRig rig = makeRig({"A", "B"}, {"A", "B"});
   FakeUsbBackend::FakeDevice& a = rig.backend->device("A");
-  a.script = {{UsbResult::kOk, SIZE_MAX},  {UsbResult::kTimeout, 700}, {UsbResult::kOk, SIZE_MAX},
-              {UsbResult::kStall, 0},      {UsbResult::kOk, 100},      {UsbResult::kOk, SIZE_MAX},
-              {UsbResult::kTimeout, 0},    {UsbResult::kOk, 1}};
+  a.script = {{UsbResult::kOk, SIZE_MAX}, {UsbResult::kTimeout, 700}, {UsbResult::kOk, SIZE_MAX},
+              {UsbResult::kStall, 0},     {UsbResult::kOk, 100},      {UsbResult::kOk, SIZE_MAX},
+              {UsbResult::kTimeout, 0},   {UsbResult::kOk, 1}};
   std::vector<std::shared_ptr<const Image>> last(2);
   for (int round = 0; round < 3; ++round) {
     for (int m = 0; m < 2; ++m) {

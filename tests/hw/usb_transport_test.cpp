@@ -10,6 +10,7 @@
 #include "common/input_error.h"
 #include "fake_usb_backend.h"
 #include "hw/link_client.h"
+#include "hw/link_factory.h"
 
 namespace parallax::hw {
 namespace {
@@ -177,6 +178,20 @@ TEST(UsbTransport, DeviceGoneMidTransferIsReportedThenRecoversAfterReplug) {
   ASSERT_EQ(outcomes.size(), 1u);
   EXPECT_EQ(outcomes[0].status, FrameStatus::kDelivered) << outcomes[0].reason;
   EXPECT_EQ(rig.backend->device("B").hardware->shownFrame(0).pixels, next->pixels);
+}
+
+TEST(LinkFactory, AutoFallsBackToTheSimulatorWithOneLineWhy) {
+  // This machine (a container / CI) has no modules on USB.
+  LinkSelection selection;
+  selection.simhwSocket = "/tmp/nowhere.sock";
+  const SelectedLink chosen = selectLink(selection);
+  ASSERT_TRUE(chosen.transport);
+  EXPECT_EQ(chosen.transport->name(), "simhw:/tmp/nowhere.sock");
+  EXPECT_EQ(chosen.note.rfind("link: no USB devices", 0), 0u) << chosen.note;
+  EXPECT_NE(chosen.note.find("using the simulator at /tmp/nowhere.sock"), std::string::npos);
+  EXPECT_EQ(chosen.note.find('\n'), std::string::npos);
+  selection.spec = "simhw:/tmp/x.sock";
+  EXPECT_EQ(selectLink(selection).transport->name(), "simhw:/tmp/x.sock");
 }
 
 TEST(UsbTransport, OptionsExplainThemselves) {

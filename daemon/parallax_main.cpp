@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   parallax::cli::addRaytexCommand(app);
   parallax::cli::addRenderCommand(app);
   parallax::cli::addViewCommand(app);
+  parallax::cli::addBenchLinkCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -10,6 +10,7 @@ void addBenchCommand(CLI::App& app);
 void addBenchTextureSubcommand(CLI::App* bench);  // under `bench`
 void addDisplayCommand(CLI::App& app);
 void addRaytexCommand(CLI::App& app);
+void addBenchLinkCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);
 void addViewCommand(CLI::App& app);
 

@@ -12,6 +12,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   parallax::cli::addDisplayCommand(app);
   parallax::cli::addRaytexCommand(app);
+  parallax::cli::addSimulateCommand(app);
+  parallax::cli::addCalibrateCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

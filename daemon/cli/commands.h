@@ -8,5 +8,7 @@ namespace parallax::cli {
 
 void addDisplayCommand(CLI::App& app);
 void addRaytexCommand(CLI::App& app);
+void addSimulateCommand(CLI::App& app);
+void addCalibrateCommand(CLI::App& app);
 
 }  // namespace parallax::cli

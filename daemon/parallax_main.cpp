@@ -16,6 +16,8 @@ int main(int argc, char** argv) {
   parallax::cli::addRenderCommand(app);
   parallax::cli::addViewCommand(app);
   parallax::cli::addBenchLinkCommand(app);
+  parallax::cli::addSimulateCommand(app);
+  parallax::cli::addCalibrateCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

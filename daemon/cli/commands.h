@@ -13,5 +13,7 @@ void addRaytexCommand(CLI::App& app);
 void addBenchLinkCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);
 void addViewCommand(CLI::App& app);
+void addSimulateCommand(CLI::App& app);
+void addCalibrateCommand(CLI::App& app);
 
 }  // namespace parallax::cli

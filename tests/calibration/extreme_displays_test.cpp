@@ -8,6 +8,8 @@
 #include <numbers>
 #include <string>
 
+#include <fmt/format.h>
+
 #include "calibration/forward_map.h"
 #include "calibration/ray_function.h"
 #include "calibration/ray_textures.h"
@@ -190,6 +192,7 @@ TEST_P(ExtremeDisplays, NoNanRoundTripAndExactMask) {
   ::testing::Test::RecordProperty("valid", std::to_string(valid));
   ::testing::Test::RecordProperty("masked", std::to_string(masked));
   ::testing::Test::RecordProperty("round_trips", std::to_string(roundTrips));
+  ::testing::Test::RecordProperty("worst_round_trip_px", fmt::format("{:.3g}", worstRoundTrip));
 }
 
 const Extreme kExtremes[] = {

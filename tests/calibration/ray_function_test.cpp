@@ -9,6 +9,8 @@
 #include <cmath>
 #include <random>
 
+#include <fmt/format.h>
+
 #include "calibration/forward_map.h"
 #include "calibration/screen_transfer.h"
 #include "test_displays.h"
@@ -91,7 +93,7 @@ TEST_P(RayFunctionProperties, ForwardMapReturnsThePixelAlongTheRay) {
     }
   }
   EXPECT_GT(checked, 500);
-  RecordProperty("worst_round_trip_px", std::to_string(worst));
+  RecordProperty("worst_round_trip_px", fmt::format("{:.3g}", worst));
 }
 
 INSTANTIATE_TEST_SUITE_P(

@@ -1,0 +1,601 @@
+#include "calibration/display_fit.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <numbers>
+
+#include <ceres/ceres.h>
+#include <fmt/format.h>
+
+#include "calibration/fit_geometry.h"
+#include "common/input_error.h"
+
+namespace parallax {
+namespace {
+
+constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+// A correspondence this many σ off is counted as an outlier in the report (the Cauchy loss has
+// already down-weighted it in the fit).
+constexpr double kOutlierSigmas = 5.0;
+
+// ---- residuals ----
+
+// r = (π_module(s(k, camera, n)) − (u, v)) / σ, module px / σ.
+//   module[0..12] (fit_geometry.h), camera[0..6], k[0].
+struct CorrespondenceCost {
+  double nx, ny, u, v, width, mirrorSign, invSigma;
+
+  template <typename T>
+  bool operator()(const T* module, const T* camera, const T* k, T* r) const {
+    Vec3<T> s;
+    if (!screenPointOfCameraRay(k[0], camera, nx, ny, &s)) return false;
+    T uv[2];
+    if (!projectIntoModule(module, width, mirrorSign, s, uv)) return false;
+    r[0] = (uv[0] - T(u)) * T(invSigma);
+    r[1] = (uv[1] - T(v)) * T(invSigma);
+    return true;
+  }
+};
+
+// r = stripeMismatch(s(k, camera, n), p, c) / σ, mm / σ.
+struct StripeCost {
+  double nx, ny, invSigmaM;
+  ScreenTransfer transfer;
+
+  template <typename T>
+  bool operator()(const T* module, const T* camera, const T* k, T* r) const {
+    Vec3<T> s;
+    if (!screenPointOfCameraRay(k[0], camera, nx, ny, &s)) return false;
+    const Vec3<T> p(module[4], module[5], module[6]);
+    const Vec3<T> c(camera[4], camera[5], camera[6]);
+    r[0] = stripeMismatch(transfer, k[0], s, p, c) * T(invSigmaM);
+    return true;
+  }
+};
+
+// r = (π_camera(x, y, sag(k, x)) − observed) / σ, camera px / σ.
+struct FiducialCost {
+  const CameraIntrinsics* intrinsics;
+  double x, y, px, py, invSigma;
+
+  template <typename T>
+  bool operator()(const T* camera, const T* k, T* r) const {
+    const Vec3<T> point(T(x), T(y), screenSag(k[0], T(x)));
+    T pixel[2];
+    if (!projectIntoCamera(*intrinsics, camera, point, pixel)) return false;
+    r[0] = (pixel[0] - T(px)) * T(invSigma);
+    r[1] = (pixel[1] - T(py)) * T(invSigma);
+    return true;
+  }
+};
+
+// r = (centre − tape) / σ_tape.
+struct TapeCost {
+  Eigen::Vector3d tape;
+  double invSigma;
+
+  template <typename T>
+  bool operator()(const T* camera, T* r) const {
+    for (int i = 0; i < 3; ++i) r[i] = (camera[4 + i] - T(tape[i])) * T(invSigma);
+    return true;
+  }
+};
+
+struct Sigmas {
+  double correspondencePx, stripeMm, fiducialPx;
+};
+
+struct State {
+  std::vector<std::array<double, kModuleBlockSize>> modules;
+  std::vector<std::array<double, kCameraBlockSize>> cameras;
+  double k = 0.0;
+};
+
+// Observations with their normalized camera coordinates precomputed (camera intrinsics are
+// fixed: undistortion happens once, here, never inside the solver).
+struct Prepared {
+  std::vector<Eigen::Vector2d> corrN, stripeN;
+};
+
+class ProgressCallback : public ceres::IterationCallback {
+ public:
+  explicit ProgressCallback(const std::function<void(int, double)>& f) : f_(f) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    if (f_) f_(s.iteration, s.cost);
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::function<void(int, double)>& f_;
+};
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(mid), v.end());
+  return v[mid];
+}
+
+// Robust σ: 1.4826 × median |r| is σ for Gaussian noise and ignores up to half outliers.
+double robustSigma(const std::vector<double>& absResiduals) { return 1.4826 * median(absResiduals); }
+
+class DisplayFitter {
+ public:
+  DisplayFitter(const DisplayModel& nominal, const CalibrationObservations& obs,
+                const FitOptions& options, ScreenTransfer transfer)
+      : nominal_(nominal), obs_(obs), options_(options), transfer_(transfer) {
+    observed_.assign(nominal.modules.size(), false);
+    for (const Correspondence& c : obs.correspondences) observed_[static_cast<size_t>(c.module)] = true;
+    for (const Correspondence& c : obs.correspondences) prepared_.corrN.push_back(obs.intrinsics.normalized(c.cameraPx));
+    for (const StripeCentre& s : obs.stripes) prepared_.stripeN.push_back(obs.intrinsics.normalized(s.cameraPx));
+    // Start: nominal modules, cameras at the tape marks aimed at the screen centre.
+    for (const OpticalModule& m : nominal.modules) state_.modules.push_back(packModule(m));
+    for (const CameraStation& st : obs.stations) {
+      CameraPose pose;
+      pose.centre = st.tapeCentre;
+      pose.physicalFromCamera = aimCameraAt(st.tapeCentre, Eigen::Vector3d::Zero());
+      state_.cameras.push_back(packCamera(pose));
+    }
+    state_.k = nominal.screen.curvature;
+    sigmas_ = {options.correspondenceSigmaPx, options.stripeSigmaMm, options.fiducialSigmaPx};
+  }
+
+  FitResult run() {
+    const auto start = std::chrono::steady_clock::now();
+    FitResult result;
+    // Stage 0: camera poses (and k) from fiducials and tape alone, so the full problem starts
+    // with cameras that see the screen where it is.
+    solve(/*withModules=*/false, &result);
+    solve(true, &result);
+    if (options_.reestimateNoise) {
+      reestimateSigmas();
+      solve(true, &result);
+    }
+    result.solveSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    report(&result);
+    return result;
+  }
+
+ private:
+  double kHalfLimit() const { return 0.98 / (0.5 * nominal_.screen.width); }
+
+  std::unique_ptr<ceres::Problem> build(bool withModules) {
+    // One loss object shared by all robust blocks, owned here rather than by the problem.
+    ceres::Problem::Options po;
+    po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    auto problem = std::make_unique<ceres::Problem>(po);
+    lossOwner_ = std::make_unique<ceres::CauchyLoss>(options_.robustScale);
+    ceres::LossFunction* loss = lossOwner_.get();
+    for (auto& cam : state_.cameras) {
+      problem->AddParameterBlock(cam.data(), kCameraBlockSize,
+                                 new ceres::ProductManifold<ceres::EigenQuaternionManifold,
+                                                            ceres::EuclideanManifold<3>>());
+    }
+    problem->AddParameterBlock(&state_.k, 1);
+    problem->SetParameterLowerBound(&state_.k, 0, -kHalfLimit());
+    problem->SetParameterUpperBound(&state_.k, 0, kHalfLimit());
+    if (!options_.fitCurvature) problem->SetParameterBlockConstant(&state_.k);
+
+    for (size_t i = 0; i < obs_.fiducialSightings.size(); ++i) {
+      const FiducialSighting& f = obs_.fiducialSightings[i];
+      const Eigen::Vector2d& xy = obs_.fiducials[static_cast<size_t>(f.fiducial)];
+      auto* cost = new ceres::AutoDiffCostFunction<FiducialCost, 2, kCameraBlockSize, 1>(
+          new FiducialCost{&obs_.intrinsics, xy.x(), xy.y(), f.cameraPx.x(), f.cameraPx.y(),
+                           1.0 / sigmas_.fiducialPx});
+      problem->AddResidualBlock(cost, loss, state_.cameras[static_cast<size_t>(f.camera)].data(), &state_.k);
+    }
+    for (size_t c = 0; c < obs_.stations.size(); ++c) {
+      auto* cost = new ceres::AutoDiffCostFunction<TapeCost, 3, kCameraBlockSize>(
+          new TapeCost{obs_.stations[c].tapeCentre, 1.0 / options_.tapeSigmaM});
+      problem->AddResidualBlock(cost, nullptr, state_.cameras[c].data());
+    }
+    if (!withModules) return problem;
+
+    for (size_t m = 0; m < state_.modules.size(); ++m) {
+      if (!observed_[m]) continue;
+      problem->AddParameterBlock(state_.modules[m].data(), kModuleBlockSize,
+                                 new ceres::ProductManifold<ceres::EigenQuaternionManifold,
+                                                            ceres::EuclideanManifold<9>>());
+    }
+    for (size_t i = 0; i < obs_.correspondences.size(); ++i) {
+      const Correspondence& c = obs_.correspondences[i];
+      const OpticalModule& m = nominal_.modules[static_cast<size_t>(c.module)];
+      auto* cost = new ceres::AutoDiffCostFunction<CorrespondenceCost, 2, kModuleBlockSize, kCameraBlockSize, 1>(
+          new CorrespondenceCost{prepared_.corrN[i].x(), prepared_.corrN[i].y(), c.modulePx.x(),
+                                 c.modulePx.y(), static_cast<double>(m.width), m.mirror ? -1.0 : 1.0,
+                                 1.0 / sigmas_.correspondencePx});
+      problem->AddResidualBlock(cost, loss, state_.modules[static_cast<size_t>(c.module)].data(),
+                                state_.cameras[static_cast<size_t>(c.camera)].data(), &state_.k);
+    }
+    for (size_t i = 0; i < obs_.stripes.size(); ++i) {
+      const StripeCentre& s = obs_.stripes[i];
+      if (!observed_[static_cast<size_t>(s.module)]) continue;
+      auto* cost = new ceres::AutoDiffCostFunction<StripeCost, 1, kModuleBlockSize, kCameraBlockSize, 1>(
+          new StripeCost{prepared_.stripeN[i].x(), prepared_.stripeN[i].y(),
+                         1.0 / (1e-3 * sigmas_.stripeMm), transfer_});
+      problem->AddResidualBlock(cost, loss, state_.modules[static_cast<size_t>(s.module)].data(),
+                                state_.cameras[static_cast<size_t>(s.camera)].data(), &state_.k);
+    }
+    return problem;
+  }
+
+  void solve(bool withModules, FitResult* result) {
+    problem_.reset();
+    problem_ = build(withModules);
+    ceres::Solver::Options so;
+    so.max_num_iterations = options_.maxIterations;
+    so.num_threads = options_.threads;
+    so.function_tolerance = 1e-10;
+    so.parameter_tolerance = 1e-10;
+    so.gradient_tolerance = 1e-14;
+    so.logging_type = ceres::SILENT;
+    if (withModules) {
+      // Modules never share a residual, so they are eliminated first (bundle adjustment's
+      // points); the reduced system over cameras and k is tiny and dense.
+      so.linear_solver_type = ceres::DENSE_SCHUR;
+      auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+      for (size_t m = 0; m < state_.modules.size(); ++m) {
+        if (observed_[m]) ordering->AddElementToGroup(state_.modules[m].data(), 0);
+      }
+      for (auto& cam : state_.cameras) ordering->AddElementToGroup(cam.data(), 1);
+      ordering->AddElementToGroup(&state_.k, 1);
+      so.linear_solver_ordering = ordering;
+    } else {
+      so.linear_solver_type = ceres::DENSE_QR;
+    }
+    ProgressCallback callback(options_.onIteration);
+    if (options_.onIteration) so.callbacks.push_back(&callback);
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, problem_.get(), &summary);
+    result->iterations += static_cast<int>(summary.iterations.size());
+    if (withModules) {
+      result->converged = summary.termination_type == ceres::CONVERGENCE;
+    }
+  }
+
+  // Unrobustified residuals, in their natural units.
+  bool correspondenceResidual(size_t i, Eigen::Vector2d* r) const {
+    const Correspondence& c = obs_.correspondences[i];
+    const OpticalModule& m = nominal_.modules[static_cast<size_t>(c.module)];
+    const CorrespondenceCost cost{prepared_.corrN[i].x(), prepared_.corrN[i].y(), c.modulePx.x(),
+                                  c.modulePx.y(), static_cast<double>(m.width), m.mirror ? -1.0 : 1.0, 1.0};
+    double out[2];
+    if (!cost(state_.modules[static_cast<size_t>(c.module)].data(),
+              state_.cameras[static_cast<size_t>(c.camera)].data(), &state_.k, out)) {
+      return false;
+    }
+    *r = {out[0], out[1]};
+    return std::isfinite(out[0]) && std::isfinite(out[1]);
+  }
+  bool stripeResidualMm(size_t i, double* r) const {
+    const StripeCentre& s = obs_.stripes[i];
+    const StripeCost cost{prepared_.stripeN[i].x(), prepared_.stripeN[i].y(), 1e3, transfer_};
+    double out;
+    if (!cost(state_.modules[static_cast<size_t>(s.module)].data(),
+              state_.cameras[static_cast<size_t>(s.camera)].data(), &state_.k, &out)) {
+      return false;
+    }
+    *r = out;
+    return std::isfinite(out);
+  }
+  // Size of a module pixel on the screen (mm), for expressing module-px noise on the screen.
+  double mmPerModulePx() const {
+    std::vector<double> v;
+    for (size_t m = 0; m < state_.modules.size(); ++m) {
+      if (!observed_[m]) continue;
+      const auto& b = state_.modules[m];
+      const double distance = Eigen::Vector3d(b[4], b[5], b[6]).norm();
+      v.push_back(1e3 * distance / (b[7] * nominal_.modules[m].width));
+    }
+    return v.empty() ? 1.0 : median(v);
+  }
+
+  void reestimateSigmas() {
+    std::vector<double> corr, stripe;
+    for (size_t i = 0; i < obs_.correspondences.size(); ++i) {
+      Eigen::Vector2d r;
+      if (correspondenceResidual(i, &r)) { corr.push_back(std::abs(r.x())); corr.push_back(std::abs(r.y())); }
+    }
+    for (size_t i = 0; i < obs_.stripes.size(); ++i) {
+      double r;
+      if (observed_[static_cast<size_t>(obs_.stripes[i].module)] && stripeResidualMm(i, &r)) stripe.push_back(std::abs(r));
+    }
+    // Floors: exact synthetic data would give σ = 0 and an information matrix of infinities.
+    if (!corr.empty()) sigmas_.correspondencePx = std::max(robustSigma(corr), 1e-3);
+    const double corrMm = sigmas_.correspondencePx * mmPerModulePx();
+    if (!stripe.empty()) sigmas_.stripeMm = std::max(robustSigma(stripe), std::max(0.5 * corrMm, 1e-3));
+  }
+
+  void report(FitResult* result) {
+    // ---- the model ----
+    result->model = nominal_;
+    result->model.name = nominal_.name + "-calibrated";
+    result->model.screen.curvature = state_.k;
+    result->model.screen.transfer = transfer_;
+    for (size_t m = 0; m < state_.modules.size(); ++m) {
+      if (observed_[m]) unpackModule(state_.modules[m].data(), &result->model.modules[m]);
+    }
+
+    // ---- residual statistics ----
+    result->modules.assign(nominal_.modules.size(), {});
+    result->cameras.assign(obs_.stations.size(), {});
+    std::vector<double> sumSqModule(nominal_.modules.size(), 0.0), sumSqCamera(obs_.stations.size(), 0.0);
+    std::vector<int> inliersModule(nominal_.modules.size(), 0), inliersCamera(obs_.stations.size(), 0);
+    for (size_t m = 0; m < nominal_.modules.size(); ++m) {
+      result->modules[m].module = static_cast<int>(m);
+      result->modules[m].observed = observed_[m];
+    }
+    for (size_t c = 0; c < obs_.stations.size(); ++c) {
+      result->cameras[c].camera = static_cast<int>(c);
+      result->cameras[c].pose = unpackCamera(state_.cameras[c].data());
+    }
+    for (size_t i = 0; i < obs_.correspondences.size(); ++i) {
+      const Correspondence& c = obs_.correspondences[i];
+      ModuleFit& mf = result->modules[static_cast<size_t>(c.module)];
+      CameraFit& cf = result->cameras[static_cast<size_t>(c.camera)];
+      ++mf.correspondences;
+      ++cf.correspondences;
+      Eigen::Vector2d r;
+      if (!correspondenceResidual(i, &r) || r.norm() > kOutlierSigmas * sigmas_.correspondencePx) {
+        ++mf.outliers;
+        ++result->outliers;
+        continue;
+      }
+      sumSqModule[static_cast<size_t>(c.module)] += r.squaredNorm();
+      sumSqCamera[static_cast<size_t>(c.camera)] += r.squaredNorm();
+      ++inliersModule[static_cast<size_t>(c.module)];
+      ++inliersCamera[static_cast<size_t>(c.camera)];
+    }
+    // RMS per axis (so it compares with σ directly).
+    for (size_t m = 0; m < result->modules.size(); ++m) {
+      if (inliersModule[m]) result->modules[m].rmsPx = std::sqrt(sumSqModule[m] / (2.0 * inliersModule[m]));
+    }
+    for (size_t c = 0; c < result->cameras.size(); ++c) {
+      if (inliersCamera[c]) result->cameras[c].rmsPx = std::sqrt(sumSqCamera[c] / (2.0 * inliersCamera[c]));
+    }
+    std::vector<double> stripeAbs, stripeSumSq(nominal_.modules.size(), 0.0);
+    double stripeTotal = 0.0;
+    for (size_t i = 0; i < obs_.stripes.size(); ++i) {
+      const StripeCentre& s = obs_.stripes[i];
+      if (!observed_[static_cast<size_t>(s.module)]) continue;
+      double r;
+      if (!stripeResidualMm(i, &r)) continue;
+      ++result->modules[static_cast<size_t>(s.module)].stripes;
+      stripeSumSq[static_cast<size_t>(s.module)] += r * r;
+      stripeTotal += r * r;
+      stripeAbs.push_back(std::abs(r));
+    }
+    for (size_t m = 0; m < result->modules.size(); ++m) {
+      ModuleFit& mf = result->modules[m];
+      if (mf.stripes) mf.stripeRmsMm = std::sqrt(stripeSumSq[m] / mf.stripes);
+    }
+    if (!stripeAbs.empty()) result->stripeRmsMm = std::sqrt(stripeTotal / static_cast<double>(stripeAbs.size()));
+    double fidSumSq = 0.0;
+    int fidCount = 0;
+    std::vector<double> camFidSumSq(obs_.stations.size(), 0.0);
+    for (const FiducialSighting& f : obs_.fiducialSightings) {
+      const Eigen::Vector2d& xy = obs_.fiducials[static_cast<size_t>(f.fiducial)];
+      const FiducialCost cost{&obs_.intrinsics, xy.x(), xy.y(), f.cameraPx.x(), f.cameraPx.y(), 1.0};
+      double r[2];
+      if (!cost(state_.cameras[static_cast<size_t>(f.camera)].data(), &state_.k, r)) continue;
+      const double sq = r[0] * r[0] + r[1] * r[1];
+      fidSumSq += sq;
+      ++fidCount;
+      camFidSumSq[static_cast<size_t>(f.camera)] += sq;
+      ++result->cameras[static_cast<size_t>(f.camera)].fiducials;
+    }
+    if (fidCount) result->fiducialRmsPx = std::sqrt(fidSumSq / (2.0 * fidCount));
+    for (CameraFit& cf : result->cameras) {
+      if (cf.fiducials) cf.fiducialRmsPx = std::sqrt(camFidSumSq[static_cast<size_t>(cf.camera)] / (2.0 * cf.fiducials));
+    }
+    result->correspondenceSigmaPx = sigmas_.correspondencePx;
+    result->correspondenceSigmaMm = sigmas_.correspondencePx * mmPerModulePx();
+
+    // ---- the transfer check: stripes that the assumed transfer cannot explain ----
+    const double stripeSigma = robustSigma(stripeAbs);
+    if (!stripeAbs.empty() &&
+        stripeSigma > options_.transferMismatchRatio * std::max(result->correspondenceSigmaMm, 0.1)) {
+      result->transferMismatch = true;
+      result->notes.push_back(fmt::format(
+          "the stripe centres disagree with the assumed {} transfer: their residuals are {:.2f} mm "
+          "(robust σ) against {:.3f} mm for the correspondences; the screen does not follow the {} "
+          "model",
+          transferName(transfer_), stripeSigma, result->correspondenceSigmaMm, transferName(transfer_)));
+    }
+
+    diagnoseJacobian(result);
+
+    for (size_t m = 0; m < result->modules.size(); ++m) {
+      if (!observed_[m]) {
+        result->notes.push_back(fmt::format(
+            "module {} was not seen by any camera: kept at its nominal pose and intrinsics", m));
+      }
+    }
+  }
+
+  void diagnoseJacobian(FitResult* result) {
+    std::vector<double*> blocks;
+    std::vector<size_t> moduleOf;
+    for (size_t m = 0; m < state_.modules.size(); ++m) {
+      if (observed_[m]) {
+        blocks.push_back(state_.modules[m].data());
+        moduleOf.push_back(m);
+      }
+    }
+    for (auto& cam : state_.cameras) blocks.push_back(cam.data());
+    if (options_.fitCurvature) blocks.push_back(&state_.k);
+    ceres::Problem::EvaluateOptions eo;
+    eo.parameter_blocks = blocks;
+    eo.apply_loss_function = true;
+    eo.num_threads = options_.threads;
+    ceres::CRSMatrix jacobian;
+    double cost = 0.0;
+    const int sharedSize = kCameraTangentSize * static_cast<int>(state_.cameras.size()) +
+                           (options_.fitCurvature ? 1 : 0);
+    if (!problem_->Evaluate(eo, &cost, nullptr, nullptr, &jacobian)) {
+      result->notes.push_back("the Jacobian could not be evaluated at the solution");
+      result->converged = false;
+      return;
+    }
+    const InformationBlocks info = informationFromJacobian(
+        jacobian.num_rows, jacobian.num_cols, jacobian.rows, jacobian.cols, jacobian.values,
+        static_cast<int>(moduleOf.size()), kModuleTangentSize, sharedSize);
+    const Diagnostics d = diagnose(info, options_.conditioning);
+
+    for (size_t j = 0; j < moduleOf.size(); ++j) {
+      ModuleFit& mf = result->modules[moduleOf[j]];
+      mf.conditioning = d.modules[j];
+      const double width = nominal_.modules[moduleOf[j]].width;
+      for (int p = 0; p < kModuleTangentSize; ++p) {
+        double sd = d.moduleStdDev[j][p];
+        if (p < 3) sd *= kRadToDeg;
+        else if (p < 6) sd *= 1e3;
+        else if (p < 10) sd *= width;
+        mf.stdDev[static_cast<size_t>(p)] = sd;
+      }
+      if (d.modules[j].state != Conditioning::kGood) {
+        Deficiency def;
+        def.module = static_cast<int>(moduleOf[j]);
+        def.state = d.modules[j].state;
+        def.reciprocalCondition = d.modules[j].reciprocalCondition;
+        for (int p : d.modules[j].nullDirection) def.parameters.push_back(moduleParameterName(p));
+        result->deficiencies.push_back(def);
+      }
+    }
+    for (size_t c = 0; c < state_.cameras.size(); ++c) {
+      for (int p = 0; p < kCameraTangentSize; ++p) {
+        double sd = d.sharedStdDev[static_cast<long>(c) * kCameraTangentSize + p];
+        sd *= p < 3 ? kRadToDeg : 1e3;
+        result->cameras[c].stdDev[static_cast<size_t>(p)] = sd;
+      }
+    }
+    result->curvatureStdDev = options_.fitCurvature ? d.sharedStdDev[sharedSize - 1] : 0.0;
+    if (d.shared.state != Conditioning::kGood) {
+      Deficiency def;
+      def.module = -1;
+      def.state = d.shared.state;
+      def.reciprocalCondition = d.shared.reciprocalCondition;
+      for (int p : d.shared.nullDirection) {
+        if (options_.fitCurvature && p == sharedSize - 1) {
+          def.parameters.push_back("screen curvature k");
+        } else {
+          def.parameters.push_back(fmt::format("camera {} {}", p / kCameraTangentSize,
+                                               cameraParameterName(p % kCameraTangentSize)));
+        }
+      }
+      result->deficiencies.push_back(def);
+    }
+  }
+
+  const DisplayModel& nominal_;
+  const CalibrationObservations& obs_;
+  const FitOptions& options_;
+  ScreenTransfer transfer_;
+  std::vector<bool> observed_;
+  Prepared prepared_;
+  State state_;
+  Sigmas sigmas_;
+  std::unique_ptr<ceres::LossFunction> lossOwner_;
+  std::unique_ptr<ceres::Problem> problem_;
+};
+
+void validateObservations(const DisplayModel& nominal, const CalibrationObservations& obs) {
+  const int modules = static_cast<int>(nominal.modules.size());
+  const int cameras = static_cast<int>(obs.stations.size());
+  const int fiducials = static_cast<int>(obs.fiducials.size());
+  auto finite2 = [](const Eigen::Vector2d& v) { return std::isfinite(v.x()) && std::isfinite(v.y()); };
+  if (cameras == 0) throw InputError({"", "stations", 0}, "no camera stations");
+  for (int c = 0; c < cameras; ++c) {
+    if (!obs.stations[static_cast<size_t>(c)].tapeCentre.allFinite()) {
+      throw InputError({"", fmt::format("stations[{}].tape_centre", c), 0}, "not finite");
+    }
+  }
+  for (size_t i = 0; i < obs.correspondences.size(); ++i) {
+    const Correspondence& c = obs.correspondences[i];
+    if (c.module < 0 || c.module >= modules || c.camera < 0 || c.camera >= cameras ||
+        !finite2(c.cameraPx) || !finite2(c.modulePx)) {
+      throw InputError({"", fmt::format("correspondences[{}]", i), 0},
+                       "refers to a module or camera that does not exist, or is not finite");
+    }
+  }
+  for (size_t i = 0; i < obs.stripes.size(); ++i) {
+    const StripeCentre& s = obs.stripes[i];
+    if (s.module < 0 || s.module >= modules || s.camera < 0 || s.camera >= cameras || !finite2(s.cameraPx)) {
+      throw InputError({"", fmt::format("stripes[{}]", i), 0},
+                       "refers to a module or camera that does not exist, or is not finite");
+    }
+  }
+  for (size_t i = 0; i < obs.fiducialSightings.size(); ++i) {
+    const FiducialSighting& f = obs.fiducialSightings[i];
+    if (f.fiducial < 0 || f.fiducial >= fiducials || f.camera < 0 || f.camera >= cameras || !finite2(f.cameraPx)) {
+      throw InputError({"", fmt::format("fiducial_sightings[{}]", i), 0},
+                       "refers to a fiducial or camera that does not exist, or is not finite");
+    }
+  }
+}
+
+}  // namespace
+
+void FitOptions::validate() const {
+  auto positive = [](double v, const char* name) {
+    if (!(std::isfinite(v) && v > 0.0)) throw InputError({"", name, 0}, fmt::format("must be > 0, got {}", v));
+  };
+  positive(correspondenceSigmaPx, "correspondence_sigma_px");
+  positive(stripeSigmaMm, "stripe_sigma_mm");
+  positive(fiducialSigmaPx, "fiducial_sigma_px");
+  positive(tapeSigmaM, "tape_sigma_m");
+  positive(robustScale, "robust_scale");
+  positive(transferMismatchRatio, "transfer_mismatch_ratio");
+  if (maxIterations < 1 || maxIterations > 10000) throw InputError({"", "max_iterations", 0}, "must be 1..10000");
+  if (threads < 1 || threads > 256) throw InputError({"", "threads", 0}, "must be 1..256");
+  conditioning.validate();
+}
+
+std::string Deficiency::describe() const {
+  std::string who = module < 0 ? "shared parameters" : fmt::format("module {}", module);
+  std::string params;
+  for (size_t i = 0; i < parameters.size(); ++i) params += (i ? ", " : "") + parameters[i];
+  return fmt::format("{}: {} (reciprocal condition {:.2e}); the data cannot separate: {}", who,
+                     conditioningName(state), reciprocalCondition, params);
+}
+
+bool FitResult::passesQualityChecks() const {
+  if (!converged || transferMismatch) return false;
+  for (const Deficiency& d : deficiencies) {
+    if (d.state == Conditioning::kRankDeficient) return false;
+  }
+  if (!std::isfinite(model.screen.curvature)) return false;
+  for (const OpticalModule& m : model.modules) {
+    if (!m.position.allFinite() || !std::isfinite(m.fx) || !std::isfinite(m.fy) ||
+        !std::isfinite(m.cx) || !std::isfinite(m.cy) || !std::isfinite(m.k1) || !std::isfinite(m.k2)) {
+      return false;
+    }
+  }
+  return true;
+}
+
+FitResult fitDisplay(const DisplayModel& nominal, const CalibrationObservations& observations,
+                     const FitOptions& options) {
+  options.validate();
+  nominal.validate();
+  validateObservations(nominal, observations);
+  const ScreenTransfer transfer = options.transfer.value_or(nominal.screen.transfer);
+  FitResult result = DisplayFitter(nominal, observations, options, transfer).run();
+  if (result.transferMismatch && options.tryOtherTransfer) {
+    FitOptions other = options;
+    other.tryOtherTransfer = false;
+    other.transfer = transfer == ScreenTransfer::kConical ? ScreenTransfer::kLinear : ScreenTransfer::kConical;
+    const FitResult alt = DisplayFitter(nominal, observations, other, *other.transfer).run();
+    result.otherTransferStripeRmsMm = alt.stripeRmsMm;
+    result.notes.push_back(fmt::format(
+        "under the {} transfer the stripe residuals are {:.3f} mm RMS (against {:.3f} mm under {}){}",
+        transferName(*other.transfer), alt.stripeRmsMm, result.stripeRmsMm, transferName(transfer),
+        alt.transferMismatch ? "; neither transfer explains the stripes"
+                             : fmt::format(": the screen follows the {} transfer", transferName(*other.transfer))));
+  }
+  return result;
+}
+
+}  // namespace parallax

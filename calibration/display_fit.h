@@ -1,0 +1,114 @@
+#pragma once
+// The Ceres fit of a DisplayModel to calibration observations (calibration_observations.h).
+//
+// Unknowns, started from the nominal layout: every observed module's pose (a quaternion on
+// Ceres' EigenQuaternionManifold), intrinsics and radial distortion (one 13-entry block, see
+// fit_geometry.h); every camera station's pose (started from its tape-measured centre, aimed at
+// the screen centre); the screen curvature k (never R: k = 0 is an ordinary value).
+// Residuals, each divided by its noise level σ so they are comparable:
+//   correspondence (2): the camera pixel back-projects to a screen point s(k, camera); its
+//       projection into the module minus the decoded module pixel (module px). Forward
+//       direction only: no undistortion inside the solver.
+//   stripe (1): at a stripe centre seen by a camera the transfer sends module light exactly to
+//       the camera; the mismatch (fit_geometry.h's stripeMismatch, mm on the screen). This is
+//       what separates a module's focal length from its distance.
+//   fiducial (2): the markers on the screen frame reprojected into the camera (camera px).
+//   tape (3): each camera centre near its tape-measured place (σ = the tape's accuracy).
+// A Cauchy loss guards against decoding outliers. The noise levels start from the options and
+// are then re-estimated from the residuals (median absolute deviation) for a second solve, so
+// the standard deviations reported afterwards mean what they say.
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calibration/calibration_observations.h"
+#include "calibration/display_model.h"
+#include "calibration/fit_diagnostics.h"
+
+namespace parallax {
+
+struct FitOptions {
+  std::optional<ScreenTransfer> transfer;  // assumed transfer; default: the nominal model's
+  double correspondenceSigmaPx = 0.3;      // module px, first guess (re-estimated)
+  double stripeSigmaMm = 0.5;              // first guess (re-estimated)
+  double fiducialSigmaPx = 0.2;            // camera px
+  double tapeSigmaM = 0.05;
+  double robustScale = 3.0;                // Cauchy scale, in units of σ
+  bool reestimateNoise = true;
+  bool fitCurvature = true;
+  bool fitDistortion = true;
+  int maxIterations = 100;
+  int threads = 2;
+  // When the stripes disagree with the assumed transfer, fit again under the other one to
+  // say which describes the screen.
+  bool tryOtherTransfer = true;
+  // Stripe residuals this many times the correspondences' noise (both as mm on the screen)
+  // mean the screen does not follow the assumed transfer.
+  double transferMismatchRatio = 5.0;
+  ConditioningOptions conditioning;
+  std::function<void(int iteration, double cost)> onIteration;  // progress, optional
+
+  void validate() const;
+};
+
+struct ModuleFit {
+  int module = 0;  // index in the model
+  bool observed = false;
+  int correspondences = 0, stripes = 0, outliers = 0;
+  double rmsPx = 0.0;           // correspondences, robust inliers (module px)
+  double stripeRmsMm = 0.0;
+  BlockConditioning conditioning;
+  // Standard deviations: rotation about x, y, z (deg), position x, y, z (mm), fx, fy, cx, cy
+  // (px), k1, k2. +inf where the data cannot determine the parameter.
+  std::array<double, 12> stdDev{};
+};
+
+struct CameraFit {
+  int camera = 0;
+  CameraPose pose;
+  int correspondences = 0, fiducials = 0;
+  double rmsPx = 0.0;            // its correspondences (module px)
+  double fiducialRmsPx = 0.0;    // camera px
+  std::array<double, 6> stdDev{};  // rotation (deg), centre (mm)
+};
+
+struct Deficiency {
+  int module = -1;  // −1: the shared parameters (cameras, k)
+  Conditioning state = Conditioning::kGood;
+  double reciprocalCondition = 1.0;
+  std::vector<std::string> parameters;  // the undetermined combination, largest share first
+
+  std::string describe() const;
+};
+
+struct FitResult {
+  DisplayModel model;
+  std::vector<CameraFit> cameras;
+  std::vector<ModuleFit> modules;
+  double curvatureStdDev = 0.0;  // 1/m
+  std::vector<Deficiency> deficiencies;
+  double correspondenceSigmaPx = 0.0;  // re-estimated noise (module px)
+  double correspondenceSigmaMm = 0.0;  // the same as mm on the screen
+  double stripeRmsMm = 0.0;
+  double fiducialRmsPx = 0.0;
+  bool transferMismatch = false;
+  std::optional<double> otherTransferStripeRmsMm;  // when the other transfer was tried
+  std::vector<std::string> notes;  // findings a user must read (mismatch, unseen modules, ...)
+  int iterations = 0;
+  double solveSeconds = 0.0;
+  bool converged = false;
+  int outliers = 0;
+
+  // The quality gate: converged, no NaN, every observed module determined, no transfer
+  // mismatch. A calibration that fails it is not installed.
+  bool passesQualityChecks() const;
+};
+
+// Throws InputError for observations that reference modules/cameras/fiducials that do not
+// exist or carry non-finite numbers.
+FitResult fitDisplay(const DisplayModel& nominal, const CalibrationObservations& observations,
+                     const FitOptions& options);
+
+}  // namespace parallax

@@ -1,0 +1,246 @@
+#include "calibration/observations_json.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "common/input_error.h"
+
+namespace parallax {
+namespace {
+
+using nlohmann::json;
+
+[[noreturn]] void fail(const std::string& field, const std::string& reason) {
+  throw InputError(InputLocation{"", field, 0}, reason);
+}
+
+const json& member(const json& object, const std::string& key, const std::string& path) {
+  const std::string field = path.empty() ? key : path + "." + key;
+  if (!object.is_object()) fail(path, fmt::format("must be an object, got {}", object.type_name()));
+  const auto it = object.find(key);
+  if (it == object.end()) fail(field, "missing");
+  return *it;
+}
+
+double finiteNumber(const json& j, const std::string& field) {
+  if (!j.is_number()) fail(field, fmt::format("must be a number, got {}", j.type_name()));
+  const double v = j.get<double>();
+  if (!std::isfinite(v)) fail(field, "must be finite");
+  return v;
+}
+
+int index(const json& j, const std::string& field, int limit) {
+  if (!j.is_number_integer()) fail(field, fmt::format("must be an integer, got {}", j.type_name()));
+  const long long v = j.get<long long>();
+  if (v < 0 || v >= limit) fail(field, fmt::format("must be 0..{}, got {}", limit - 1, v));
+  return static_cast<int>(v);
+}
+
+std::vector<double> numberArray(const json& j, const std::string& field, size_t size) {
+  if (!j.is_array() || j.size() != size) fail(field, fmt::format("must be an array of {} numbers", size));
+  std::vector<double> out;
+  for (size_t i = 0; i < size; ++i) out.push_back(finiteNumber(j[i], fmt::format("{}[{}]", field, i)));
+  return out;
+}
+
+const json& rows(const json& object, const std::string& key) {
+  const json& j = member(object, key, "");
+  if (!j.is_array()) fail(key, fmt::format("must be an array, got {}", j.type_name()));
+  if (j.size() > kMaxObservations) fail(key, fmt::format("at most {} entries", kMaxObservations));
+  return j;
+}
+
+void checkFormat(const json& j, const char* name) {
+  const json& format = member(j, "format", "");
+  if (!format.is_string() || format.get<std::string>() != name) {
+    fail("format", fmt::format("must be \"{}\", got {}", name, format.dump()));
+  }
+  const json& version = member(j, "version", "");
+  if (!version.is_number_integer() || version.get<int>() != kObservationsFormatVersion) {
+    fail("version", fmt::format("must be {}, got {}", kObservationsFormatVersion, version.dump()));
+  }
+}
+
+// Module and camera indices are bounded generously here; the fit checks them against the
+// nominal model and the stations.
+constexpr int kMaxIndex = 1 << 20;
+
+}  // namespace
+
+json cameraMetadataToJson(const CalibrationObservations& o) {
+  json j;
+  j["format"] = kCameraFormatName;
+  j["version"] = kObservationsFormatVersion;
+  const CameraIntrinsics& in = o.intrinsics;
+  j["intrinsics"] = {{"width", in.width},
+                     {"height", in.height},
+                     {"focal_px", {in.fx, in.fy}},
+                     {"principal_px", {in.cx, in.cy}},
+                     {"distortion", {in.k1, in.k2}}};
+  j["stations"] = json::array();
+  for (const CameraStation& s : o.stations) {
+    j["stations"].push_back({{"tape_centre", {s.tapeCentre.x(), s.tapeCentre.y(), s.tapeCentre.z()}}});
+  }
+  j["fiducials"] = json::array();
+  for (const Eigen::Vector2d& f : o.fiducials) j["fiducials"].push_back({f.x(), f.y()});
+  return j;
+}
+
+json decodedToJson(const CalibrationObservations& o) {
+  json j;
+  j["format"] = kDecodedFormatName;
+  j["version"] = kObservationsFormatVersion;
+  j["correspondences"] = json::array();
+  for (const Correspondence& c : o.correspondences) {
+    j["correspondences"].push_back({c.camera, c.module, c.cameraPx.x(), c.cameraPx.y(), c.modulePx.x(), c.modulePx.y()});
+  }
+  j["stripes"] = json::array();
+  for (const StripeCentre& s : o.stripes) {
+    j["stripes"].push_back({s.camera, s.module, s.cameraPx.x(), s.cameraPx.y()});
+  }
+  j["fiducial_sightings"] = json::array();
+  for (const FiducialSighting& f : o.fiducialSightings) {
+    j["fiducial_sightings"].push_back({f.camera, f.fiducial, f.cameraPx.x(), f.cameraPx.y()});
+  }
+  return j;
+}
+
+void cameraMetadataFromJson(const json& j, CalibrationObservations* o) {
+  checkFormat(j, kCameraFormatName);
+  const json& in = member(j, "intrinsics", "");
+  const json& width = member(in, "width", "intrinsics");
+  const json& height = member(in, "height", "intrinsics");
+  o->intrinsics.width = index(width, "intrinsics.width", 65536);
+  o->intrinsics.height = index(height, "intrinsics.height", 65536);
+  if (o->intrinsics.width < 16 || o->intrinsics.height < 16) fail("intrinsics", "the image must be at least 16 px a side");
+  const auto focal = numberArray(member(in, "focal_px", "intrinsics"), "intrinsics.focal_px", 2);
+  const auto principal = numberArray(member(in, "principal_px", "intrinsics"), "intrinsics.principal_px", 2);
+  const auto distortion = numberArray(member(in, "distortion", "intrinsics"), "intrinsics.distortion", 2);
+  if (!(focal[0] > 0.0 && focal[1] > 0.0)) fail("intrinsics.focal_px", "must be positive");
+  o->intrinsics.fx = focal[0];
+  o->intrinsics.fy = focal[1];
+  o->intrinsics.cx = principal[0];
+  o->intrinsics.cy = principal[1];
+  o->intrinsics.k1 = distortion[0];
+  o->intrinsics.k2 = distortion[1];
+  if (std::abs(o->intrinsics.k1) > 1.0 || std::abs(o->intrinsics.k2) > 1.0) {
+    fail("intrinsics.distortion", "|k1|, |k2| must be <= 1 (a calibration camera, not a fisheye)");
+  }
+  const json& stations = rows(j, "stations");
+  if (stations.empty() || stations.size() > 64) fail("stations", "must hold 1..64 stations");
+  o->stations.clear();
+  for (size_t i = 0; i < stations.size(); ++i) {
+    const std::string field = fmt::format("stations[{}].tape_centre", i);
+    const auto c = numberArray(member(stations[i], "tape_centre", fmt::format("stations[{}]", i)), field, 3);
+    o->stations.push_back({{c[0], c[1], c[2]}});
+  }
+  const json& fiducials = rows(j, "fiducials");
+  o->fiducials.clear();
+  for (size_t i = 0; i < fiducials.size(); ++i) {
+    const auto f = numberArray(fiducials[i], fmt::format("fiducials[{}]", i), 2);
+    o->fiducials.push_back({f[0], f[1]});
+  }
+}
+
+void decodedFromJson(const json& j, CalibrationObservations* o) {
+  checkFormat(j, kDecodedFormatName);
+  const json& corr = rows(j, "correspondences");
+  o->correspondences.clear();
+  o->correspondences.reserve(corr.size());
+  for (size_t i = 0; i < corr.size(); ++i) {
+    const std::string field = fmt::format("correspondences[{}]", i);
+    const json& r = corr[i];
+    if (!r.is_array() || r.size() != 6) fail(field, "must be [camera, module, camera_u, camera_v, module_u, module_v]");
+    Correspondence c;
+    c.camera = index(r[0], field + "[0]", kMaxIndex);
+    c.module = index(r[1], field + "[1]", kMaxIndex);
+    c.cameraPx = {finiteNumber(r[2], field + "[2]"), finiteNumber(r[3], field + "[3]")};
+    c.modulePx = {finiteNumber(r[4], field + "[4]"), finiteNumber(r[5], field + "[5]")};
+    o->correspondences.push_back(c);
+  }
+  const json& stripes = rows(j, "stripes");
+  o->stripes.clear();
+  for (size_t i = 0; i < stripes.size(); ++i) {
+    const std::string field = fmt::format("stripes[{}]", i);
+    const json& r = stripes[i];
+    if (!r.is_array() || r.size() != 4) fail(field, "must be [camera, module, camera_u, camera_v]");
+    o->stripes.push_back({index(r[0], field + "[0]", kMaxIndex), index(r[1], field + "[1]", kMaxIndex),
+                          {finiteNumber(r[2], field + "[2]"), finiteNumber(r[3], field + "[3]")}});
+  }
+  const json& sightings = rows(j, "fiducial_sightings");
+  o->fiducialSightings.clear();
+  for (size_t i = 0; i < sightings.size(); ++i) {
+    const std::string field = fmt::format("fiducial_sightings[{}]", i);
+    const json& r = sightings[i];
+    if (!r.is_array() || r.size() != 4) fail(field, "must be [camera, fiducial, camera_u, camera_v]");
+    o->fiducialSightings.push_back({index(r[0], field + "[0]", kMaxIndex), index(r[1], field + "[1]", kMaxIndex),
+                                    {finiteNumber(r[2], field + "[2]"), finiteNumber(r[3], field + "[3]")}});
+  }
+}
+
+json readJsonFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError({path, "", 0}, "cannot open the file");
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  try {
+    return json::parse(text);
+  } catch (const json::parse_error& e) {
+    const size_t end = std::min(text.size(), static_cast<size_t>(e.byte));
+    const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(end), '\n'));
+    std::string reason = e.what();
+    const size_t colon = reason.find(": ");
+    if (colon != std::string::npos) reason = reason.substr(colon + 2);
+    throw InputError({path, "", line}, "not valid JSON: " + reason);
+  }
+}
+
+void writeFileAtomically(const std::string& path, const std::string& text) {
+  const std::string temporary = path + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    if (!out) throw InputError({path, "", 0}, "cannot write the file");
+    out << text;
+    out.flush();
+    if (!out) {
+      std::remove(temporary.c_str());
+      throw InputError({path, "", 0}, "writing the file failed");
+    }
+  }
+  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
+    std::remove(temporary.c_str());
+    throw InputError({path, "", 0}, "cannot move the file into place");
+  }
+}
+
+CalibrationObservations loadObservations(const std::string& directory) {
+  CalibrationObservations o;
+  const std::string cameraPath = directory + "/camera.json";
+  const std::string decodedPath = directory + "/decoded.json";
+  try {
+    cameraMetadataFromJson(readJsonFile(cameraPath), &o);
+  } catch (const InputError& e) {
+    throw e.location().file.empty() ? e.inFile(cameraPath) : e;
+  }
+  try {
+    decodedFromJson(readJsonFile(decodedPath), &o);
+  } catch (const InputError& e) {
+    throw e.location().file.empty() ? e.inFile(decodedPath) : e;
+  }
+  return o;
+}
+
+void saveObservations(const CalibrationObservations& o, const std::string& directory) {
+  writeFileAtomically(directory + "/camera.json", cameraMetadataToJson(o).dump(2) + "\n");
+  writeFileAtomically(directory + "/decoded.json", decodedToJson(o).dump() + "\n");
+}
+
+}  // namespace parallax

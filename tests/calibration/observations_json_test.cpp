@@ -1,0 +1,83 @@
+#include "calibration/observations_json.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <functional>
+#include <fstream>
+
+#include "calibration/display_presets.h"
+#include "calibration/ground_truth.h"
+#include "calibration/synthetic_observations.h"
+#include "common/input_error.h"
+
+namespace parallax {
+namespace {
+
+CalibrationObservations sample() {
+  SyntheticOptions options;
+  options.rig.stations = 2;
+  options.rowStepPx = 64;
+  return simulateObservations(makeGroundTruth(resolveDisplay("demo"), {}), options).observations;
+}
+
+std::string errorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(ObservationsJson, RoundTripsThroughAFolderExactly) {
+  const CalibrationObservations o = sample();
+  const std::string dir = testing::TempDir() + "/obs_roundtrip";
+  std::filesystem::create_directories(dir);
+  saveObservations(o, dir);
+  const CalibrationObservations back = loadObservations(dir);
+  ASSERT_EQ(back.correspondences.size(), o.correspondences.size());
+  ASSERT_EQ(back.stripes.size(), o.stripes.size());
+  ASSERT_EQ(back.fiducialSightings.size(), o.fiducialSightings.size());
+  EXPECT_EQ(back.correspondences[7].cameraPx, o.correspondences[7].cameraPx);
+  EXPECT_EQ(back.correspondences[7].modulePx, o.correspondences[7].modulePx);
+  EXPECT_EQ(back.stations[1].tapeCentre, o.stations[1].tapeCentre);
+  EXPECT_EQ(back.intrinsics.fx, o.intrinsics.fx);
+  EXPECT_EQ(back.fiducials, o.fiducials);
+}
+
+TEST(ObservationsJson, NamesTheBadField) {
+  CalibrationObservations o = sample();
+  nlohmann::json j = decodedToJson(o);
+  j["correspondences"][3][4] = "left";
+  EXPECT_NE(errorOf([&] { decodedFromJson(j, &o); }).find("correspondences[3][4]"), std::string::npos);
+  j = decodedToJson(o);
+  j["stripes"][0][0] = -1;
+  EXPECT_NE(errorOf([&] { decodedFromJson(j, &o); }).find("stripes[0][0]"), std::string::npos);
+  j = decodedToJson(o);
+  j["correspondences"][1] = nlohmann::json::array({0, 1});
+  EXPECT_NE(errorOf([&] { decodedFromJson(j, &o); }).find("correspondences[1]"), std::string::npos);
+  nlohmann::json c = cameraMetadataToJson(o);
+  c["intrinsics"]["focal_px"] = {0.0, 100.0};
+  EXPECT_NE(errorOf([&] { cameraMetadataFromJson(c, &o); }).find("intrinsics.focal_px"), std::string::npos);
+  c = cameraMetadataToJson(o);
+  c["format"] = "parallax-display";
+  EXPECT_NE(errorOf([&] { cameraMetadataFromJson(c, &o); }).find("format"), std::string::npos);
+}
+
+TEST(ObservationsJson, SyntaxErrorsCarryFileAndLine) {
+  const std::string dir = testing::TempDir() + "/obs_broken";
+  std::filesystem::create_directories(dir);
+  saveObservations(sample(), dir);
+  {
+    std::ofstream out(dir + "/camera.json");
+    out << "{\n  \"format\": \"parallax-camera\",\n  \"version\": 1,\n  oops\n}\n";
+  }
+  const std::string message = errorOf([&] { loadObservations(dir); });
+  EXPECT_NE(message.find("camera.json:4"), std::string::npos) << message;
+  const std::string missing = errorOf([&] { loadObservations(dir + "/nowhere"); });
+  EXPECT_NE(missing.find("cannot open"), std::string::npos) << missing;
+}
+
+}  // namespace
+}  // namespace parallax

@@ -128,8 +128,6 @@ class TileRenderer {
 
   std::vector<Path> paths_, nextPaths_;
   std::vector<RTCRayHit> rays_, nextRays_;
-  std::vector<RTCRay> shadowRays_;
-  std::vector<PendingShadow> shadows_;
   // Shadow rays are gathered per light, then traced light after light: a packet then holds
   // neighbouring pixels' rays toward the same light, which traverse the BVH together.
   std::vector<std::vector<RTCRay>> shadowRaysByLight_;
@@ -209,27 +207,25 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
     const bool coherent = generation == 0;
     if (log_) logBatch(false, generation, &rays_[0].ray, rays_.size(), sizeof(RTCRayHit));
     intersectBatch(scene_.handle(), rays_, options_.traversal, coherent);
-    shadowRays_.clear();
-    shadows_.clear();
     nextPaths_.clear();
     nextRays_.clear();
     shadowRaysByLight_.resize(scene_.lights().size());
     shadowsByLight_.resize(scene_.lights().size());
     for (size_t i = 0; i < rays_.size(); ++i) shade(i, generation, c);
+    // One batch per light: no copying into a common array, and each batch is coherent.
     for (size_t l = 0; l < shadowRaysByLight_.size(); ++l) {
-      shadowRays_.insert(shadowRays_.end(), shadowRaysByLight_[l].begin(), shadowRaysByLight_[l].end());
-      shadows_.insert(shadows_.end(), shadowsByLight_[l].begin(), shadowsByLight_[l].end());
-      shadowRaysByLight_[l].clear();
-      shadowsByLight_[l].clear();
-    }
-    if (!shadowRays_.empty()) {
-      if (log_) logBatch(true, generation, shadowRays_.data(), shadowRays_.size(), sizeof(RTCRay));
-      occludedBatch(scene_.handle(), shadowRays_, options_.traversal, coherent);
-      for (size_t i = 0; i < shadowRays_.size(); ++i) {
+      std::vector<RTCRay>& rays = shadowRaysByLight_[l];
+      const std::vector<PendingShadow>& pending = shadowsByLight_[l];
+      if (rays.empty()) continue;
+      if (log_) logBatch(true, generation, rays.data(), rays.size(), sizeof(RTCRay));
+      occludedBatch(scene_.handle(), rays, options_.traversal, coherent);
+      for (size_t i = 0; i < rays.size(); ++i) {
         // Embree sets tfar to -inf on an occluded ray.
-        if (shadowRays_[i].tfar >= 0.0f) frame_->pixels[static_cast<size_t>(shadows_[i].pixel)] += shadows_[i].contribution;
+        if (rays[i].tfar >= 0.0f) frame_->pixels[static_cast<size_t>(pending[i].pixel)] += pending[i].contribution;
       }
-      c->shadow += static_cast<long>(shadowRays_.size());
+      c->shadow += static_cast<long>(rays.size());
+      rays.clear();
+      shadowsByLight_[l].clear();
     }
     std::swap(paths_, nextPaths_);
     std::swap(rays_, nextRays_);

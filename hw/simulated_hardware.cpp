@@ -248,10 +248,12 @@ SimAction SimulatedHardware::frameBegin(Module& m, const PacketHeader& header,
   u.active = false;
   if (begin.width != static_cast<uint32_t>(options_.width) ||
       begin.height != static_cast<uint32_t>(options_.height)) {
-    ++m.counters.framesRejected;
-    ack(header.module, header.sequence, AckStatus::kBadFrame, 0, replies);
+    // Answered at its FrameEnd, like every frame: one ack per frame, never two.
+    u.rejectedSequence = header.sequence;
+    u.hasRejected = true;
     return action;
   }
+  u.hasRejected = false;
   u.active = true;
   u.damaged = false;
   u.sequence = header.sequence;
@@ -333,7 +335,10 @@ void SimulatedHardware::frameEnd(Module& m, const PacketHeader& header,
   Upload& u = m.upload;
   if (!u.active || header.sequence != u.sequence) {
     ++m.counters.framesRejected;
-    ack(header.module, header.sequence, AckStatus::kMissingChunks, 0, replies);
+    const bool badFrame = u.hasRejected && u.rejectedSequence == header.sequence;
+    u.hasRejected = false;
+    ack(header.module, header.sequence, badFrame ? AckStatus::kBadFrame : AckStatus::kMissingChunks,
+        0, replies);
     return;
   }
   u.active = false;

@@ -30,7 +30,7 @@ SimulatedHardwareOptions smallDisplay(int modules = 4) {
 LinkOptions fastOptions() {
   LinkOptions o;
   o.chunkSize = 4096;
-  o.ackTimeoutMs = 150;
+  o.ackTimeoutMs = 400;  // a stall costs one; far above a frame's time even when loaded
   o.maxRetries = 3;
   o.reconnectAttempts = 3;
   o.reconnectDelayMs = 10;
@@ -241,6 +241,19 @@ TEST(LinkClient, CrashFailsPendingFramesThenRecoversWhenTheSimulatorIsBack) {
   link.reset();
   sim.stop();
   EXPECT_EQ(sim.hardware().shownFrame(0).pixels, next->pixels);
+}
+
+TEST(LinkClient, KeepAliveNoticesADeadSimulatorAndReconnectsWhenItIsBack) {
+  InProcessSimhw sim(smallDisplay(1));
+  LinkOptions options = fastOptions();
+  options.reconnectAttempts = 1;
+  auto link = connect(sim, options);
+  EXPECT_TRUE(link->ping());
+  sim.stop();  // closes the connection and stops listening
+  EXPECT_FALSE(link->ping());
+  sim.start();
+  EXPECT_TRUE(link->ping());
+  EXPECT_GE(link->stats().reconnects, 2u);
 }
 
 TEST(LinkClient, CameraCaptureReturnsTheRawPattern) {

@@ -92,6 +92,26 @@ TEST(SimulatedHardware, IncompleteOrOverlappingFramesNeverShow) {
   EXPECT_EQ(sim.counters(0).framesRejected, 3u);
 }
 
+TEST(SimulatedHardware, WrongResolutionIsOneBadFrameAck) {
+  SimulatedHardware sim = makeSim();
+  std::vector<uint8_t> replies;
+  FrameBegin b;
+  b.width = kW + 1;
+  b.height = kH;
+  b.totalSize = (kW + 1) * kH * 3;
+  b.chunkCount = 1;
+  const std::vector<uint8_t> body = encodeFrameBegin(b);
+  sim.handlePacket(
+      {PacketType::kFrameBegin, 0, 0, 7, kFrameBeginSize, crc32c(body.data(), body.size())}, body,
+      &replies);
+  EXPECT_TRUE(replies.empty());
+  sim.handlePacket({PacketType::kFrameEnd, 0, 0, 7, 0, 0}, {}, &replies);
+  ASSERT_EQ(replies.size(), kHeaderSize + kAckSize);
+  Ack ack;
+  ASSERT_EQ(decodeAck({replies.data() + kHeaderSize, kAckSize}, &ack), ProtocolError::kOk);
+  EXPECT_EQ(ack.status, AckStatus::kBadFrame);
+}
+
 TEST(SimulatedHardware, FaultsAreCountedWhereTheyHappen) {
   SimulatedHardware sim = makeSim();
   sim.arm(0, {FaultKind::kDropChunks, 1, 0});

@@ -127,7 +127,6 @@ class SimulatedHardware {
   std::vector<Module> modules_;
   CameraSettings camera_;
   DisplayMode mode_ = DisplayMode::kPlayback;
-  uint32_t replySequence_ = 0;
 };
 
 }  // namespace parallax::hw

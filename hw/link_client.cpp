@@ -27,6 +27,7 @@ void LinkOptions::validate() const {
   require(reconnectAttempts >= 0 && reconnectAttempts <= 100, "reconnect_attempts",
           "must be in 0..100");
   require(reconnectDelayMs >= 0, "reconnect_delay_ms", "must not be negative");
+  require(linkDownRetryMs >= 0, "link_down_retry_ms", "must not be negative");
 }
 
 std::string_view frameStatusName(FrameStatus status) {
@@ -311,6 +312,10 @@ std::vector<FrameOutcome> LinkClient::takeOutcomes() {
 
 bool LinkClient::reconnect(const std::string& why) {
   if (reconnecting_) return false;
+  if (Clock::now() < downUntil_) {  // still in the quiet period after a failed reconnect
+    for (Pending& p : pending_) finish(p, FrameStatus::kFailed, downReason_);
+    return false;
+  }
   reconnecting_ = true;
   spdlog::warn("link: {}: {}; reconnecting", transport_->name(), why);
   transport_->close();
@@ -347,8 +352,9 @@ bool LinkClient::reconnect(const std::string& why) {
     }
   }
   if (!up) {
-    const std::string reason = fmt::format("link down ({}; reconnecting failed: {})", why, error);
-    for (Pending& p : pending_) finish(p, FrameStatus::kFailed, reason);
+    downReason_ = fmt::format("link down ({}; reconnecting failed: {})", why, error);
+    downUntil_ = Clock::now() + std::chrono::milliseconds(options_.linkDownRetryMs);
+    for (Pending& p : pending_) finish(p, FrameStatus::kFailed, downReason_);
   }
   // No prune() here: callers may be iterating pending_.
   reconnecting_ = false;

@@ -32,6 +32,9 @@ struct LinkOptions {
   int keepAliveMs = 1000;         // idle time after which the link is probed before sending
   int reconnectAttempts = 5;
   int reconnectDelayMs = 50;  // doubled after each failed attempt
+  // After reconnecting failed, frames fail at once ("link down") for this long before the
+  // next reconnect: a dead link must not cost every frame of the render loop a full back-off.
+  int linkDownRetryMs = 1000;
   bool skipUnchanged = true;  // content hash: unchanged frames are not re-sent
 
   // Throws InputError naming the field.
@@ -146,6 +149,8 @@ class LinkClient {
   uint32_t sequence_ = 0;
   uint64_t ticket_ = 0;
   bool reconnecting_ = false;
+  Clock::time_point downUntil_;  // no reconnect attempts before this
+  std::string downReason_;
   Clock::time_point lastHeard_;
 };
 

@@ -34,6 +34,7 @@ LinkOptions fastOptions() {
   o.maxRetries = 3;
   o.reconnectAttempts = 3;
   o.reconnectDelayMs = 10;
+  o.linkDownRetryMs = 0;  // tests restart the simulator right away
   return o;
 }
 
@@ -254,6 +255,25 @@ TEST(LinkClient, KeepAliveNoticesADeadSimulatorAndReconnectsWhenItIsBack) {
   sim.start();
   EXPECT_TRUE(link->ping());
   EXPECT_GE(link->stats().reconnects, 2u);
+}
+
+TEST(LinkClient, ADeadLinkFailsFramesAtOnceInsteadOfRetryingEachOne) {
+  InProcessSimhw sim(smallDisplay(1));
+  LinkOptions options = fastOptions();
+  options.reconnectAttempts = 2;
+  options.linkDownRetryMs = 60000;  // longer than this test
+  auto link = connect(sim, options);
+  sim.stop();
+  for (int i = 0; i < 10; ++i) link->submit(0, makeFrame(i));
+  link->flush();
+  const auto outcomes = link->takeOutcomes();
+  ASSERT_EQ(outcomes.size(), 10u);
+  for (const FrameOutcome& o : outcomes) {
+    EXPECT_EQ(o.status, FrameStatus::kFailed);
+    EXPECT_NE(o.reason.find("link down"), std::string::npos) << o.reason;
+  }
+  // One round of reconnect attempts (1 + reconnectAttempts), not one per frame.
+  EXPECT_EQ(link->stats().reconnects, 3u);
 }
 
 TEST(LinkClient, CameraCaptureReturnsTheRawPattern) {

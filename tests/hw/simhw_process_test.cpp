@@ -92,6 +92,7 @@ LinkOptions options() {
   o.ackTimeoutMs = 1000;  // generous: the stall fault costs one of these
   o.reconnectAttempts = 2;
   o.reconnectDelayMs = 20;
+  o.linkDownRetryMs = 0;
   return o;
 }
 

@@ -6,6 +6,9 @@
 // disconnect, a crash. Retries, timeouts, keep-alive and reconnects live here, once, above
 // any LinkTransport.
 //
+// "Skipped" means: the same bytes as the last frame accepted for that module; if that frame
+// later fails, its own outcome says so and the next identical submit is sent again.
+// Destroying a LinkClient abandons frames still pending: flush() first to hear about them.
 // Not thread-safe: one thread (the render loop) owns a LinkClient.
 
 #include <sys/uio.h>

@@ -38,6 +38,8 @@ std::string_view frameStatusName(FrameStatus status) {
       return "delivered";
     case FrameStatus::kSkippedUnchanged:
       return "skipped (unchanged)";
+    case FrameStatus::kSuperseded:
+      return "superseded";
     case FrameStatus::kFailed:
       return "failed";
   }
@@ -92,6 +94,7 @@ bool LinkClient::helloOk() {
   for (const ModuleLinkInfo& m : modules_) chunkSize_ = std::min(chunkSize_, m.info.maxChunkSize);
   submittedHash_.resize(modules_.size());
   hashValid_.resize(modules_.size(), false);
+  latestTicket_.resize(modules_.size(), 0);
   lastHeard_ = Clock::now();
   return true;
 }
@@ -138,6 +141,7 @@ uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame) {
   }
   submittedHash_[module] = hash;
   hashValid_[module] = true;
+  latestTicket_[module] = ticket;
   pending_.push_back(std::move(p));
   if (!transport_->isOpen() || !sendFrame(pending_.back())) {
     reconnect("sending a frame failed");
@@ -202,8 +206,17 @@ bool LinkClient::sendFrame(Pending& p) {
   return true;
 }
 
+bool LinkClient::supersede(Pending& p) {
+  if (latestTicket_[p.module] == p.ticket) return false;
+  p.history += fmt::format("; not resent: frame {} for module {} is newer", latestTicket_[p.module],
+                           p.module);
+  finish(p, FrameStatus::kSuperseded, p.history);
+  return true;
+}
+
 void LinkClient::retryOrFail(Pending& p, const std::string& why) {
   p.history += fmt::format("{}attempt {}: {}", p.history.empty() ? "" : "; ", p.attempts, why);
+  if (supersede(p)) return;
   if (p.attempts > options_.maxRetries) {
     finish(p, FrameStatus::kFailed, p.history);
     return;
@@ -216,6 +229,8 @@ void LinkClient::finish(Pending& p, FrameStatus status, const std::string& reaso
   p.done = true;
   if (status == FrameStatus::kDelivered) {
     ++stats_.delivered;
+  } else if (status == FrameStatus::kSuperseded) {
+    ++stats_.superseded;
   } else {
     ++stats_.failed;
     // The module may not show these bytes: never skip them as "unchanged" later.
@@ -341,6 +356,7 @@ bool LinkClient::reconnect(const std::string& why) {
     for (Pending& p : pending_) {
       if (p.done) continue;
       p.history += fmt::format("{}attempt {}: {}", p.history.empty() ? "" : "; ", p.attempts, why);
+      if (supersede(p)) continue;
       if (p.attempts > options_.maxRetries) {
         finish(p, FrameStatus::kFailed, p.history);
       } else if (!sendFrame(p)) {

@@ -44,7 +44,10 @@ struct LinkOptions {
   void validate() const;
 };
 
-enum class FrameStatus { kPending, kDelivered, kSkippedUnchanged, kFailed };
+// kSuperseded: the frame needed a resend, but a newer frame for the same module had been
+// submitted meanwhile; resending the old one would show stale content after the new one, so
+// it is dropped and reported instead. Frames of one module are therefore shown in order.
+enum class FrameStatus { kPending, kDelivered, kSkippedUnchanged, kFailed, kSuperseded };
 std::string_view frameStatusName(FrameStatus status);
 
 struct FrameOutcome {
@@ -56,7 +59,7 @@ struct FrameOutcome {
 };
 
 struct LinkStats {
-  uint64_t submitted = 0, delivered = 0, skipped = 0, failed = 0;
+  uint64_t submitted = 0, delivered = 0, skipped = 0, failed = 0, superseded = 0;
   uint64_t attempts = 0, retries = 0, nacks = 0, timeouts = 0, reconnects = 0;
   uint64_t payloadBytesSent = 0, staleAcks = 0, keepAlives = 0;
 };
@@ -126,6 +129,8 @@ class LinkClient {
   void waitForProgress();
   void handle(const ReceivedPacket& packet);
   void retryOrFail(Pending& p, const std::string& why);
+  // True (and the frame finished as superseded) when a newer frame for its module exists.
+  bool supersede(Pending& p);
   void finish(Pending& p, FrameStatus status, const std::string& reason);
   void checkDeadlines();
   void prune();
@@ -142,6 +147,7 @@ class LinkClient {
   std::deque<Pending> pending_;          // sent, awaiting ack
   std::vector<uint64_t> submittedHash_;  // per module: content of the last accepted submit
   std::vector<bool> hashValid_;
+  std::vector<uint64_t> latestTicket_;  // per module: the newest submitted frame
   std::vector<FrameOutcome> outcomes_;
   std::vector<ReceivedPacket> inbox_;  // control replies that arrived while pumping
   std::vector<HeaderBytes> scratchHeaders_;

@@ -379,30 +379,38 @@ bool LinkClient::reconnect(const std::string& why) {
 
 bool LinkClient::request(PacketType type, uint16_t module, std::span<const uint8_t> body,
                          std::initializer_list<PacketType> answers, ReceivedPacket* reply) {
-  if (!transport_->isOpen() && !reconnect("link closed")) return false;
-  const uint32_t seq = nextSequence();
-  const HeaderBytes h = encodeHeader({type, 0, module, seq, 0, 0}, body);
-  iovec pieces[2] = {{const_cast<uint8_t*>(h.data()), h.size()},
-                     {const_cast<uint8_t*>(body.data()), body.size()}};
-  if (transport_->send(module, {pieces, body.empty() ? 1u : 2u}) != TransportStatus::kOk) {
-    reconnect("sending a request failed");
-    return false;
-  }
-  const auto deadline = Clock::now() + std::chrono::milliseconds(options_.ackTimeoutMs);
-  while (true) {
-    for (auto it = inbox_.begin(); it != inbox_.end(); ++it) {
-      if (it->header.sequence != seq) continue;
-      if (std::find(answers.begin(), answers.end(), it->header.type) == answers.end()) continue;
-      *reply = std::move(*it);
-      inbox_.erase(it);
-      return true;
+  // A link that drops under a request (a disconnect fault firing, a device replugged) gets one
+  // reconnect and one more try; a request that simply goes unanswered does not.
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    if (!transport_->isOpen() && !reconnect("link closed")) return false;
+    const uint32_t seq = nextSequence();
+    const HeaderBytes h = encodeHeader({type, 0, module, seq, 0, 0}, body);
+    iovec pieces[2] = {{const_cast<uint8_t*>(h.data()), h.size()},
+                       {const_cast<uint8_t*>(body.data()), body.size()}};
+    if (transport_->send(module, {pieces, body.empty() ? 1u : 2u}) != TransportStatus::kOk) {
+      if (!reconnect("sending a request failed")) return false;
+      continue;
     }
-    const auto left =
-        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
-    if (left <= 0 || !transport_->isOpen()) return false;
-    const TransportStatus s = pump(static_cast<int>(left));
-    if (s == TransportStatus::kDisconnected || s == TransportStatus::kProtocolError) return false;
+    const auto deadline = Clock::now() + std::chrono::milliseconds(options_.ackTimeoutMs);
+    bool dropped = false;
+    while (!dropped) {
+      for (auto it = inbox_.begin(); it != inbox_.end(); ++it) {
+        if (it->header.sequence != seq) continue;
+        if (std::find(answers.begin(), answers.end(), it->header.type) == answers.end()) continue;
+        *reply = std::move(*it);
+        inbox_.erase(it);
+        return true;
+      }
+      const auto left =
+          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+      if (left <= 0) return false;
+      // pump() reconnects by itself when the link drops; then the request is sent again.
+      const TransportStatus s = pump(static_cast<int>(left));
+      dropped = s == TransportStatus::kDisconnected || s == TransportStatus::kProtocolError ||
+                !transport_->isOpen();
+    }
   }
+  return false;
 }
 
 bool LinkClient::ping() {

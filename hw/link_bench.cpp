@@ -11,7 +11,9 @@
 #include <chrono>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <memory>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
 #include <vector>
@@ -80,6 +82,23 @@ class BenchSimulator {
     return -1.0;
   }
   bool inProcess() const { return hardware_ != nullptr; }
+  // The child's user + system CPU so far (from /proc), or -1 when in-process or unknown.
+  double childCpuSeconds() const {
+    if (child_ <= 0) return -1.0;
+    std::ifstream stat(fmt::format("/proc/{}/stat", child_));
+    std::string text((std::istreambuf_iterator<char>(stat)), std::istreambuf_iterator<char>());
+    // Fields after the parenthesised command name: state is field 3, utime 14, stime 15.
+    const size_t close = text.rfind(')');
+    if (close == std::string::npos) return -1.0;
+    std::istringstream rest(text.substr(close + 2));
+    std::string field;
+    double utime = 0, stime = 0;
+    for (int i = 3; i <= 15 && rest >> field; ++i) {
+      if (i == 14) utime = std::stod(field);
+      if (i == 15) stime = std::stod(field);
+    }
+    return (utime + stime) / static_cast<double>(sysconf(_SC_CLK_TCK));
+  }
 
  private:
   pid_t child_ = 0;
@@ -160,6 +179,7 @@ LinkBenchResult runLinkBench(const LinkBenchOptions& o) {
     LinkPhase phase;
     const LinkStats before = link->stats();
     const double cpu0 = cpuSeconds(RUSAGE_SELF);
+    const double simCpu0 = simulator.childCpuSeconds();
     const auto t0 = std::chrono::steady_clock::now();
     for (int end = round + rounds; round < end; ++round) {
       const int r = round;
@@ -178,6 +198,7 @@ LinkBenchResult runLinkBench(const LinkBenchOptions& o) {
     link->flush();
     phase.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     phase.hostCpuSeconds = cpuSeconds(RUSAGE_SELF) - cpu0;
+    phase.simulatorCpuSeconds = simCpu0 < 0 ? -1.0 : simulator.childCpuSeconds() - simCpu0;
     const LinkStats& after = link->stats();
     phase.framesOnWire = after.attempts - before.attempts;
     phase.payloadBytes = after.payloadBytesSent - before.payloadBytesSent;

@@ -26,7 +26,8 @@ struct LinkPhase {
   uint64_t framesOnWire = 0;  // actually sent (not skipped)
   uint64_t payloadBytes = 0;  // pixel bytes sent
   double seconds = 0.0;
-  double hostCpuSeconds = 0.0;  // user + system of this process during the phase
+  double hostCpuSeconds = 0.0;        // user + system of this process during the phase
+  double simulatorCpuSeconds = -1.0;  // of the parallax-simhw process; < 0 when in-process
   uint64_t failed = 0, retries = 0;
 };
 
@@ -36,7 +37,8 @@ struct LinkBenchResult {
   uint64_t frameBytes = 0;
   LinkPhase changing;                 // every frame differs from the module's last one
   LinkPhase unchanged;                // the same frames again: skipped by content hash
-  double simulatorCpuSeconds = -1.0;  // the child's user + system (whole run); < 0 if unknown
+  double simulatorCpuSeconds = -1.0;  // the child's user + system over the whole run (startup
+                                      // included); < 0 when in-process
 };
 
 LinkBenchResult runLinkBench(const LinkBenchOptions& options);

@@ -27,6 +27,7 @@ void LinkOptions::validate() const {
   require(reconnectAttempts >= 0 && reconnectAttempts <= 100, "reconnect_attempts",
           "must be in 0..100");
   require(reconnectDelayMs >= 0, "reconnect_delay_ms", "must not be negative");
+  require(linkDownRetryMs >= 0, "link_down_retry_ms", "must not be negative");
 }
 
 std::string_view frameStatusName(FrameStatus status) {
@@ -37,6 +38,8 @@ std::string_view frameStatusName(FrameStatus status) {
       return "delivered";
     case FrameStatus::kSkippedUnchanged:
       return "skipped (unchanged)";
+    case FrameStatus::kSuperseded:
+      return "superseded";
     case FrameStatus::kFailed:
       return "failed";
   }
@@ -91,6 +94,7 @@ bool LinkClient::helloOk() {
   for (const ModuleLinkInfo& m : modules_) chunkSize_ = std::min(chunkSize_, m.info.maxChunkSize);
   submittedHash_.resize(modules_.size());
   hashValid_.resize(modules_.size(), false);
+  latestTicket_.resize(modules_.size(), 0);
   lastHeard_ = Clock::now();
   return true;
 }
@@ -137,6 +141,7 @@ uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame) {
   }
   submittedHash_[module] = hash;
   hashValid_[module] = true;
+  latestTicket_[module] = ticket;
   pending_.push_back(std::move(p));
   if (!transport_->isOpen() || !sendFrame(pending_.back())) {
     reconnect("sending a frame failed");
@@ -201,8 +206,17 @@ bool LinkClient::sendFrame(Pending& p) {
   return true;
 }
 
+bool LinkClient::supersede(Pending& p) {
+  if (latestTicket_[p.module] == p.ticket) return false;
+  p.history += fmt::format("; not resent: frame {} for module {} is newer", latestTicket_[p.module],
+                           p.module);
+  finish(p, FrameStatus::kSuperseded, p.history);
+  return true;
+}
+
 void LinkClient::retryOrFail(Pending& p, const std::string& why) {
   p.history += fmt::format("{}attempt {}: {}", p.history.empty() ? "" : "; ", p.attempts, why);
+  if (supersede(p)) return;
   if (p.attempts > options_.maxRetries) {
     finish(p, FrameStatus::kFailed, p.history);
     return;
@@ -215,6 +229,8 @@ void LinkClient::finish(Pending& p, FrameStatus status, const std::string& reaso
   p.done = true;
   if (status == FrameStatus::kDelivered) {
     ++stats_.delivered;
+  } else if (status == FrameStatus::kSuperseded) {
+    ++stats_.superseded;
   } else {
     ++stats_.failed;
     // The module may not show these bytes: never skip them as "unchanged" later.
@@ -311,6 +327,10 @@ std::vector<FrameOutcome> LinkClient::takeOutcomes() {
 
 bool LinkClient::reconnect(const std::string& why) {
   if (reconnecting_) return false;
+  if (Clock::now() < downUntil_) {  // still in the quiet period after a failed reconnect
+    for (Pending& p : pending_) finish(p, FrameStatus::kFailed, downReason_);
+    return false;
+  }
   reconnecting_ = true;
   spdlog::warn("link: {}: {}; reconnecting", transport_->name(), why);
   transport_->close();
@@ -336,6 +356,7 @@ bool LinkClient::reconnect(const std::string& why) {
     for (Pending& p : pending_) {
       if (p.done) continue;
       p.history += fmt::format("{}attempt {}: {}", p.history.empty() ? "" : "; ", p.attempts, why);
+      if (supersede(p)) continue;
       if (p.attempts > options_.maxRetries) {
         finish(p, FrameStatus::kFailed, p.history);
       } else if (!sendFrame(p)) {
@@ -347,8 +368,9 @@ bool LinkClient::reconnect(const std::string& why) {
     }
   }
   if (!up) {
-    const std::string reason = fmt::format("link down ({}; reconnecting failed: {})", why, error);
-    for (Pending& p : pending_) finish(p, FrameStatus::kFailed, reason);
+    downReason_ = fmt::format("link down ({}; reconnecting failed: {})", why, error);
+    downUntil_ = Clock::now() + std::chrono::milliseconds(options_.linkDownRetryMs);
+    for (Pending& p : pending_) finish(p, FrameStatus::kFailed, downReason_);
   }
   // No prune() here: callers may be iterating pending_.
   reconnecting_ = false;
@@ -357,30 +379,38 @@ bool LinkClient::reconnect(const std::string& why) {
 
 bool LinkClient::request(PacketType type, uint16_t module, std::span<const uint8_t> body,
                          std::initializer_list<PacketType> answers, ReceivedPacket* reply) {
-  if (!transport_->isOpen() && !reconnect("link closed")) return false;
-  const uint32_t seq = nextSequence();
-  const HeaderBytes h = encodeHeader({type, 0, module, seq, 0, 0}, body);
-  iovec pieces[2] = {{const_cast<uint8_t*>(h.data()), h.size()},
-                     {const_cast<uint8_t*>(body.data()), body.size()}};
-  if (transport_->send(module, {pieces, body.empty() ? 1u : 2u}) != TransportStatus::kOk) {
-    reconnect("sending a request failed");
-    return false;
-  }
-  const auto deadline = Clock::now() + std::chrono::milliseconds(options_.ackTimeoutMs);
-  while (true) {
-    for (auto it = inbox_.begin(); it != inbox_.end(); ++it) {
-      if (it->header.sequence != seq) continue;
-      if (std::find(answers.begin(), answers.end(), it->header.type) == answers.end()) continue;
-      *reply = std::move(*it);
-      inbox_.erase(it);
-      return true;
+  // A link that drops under a request (a disconnect fault firing, a device replugged) gets one
+  // reconnect and one more try; a request that simply goes unanswered does not.
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    if (!transport_->isOpen() && !reconnect("link closed")) return false;
+    const uint32_t seq = nextSequence();
+    const HeaderBytes h = encodeHeader({type, 0, module, seq, 0, 0}, body);
+    iovec pieces[2] = {{const_cast<uint8_t*>(h.data()), h.size()},
+                       {const_cast<uint8_t*>(body.data()), body.size()}};
+    if (transport_->send(module, {pieces, body.empty() ? 1u : 2u}) != TransportStatus::kOk) {
+      if (!reconnect("sending a request failed")) return false;
+      continue;
     }
-    const auto left =
-        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
-    if (left <= 0 || !transport_->isOpen()) return false;
-    const TransportStatus s = pump(static_cast<int>(left));
-    if (s == TransportStatus::kDisconnected || s == TransportStatus::kProtocolError) return false;
+    const auto deadline = Clock::now() + std::chrono::milliseconds(options_.ackTimeoutMs);
+    bool dropped = false;
+    while (!dropped) {
+      for (auto it = inbox_.begin(); it != inbox_.end(); ++it) {
+        if (it->header.sequence != seq) continue;
+        if (std::find(answers.begin(), answers.end(), it->header.type) == answers.end()) continue;
+        *reply = std::move(*it);
+        inbox_.erase(it);
+        return true;
+      }
+      const auto left =
+          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+      if (left <= 0) return false;
+      // pump() reconnects by itself when the link drops; then the request is sent again.
+      const TransportStatus s = pump(static_cast<int>(left));
+      dropped = s == TransportStatus::kDisconnected || s == TransportStatus::kProtocolError ||
+                !transport_->isOpen();
+    }
   }
+  return false;
 }
 
 bool LinkClient::ping() {

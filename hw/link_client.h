@@ -6,6 +6,9 @@
 // disconnect, a crash. Retries, timeouts, keep-alive and reconnects live here, once, above
 // any LinkTransport.
 //
+// "Skipped" means: the same bytes as the last frame accepted for that module; if that frame
+// later fails, its own outcome says so and the next identical submit is sent again.
+// Destroying a LinkClient abandons frames still pending: flush() first to hear about them.
 // Not thread-safe: one thread (the render loop) owns a LinkClient.
 
 #include <sys/uio.h>
@@ -32,13 +35,19 @@ struct LinkOptions {
   int keepAliveMs = 1000;         // idle time after which the link is probed before sending
   int reconnectAttempts = 5;
   int reconnectDelayMs = 50;  // doubled after each failed attempt
+  // After reconnecting failed, frames fail at once ("link down") for this long before the
+  // next reconnect: a dead link must not cost every frame of the render loop a full back-off.
+  int linkDownRetryMs = 1000;
   bool skipUnchanged = true;  // content hash: unchanged frames are not re-sent
 
   // Throws InputError naming the field.
   void validate() const;
 };
 
-enum class FrameStatus { kPending, kDelivered, kSkippedUnchanged, kFailed };
+// kSuperseded: the frame needed a resend, but a newer frame for the same module had been
+// submitted meanwhile; resending the old one would show stale content after the new one, so
+// it is dropped and reported instead. Frames of one module are therefore shown in order.
+enum class FrameStatus { kPending, kDelivered, kSkippedUnchanged, kFailed, kSuperseded };
 std::string_view frameStatusName(FrameStatus status);
 
 struct FrameOutcome {
@@ -50,7 +59,7 @@ struct FrameOutcome {
 };
 
 struct LinkStats {
-  uint64_t submitted = 0, delivered = 0, skipped = 0, failed = 0;
+  uint64_t submitted = 0, delivered = 0, skipped = 0, failed = 0, superseded = 0;
   uint64_t attempts = 0, retries = 0, nacks = 0, timeouts = 0, reconnects = 0;
   uint64_t payloadBytesSent = 0, staleAcks = 0, keepAlives = 0;
 };
@@ -120,6 +129,8 @@ class LinkClient {
   void waitForProgress();
   void handle(const ReceivedPacket& packet);
   void retryOrFail(Pending& p, const std::string& why);
+  // True (and the frame finished as superseded) when a newer frame for its module exists.
+  bool supersede(Pending& p);
   void finish(Pending& p, FrameStatus status, const std::string& reason);
   void checkDeadlines();
   void prune();
@@ -136,6 +147,7 @@ class LinkClient {
   std::deque<Pending> pending_;          // sent, awaiting ack
   std::vector<uint64_t> submittedHash_;  // per module: content of the last accepted submit
   std::vector<bool> hashValid_;
+  std::vector<uint64_t> latestTicket_;  // per module: the newest submitted frame
   std::vector<FrameOutcome> outcomes_;
   std::vector<ReceivedPacket> inbox_;  // control replies that arrived while pumping
   std::vector<HeaderBytes> scratchHeaders_;
@@ -146,6 +158,8 @@ class LinkClient {
   uint32_t sequence_ = 0;
   uint64_t ticket_ = 0;
   bool reconnecting_ = false;
+  Clock::time_point downUntil_;  // no reconnect attempts before this
+  std::string downReason_;
   Clock::time_point lastHeard_;
 };
 

@@ -59,13 +59,14 @@ class StreamReader {
   ssize_t readSome(uint8_t* dst, size_t n) {
     while (true) {
       if (stop_ && stop_->load()) return 0;
+      // Try first, wait only when there is nothing: under load a frame arrives in many reads,
+      // and a poll() before each would double the syscalls.
+      const ssize_t got = ::recv(fd_, dst, n, MSG_DONTWAIT);
+      if (got >= 0) return got;
+      if (errno == EINTR) continue;
+      if (errno != EAGAIN && errno != EWOULDBLOCK) return -1;
       pollfd p{fd_, POLLIN, 0};
-      const int r = ::poll(&p, 1, 100);
-      if (r < 0 && errno != EINTR) return -1;
-      if (r <= 0) continue;
-      const ssize_t got = ::recv(fd_, dst, n, 0);
-      if (got < 0 && (errno == EINTR || errno == EAGAIN)) continue;
-      return got;
+      if (::poll(&p, 1, 100) < 0 && errno != EINTR) return -1;
     }
   }
 

@@ -248,16 +248,20 @@ SimAction SimulatedHardware::frameBegin(Module& m, const PacketHeader& header,
   u.active = false;
   if (begin.width != static_cast<uint32_t>(options_.width) ||
       begin.height != static_cast<uint32_t>(options_.height)) {
-    ++m.counters.framesRejected;
-    ack(header.module, header.sequence, AckStatus::kBadFrame, 0, replies);
+    // Answered at its FrameEnd, like every frame: one ack per frame, never two.
+    u.rejectedSequence = header.sequence;
+    u.hasRejected = true;
     return action;
   }
+  u.hasRejected = false;
   u.active = true;
   u.damaged = false;
   u.sequence = header.sequence;
   u.begin = begin;
   u.covered = 0;
   u.chunks = 0;
+  u.outOfOrder = false;
+  u.runningCrc = 0;
   u.buffer.resize(begin.totalSize);
   return action;
 }
@@ -300,9 +304,9 @@ SimAction SimulatedHardware::finishChunk(const PacketHeader& header, uint32_t fr
   }
   // The packet CRC covers prefix + data; the data was read in place, so combine the two.
   const auto prefix = encodeChunkPrefix(frameSequence, offset);
-  const bool crcOk =
-      crc32cCombine(crc32c(prefix.data(), prefix.size()), crc32c(data.data(), data.size()),
-                    data.size()) == header.payloadCrc;
+  const uint32_t dataCrc = crc32c(data.data(), data.size());
+  const bool crcOk = crc32cCombine(crc32c(prefix.data(), prefix.size()), dataCrc, data.size()) ==
+                     header.payloadCrc;
   if (!u.active || frameSequence != u.sequence || header.sequence != u.sequence ||
       static_cast<uint64_t>(offset) + data.size() > u.buffer.size()) {
     // A chunk for no frame in progress (its FrameBegin was rejected, or it is a stray from an
@@ -313,6 +317,14 @@ SimAction SimulatedHardware::finishChunk(const PacketHeader& header, uint32_t fr
     u.damaged = true;
     return action;
   }
+  // Chunks must arrive in order, each where the previous one ended (PROTOCOL.md): coverage is
+  // then exact — no overlap can pass stale buffer bytes off as received — and the whole-frame
+  // CRC builds up as chunks come, without a second pass over the frame at FrameEnd.
+  if (offset != u.covered) {
+    u.outOfOrder = true;
+    return action;
+  }
+  u.runningCrc = u.covered == 0 ? dataCrc : crc32cCombine(u.runningCrc, dataCrc, data.size());
   u.covered += data.size();
   ++u.chunks;
   return action;
@@ -323,18 +335,21 @@ void SimulatedHardware::frameEnd(Module& m, const PacketHeader& header,
   Upload& u = m.upload;
   if (!u.active || header.sequence != u.sequence) {
     ++m.counters.framesRejected;
-    ack(header.module, header.sequence, AckStatus::kMissingChunks, 0, replies);
+    const bool badFrame = u.hasRejected && u.rejectedSequence == header.sequence;
+    u.hasRejected = false;
+    ack(header.module, header.sequence, badFrame ? AckStatus::kBadFrame : AckStatus::kMissingChunks,
+        0, replies);
     return;
   }
   u.active = false;
   AckStatus status = AckStatus::kOk;
-  // Coverage is counted in bytes of verified chunks; overlapping chunks could fake it, so the
-  // chunk count must match as well, and the end-to-end CRC settles the rest.
+  // Every byte came exactly once, in order, in a verified chunk; the end-to-end CRC then
+  // checks the frame against what the host declared.
   if (u.damaged) {
     status = AckStatus::kCrcMismatch;
-  } else if (u.covered != u.begin.totalSize || u.chunks != u.begin.chunkCount) {
+  } else if (u.outOfOrder || u.covered != u.begin.totalSize || u.chunks != u.begin.chunkCount) {
     status = AckStatus::kMissingChunks;
-  } else if (crc32c(u.buffer.data(), u.buffer.size()) != u.begin.frameCrc) {
+  } else if (u.runningCrc != u.begin.frameCrc) {
     status = AckStatus::kCrcMismatch;
   }
   const uint32_t detail = static_cast<uint32_t>(std::min<uint64_t>(u.covered, 0xFFFFFFFFu));

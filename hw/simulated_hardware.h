@@ -95,7 +95,11 @@ class SimulatedHardware {
     bool damaged = false;  // a chunk failed its CRC
     uint32_t sequence = 0;
     FrameBegin begin;
-    uint64_t covered = 0;  // bytes received in verified chunks
+    uint64_t covered = 0;      // bytes received in verified chunks
+    bool hasRejected = false;  // the FrameBegin of `rejectedSequence` was refused
+    uint32_t rejectedSequence = 0;
+    bool outOfOrder = false;  // a verified chunk did not start where the previous one ended
+    uint32_t runningCrc = 0;  // CRC-32C of the first `covered` bytes
     uint32_t chunks = 0;
     std::vector<uint8_t> buffer;
   };
@@ -123,7 +127,6 @@ class SimulatedHardware {
   std::vector<Module> modules_;
   CameraSettings camera_;
   DisplayMode mode_ = DisplayMode::kPlayback;
-  uint32_t replySequence_ = 0;
 };
 
 }  // namespace parallax::hw

@@ -70,10 +70,12 @@ void runBenchLink(BenchLinkArgs args) {
       c.payloadBytes / c.seconds / 1e9, c.framesOnWire / c.seconds / o.modules);
   std::cout << fmt::format("  host CPU {:.3f} ms/frame ({:.0f}% of one core)",
                            1e3 * c.hostCpuSeconds / c.frames, 100.0 * c.hostCpuSeconds / c.seconds);
-  if (r.simulatorCpuSeconds >= 0) {
-    std::cout << fmt::format(
-        ", simulator process CPU {:.3f} ms/frame over the whole run",
-        1e3 * r.simulatorCpuSeconds / (c.framesOnWire + o.modules));  // + the warm-up round
+  if (c.simulatorCpuSeconds >= 0) {
+    std::cout << fmt::format(", parallax-simhw CPU {:.3f} ms/frame ({:.0f}% of one core)",
+                             1e3 * c.simulatorCpuSeconds / c.frames,
+                             100.0 * c.simulatorCpuSeconds / c.seconds);
+  } else {
+    std::cout << " (the simulator thread included)";
   }
   std::cout << fmt::format("; retries {}, failed {}\n", c.retries, c.failed);
   const hw::LinkPhase& u = r.unchanged;

@@ -2,9 +2,12 @@
 // An in-process parallax-simhw: SimulatedHardware served on a Unix socket by a thread, so
 // tests can inspect the modules after stopping it (no race: the thread is joined first).
 
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -36,8 +39,16 @@ class InProcessSimhw {
       end_ = server_->listenAndServe(path_, stop_);
       ended_ = true;
     });
-    // listenAndServe binds synchronously at its start; wait for the socket file.
-    for (int i = 0; i < 200 && !std::filesystem::exists(path_); ++i) {
+    // The socket file appears at bind(), a moment before listen(): wait until a connection
+    // is actually accepted (the probe is served as a connection that ends at once).
+    for (int i = 0; i < 2000; ++i) {
+      const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+      sockaddr_un addr{};
+      addr.sun_family = AF_UNIX;
+      std::strncpy(addr.sun_path, path_.c_str(), sizeof addr.sun_path - 1);
+      const bool up = ::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
+      ::close(fd);
+      if (up) break;
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
   }

@@ -42,6 +42,7 @@ LinkOptions linkOptions() {
   o.ackTimeoutMs = 200;
   o.reconnectAttempts = 2;
   o.reconnectDelayMs = 5;
+  o.linkDownRetryMs = 0;
   return o;
 }
 

@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   parallax::cli::addDisplayCommand(app);
   parallax::cli::addRaytexCommand(app);
   parallax::cli::addRenderCommand(app);
+  parallax::cli::addSceneApiCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

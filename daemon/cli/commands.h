@@ -9,5 +9,6 @@ namespace parallax::cli {
 void addDisplayCommand(CLI::App& app);
 void addRaytexCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);
+void addSceneApiCommand(CLI::App& app);
 
 }  // namespace parallax::cli

@@ -1,0 +1,693 @@
+#include "scripts/scene_api.h"
+
+#include <cmath>
+
+#include <fmt/format.h>
+#include <lua.hpp>
+
+#include "scripts/lua_values.h"
+#include "scripts/script_paths.h"
+#include "scripts/script_sandbox.h"
+#include "tracer/mesh_shapes.h"
+
+namespace parallax {
+namespace {
+
+using lua::HandleKind;
+using lua::Options;
+using lua::ScriptArgumentError;
+
+constexpr long kMaxTessellation = 4096;  // slices, stacks, grid cells along one side
+
+SceneBuild& buildOf(lua_State* L) { return *static_cast<SceneBuild*>(ScriptSandbox::of(L).context); }
+
+// ---- scene settings ----
+
+int apiName(lua_State* L, SceneBuild& b) {
+  b.scene.name = lua::toString(L, 1, "name");
+  return 0;
+}
+
+int apiBackground(lua_State* L, SceneBuild& b) {
+  b.scene.background = lua::toColor(L, 1, "colour");
+  return 0;
+}
+
+int apiAmbient(lua_State* L, SceneBuild& b) {
+  b.scene.ambient = lua::toColor(L, 1, "colour");
+  return 0;
+}
+
+int apiMaxDepth(lua_State* L, SceneBuild& b) {
+  b.scene.maxDepth = static_cast<int>(lua::toInteger(L, 1, "depth", 1, 16));
+  return 0;
+}
+
+int apiWorldBox(lua_State* L, SceneBuild& b) {
+  if (lua_isnone(L, 1)) {
+    if (b.scene.instances.empty()) throw ScriptArgumentError("no geometry yet to take the bounds of");
+    b.scene.worldBox = b.scene.geometryBounds();
+    return 0;
+  }
+  const Options o(L, 1, "options", {"min", "max"});
+  const Box3 box{o.vector3("min"), o.vector3("max")};
+  if ((box.max.array() <= box.min.array()).any()) throw ScriptArgumentError("max must exceed min on every axis");
+  b.scene.worldBox = box;
+  return 0;
+}
+
+// ---- materials ----
+
+int addMaterial(lua_State* L, SceneBuild& b, Material m, const std::string& name) {
+  m.name = name;
+  pushHandle(L, HandleKind::kMaterial, b.scene.addMaterial(std::move(m)));
+  return 1;
+}
+
+int textureField(lua_State* L, const Options& o) {
+  const int i = o.push("texture");
+  const int texture = lua_isnil(L, i) ? -1 : lua::toHandle(L, i, HandleKind::kTexture, "texture");
+  lua_pop(L, 1);
+  return texture;
+}
+
+int apiDiffuse(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"color", "texture", "name"});
+  return addMaterial(L, b, Material::makeDiffuse(o.color("color", Rgb(0.8f, 0.8f, 0.8f)), textureField(L, o)),
+                     o.string("name", "diffuse"));
+}
+
+int apiPhong(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"color", "specular", "shininess", "texture", "name"});
+  Material m = Material::makePhong(o.color("color", Rgb(0.8f, 0.8f, 0.8f)), o.color("specular", Rgb(0.5f, 0.5f, 0.5f)),
+                                   static_cast<float>(o.number("shininess", 32.0)));
+  m.diffuseTexture = textureField(L, o);
+  return addMaterial(L, b, m, o.string("name", "phong"));
+}
+
+int apiMirror(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"reflectance", "name"});
+  return addMaterial(L, b, Material::makeMirror(o.color("reflectance", Rgb(0.9f, 0.9f, 0.9f))), o.string("name", "mirror"));
+}
+
+int apiGlass(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"ior", "absorption", "name"});
+  return addMaterial(L, b, Material::makeDielectric(static_cast<float>(o.number("ior", 1.5)), o.color("absorption", Rgb::Zero())),
+                     o.string("name", "glass"));
+}
+
+int apiEmissive(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"color", "texture", "name"});
+  return addMaterial(L, b, Material::makeEmissive(o.color("color", Rgb::Ones()), textureField(L, o)),
+                     o.string("name", "emissive"));
+}
+
+int apiSetMaterial(lua_State* L, SceneBuild& b) {
+  const int index = lua::toHandle(L, 1, HandleKind::kMaterial, "material");
+  const Options o(L, 2, "options",
+                  {"color", "specular", "shininess", "reflectance", "ior", "absorption", "emission"});
+  Material& m = b.scene.materials.at(static_cast<size_t>(index));
+  m.diffuse = o.color("color", m.diffuse);
+  m.specular = o.color("specular", m.specular);
+  m.shininess = static_cast<float>(o.number("shininess", m.shininess));
+  m.reflectance = o.color("reflectance", m.reflectance);
+  m.ior = static_cast<float>(o.number("ior", m.ior));
+  m.absorption = o.color("absorption", m.absorption);
+  m.emission = o.color("emission", m.emission);
+  return 0;
+}
+
+// ---- textures ----
+
+int apiTexture(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"path", "fallback", "srgb"});
+  const std::string relative = o.string("path", "");
+  const std::string path = resolvePathBelow(ScriptSandbox::of(L).folder(), relative);
+  Texture t;
+  t.path = path;
+  t.fallback = o.color("fallback", t.fallback);
+  t.srgb = o.boolean("srgb", true);
+  b.assets.push_back(path);
+  pushHandle(L, HandleKind::kTexture, b.scene.addTexture(std::move(t)));
+  return 1;
+}
+
+int apiImage(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"width", "height", "pixels", "fallback"});
+  const long limit = ScriptSandbox::of(L).limits().maxTexturePixels;
+  const long width = o.integer("width", 0, 1, 1 << 16);
+  const long height = o.integer("height", 0, 1, 1 << 16);
+  long used = 0;
+  for (const Texture& t : b.scene.textures) used += static_cast<long>(t.width) * t.height;
+  if (used + width * height > limit) {
+    throw ScriptArgumentError(fmt::format("{}×{} pixels would pass the scene's limit of {} inline texture pixels", width,
+                                          height, limit));
+  }
+  const int list = o.push("pixels");
+  const size_t count = static_cast<size_t>(width * height * 3);
+  if (lua_type(L, list) != LUA_TTABLE || lua_rawlen(L, list) != count) {
+    throw ScriptArgumentError(fmt::format("pixels: expected a table of width × height × 3 = {} numbers", count));
+  }
+  Texture t;
+  t.width = static_cast<int>(width);
+  t.height = static_cast<int>(height);
+  t.pixels.resize(count);
+  for (size_t i = 0; i < count; ++i) {
+    lua_rawgeti(L, list, static_cast<lua_Integer>(i + 1));
+    const double v = lua::toNumber(L, -1, fmt::format("pixels[{}]", i + 1));
+    if (v < 0.0) throw ScriptArgumentError(fmt::format("pixels[{}]: must be >= 0, got {}", i + 1, v));
+    t.pixels[i] = static_cast<float>(v);
+    lua_pop(L, 1);
+  }
+  lua_pop(L, 1);
+  t.fallback = o.color("fallback", t.fallback);
+  pushHandle(L, HandleKind::kTexture, b.scene.addTexture(std::move(t)));
+  return 1;
+}
+
+// ---- geometry ----
+
+// The options every object shares: {material =, name =, transform =}.
+struct Placement {
+  int material = 0;
+  std::string name;
+  Eigen::Affine3d worldFromObject = Eigen::Affine3d::Identity();
+};
+
+Placement placement(lua_State* L, SceneBuild& b, const Options& o, const char* defaultName) {
+  Placement p;
+  const int m = o.push("material");
+  if (lua_isnil(L, m)) throw ScriptArgumentError("material: required (from px.diffuse, px.mirror, ...)");
+  p.material = lua::toHandle(L, m, HandleKind::kMaterial, "material");
+  lua_pop(L, 1);
+  p.name = o.string("name", defaultName);
+  const int t = o.push("transform");
+  if (!lua_isnil(L, t)) p.worldFromObject = lua::toTransform(L, t, "transform");
+  lua_pop(L, 1);
+  (void)b;
+  return p;
+}
+
+void checkTriangleBudget(lua_State* L, const SceneBuild& b, long adding) {
+  const long limit = ScriptSandbox::of(L).limits().maxTriangles;
+  long meshTriangles = 0;
+  for (const Mesh& mesh : b.scene.meshes) meshTriangles += static_cast<long>(mesh.triangles.size());
+  if (adding < 0 || meshTriangles + adding > limit) {
+    throw ScriptArgumentError(fmt::format("{} more triangles would pass the scene's limit of {}", adding, limit));
+  }
+}
+
+int addObject(lua_State* L, SceneBuild& b, Mesh mesh, const Placement& p) {
+  mesh.material = p.material;
+  mesh.name = p.name;
+  const int meshIndex = b.scene.addMesh(std::move(mesh), false);
+  pushHandle(L, HandleKind::kObject, b.scene.addInstance(meshIndex, p.worldFromObject));
+  return 1;
+}
+
+double positive(const Options& o, const char* key, double fallback) {
+  const double v = o.number(key, fallback);
+  if (!(v > 0.0)) throw ScriptArgumentError(fmt::format("{}: must be positive, got {}", key, v));
+  return v;
+}
+
+int apiGrid(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"width", "height", "nx", "ny", "material", "name", "transform"});
+  const long nx = o.integer("nx", 1, 1, kMaxTessellation), ny = o.integer("ny", 1, 1, kMaxTessellation);
+  checkTriangleBudget(L, b, 2 * nx * ny);
+  const Placement p = placement(L, b, o, "grid");
+  return addObject(L, b, makeGrid(positive(o, "width", 1.0), positive(o, "height", 1.0), int(nx), int(ny)), p);
+}
+
+int apiPlane(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"width", "height", "material", "name", "transform"});
+  const Placement p = placement(L, b, o, "plane");
+  checkTriangleBudget(L, b, 2);
+  return addObject(L, b, makeGrid(positive(o, "width", 1.0), positive(o, "height", 1.0), 1, 1), p);
+}
+
+int apiBox(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"size", "material", "name", "transform"});
+  const Eigen::Vector3d size = o.vector3("size", Eigen::Vector3d::Ones());
+  if ((size.array() <= 0.0).any()) throw ScriptArgumentError("size: every side must be positive");
+  const Placement p = placement(L, b, o, "box");
+  checkTriangleBudget(L, b, 12);
+  return addObject(L, b, makeBox(size), p);
+}
+
+int apiSphere(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"radius", "slices", "stacks", "material", "name", "transform"});
+  const long slices = o.integer("slices", 24, 3, kMaxTessellation), stacks = o.integer("stacks", 12, 2, kMaxTessellation);
+  checkTriangleBudget(L, b, 2 * slices * (stacks - 1));
+  const Placement p = placement(L, b, o, "sphere");
+  return addObject(L, b, makeSphere(positive(o, "radius", 1.0), int(slices), int(stacks)), p);
+}
+
+int apiTorus(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"major", "minor", "segments", "sides", "material", "name", "transform"});
+  const long segments = o.integer("segments", 24, 3, kMaxTessellation), sides = o.integer("sides", 12, 3, kMaxTessellation);
+  checkTriangleBudget(L, b, 2 * segments * sides);
+  const Placement p = placement(L, b, o, "torus");
+  return addObject(L, b, makeTorus(positive(o, "major", 1.0), positive(o, "minor", 0.25), int(segments), int(sides)), p);
+}
+
+int apiCylinder(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"radius", "height", "slices", "material", "name", "transform"});
+  const long slices = o.integer("slices", 24, 3, kMaxTessellation);
+  checkTriangleBudget(L, b, 4 * slices);
+  const Placement p = placement(L, b, o, "cylinder");
+  return addObject(L, b, makeCylinder(positive(o, "radius", 0.5), positive(o, "height", 1.0), int(slices)), p);
+}
+
+int apiCone(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"radius", "height", "slices", "material", "name", "transform"});
+  const long slices = o.integer("slices", 24, 3, kMaxTessellation);
+  checkTriangleBudget(L, b, 2 * slices);
+  const Placement p = placement(L, b, o, "cone");
+  return addObject(L, b, makeCone(positive(o, "radius", 0.5), positive(o, "height", 1.0), int(slices)), p);
+}
+
+// Reads a list of n-tuples of numbers ({{x, y, z}, ...}) into `out` through `store`.
+template <typename Store>
+size_t readTuples(lua_State* L, const Options& o, const char* key, int arity, size_t maxCount, Store store) {
+  const int list = o.push(key);
+  if (lua_isnil(L, list)) {
+    lua_pop(L, 1);
+    return 0;
+  }
+  if (lua_type(L, list) != LUA_TTABLE) throw ScriptArgumentError(fmt::format("{}: expected a list of tables", key));
+  const size_t count = lua_rawlen(L, list);
+  if (count > maxCount) throw ScriptArgumentError(fmt::format("{}: {} entries, more than the {} allowed", key, count, maxCount));
+  double v[4];
+  for (size_t i = 0; i < count; ++i) {
+    lua_rawgeti(L, list, static_cast<lua_Integer>(i + 1));
+    if (lua_type(L, -1) != LUA_TTABLE || lua_rawlen(L, -1) != static_cast<size_t>(arity)) {
+      throw ScriptArgumentError(fmt::format("{}[{}]: expected {} numbers", key, i + 1, arity));
+    }
+    for (int k = 0; k < arity; ++k) {
+      lua_rawgeti(L, -1, k + 1);
+      v[k] = lua::toNumber(L, -1, fmt::format("{}[{}][{}]", key, i + 1, k + 1));
+      lua_pop(L, 1);
+    }
+    lua_pop(L, 1);
+    store(i, v);
+  }
+  lua_pop(L, 1);
+  return count;
+}
+
+int apiMesh(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"positions", "triangles", "normals", "uvs", "colors", "material", "name", "transform"});
+  const size_t maxCount = static_cast<size_t>(ScriptSandbox::of(L).limits().maxTriangles) * 3;
+  Mesh mesh;
+  readTuples(L, o, "positions", 3, maxCount, [&](size_t, const double* v) { mesh.positions.emplace_back(v[0], v[1], v[2]); });
+  if (mesh.positions.empty()) throw ScriptArgumentError("positions: required, a list of {x, y, z}");
+  const double n = static_cast<double>(mesh.positions.size());
+  readTuples(L, o, "triangles", 3, maxCount, [&](size_t i, const double* v) {
+    std::array<std::uint32_t, 3> t{};
+    for (int k = 0; k < 3; ++k) {
+      // 1-based, as everything else in Lua.
+      if (v[k] != std::floor(v[k]) || v[k] < 1 || v[k] > n) {
+        throw ScriptArgumentError(fmt::format("triangles[{}][{}]: vertex index must be 1..{}, got {}", i + 1, k + 1, n, v[k]));
+      }
+      t[static_cast<size_t>(k)] = static_cast<std::uint32_t>(v[k] - 1);
+    }
+    mesh.triangles.push_back(t);
+  });
+  if (mesh.triangles.empty()) throw ScriptArgumentError("triangles: required, a list of {a, b, c} (1-based)");
+  checkTriangleBudget(L, b, static_cast<long>(mesh.triangles.size()));
+  auto perVertex = [&](const char* key, size_t count) {
+    if (count != 0 && count != mesh.positions.size()) {
+      throw ScriptArgumentError(fmt::format("{}: {} entries for {} positions (one per position)", key, count, mesh.positions.size()));
+    }
+  };
+  perVertex("normals", readTuples(L, o, "normals", 3, maxCount, [&](size_t, const double* v) {
+              mesh.normals.push_back(Eigen::Vector3d(v[0], v[1], v[2]).cast<float>());
+            }));
+  perVertex("uvs", readTuples(L, o, "uvs", 2, maxCount, [&](size_t, const double* v) {
+              mesh.uvs.push_back(Eigen::Vector2d(v[0], v[1]).cast<float>());
+            }));
+  perVertex("colors", readTuples(L, o, "colors", 3, maxCount, [&](size_t, const double* v) {
+              mesh.colors.push_back(Eigen::Vector3d(v[0], v[1], v[2]).cast<float>());
+            }));
+  const Placement p = placement(L, b, o, "mesh");
+  return addObject(L, b, std::move(mesh), p);
+}
+
+int apiModel(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"path", "transform"});
+  const std::string path = resolvePathBelow(ScriptSandbox::of(L).folder(), o.string("path", ""));
+  Eigen::Affine3d worldFromModel = Eigen::Affine3d::Identity();
+  const int t = o.push("transform");
+  if (!lua_isnil(L, t)) worldFromModel = lua::toTransform(L, t, "transform");
+  lua_pop(L, 1);
+  if (!b.modelLoader) {
+    throw ScriptArgumentError("model files cannot be loaded in this build (no model loader is linked yet)");
+  }
+  b.assets.push_back(path);
+  const size_t firstInstance = b.scene.instances.size();
+  b.modelLoader(path, worldFromModel, &b.scene);
+  checkTriangleBudget(L, b, 0);
+  lua_createtable(L, static_cast<int>(b.scene.instances.size() - firstInstance), 0);
+  for (size_t i = firstInstance; i < b.scene.instances.size(); ++i) {
+    pushHandle(L, HandleKind::kObject, static_cast<int>(i));
+    lua_rawseti(L, -2, static_cast<lua_Integer>(i - firstInstance + 1));
+  }
+  return 1;
+}
+
+int apiInstance(lua_State* L, SceneBuild& b) {
+  const int object = lua::toHandle(L, 1, HandleKind::kObject, "object");
+  const Eigen::Affine3d t = lua::toTransform(L, 2, "transform");
+  const int mesh = b.scene.instances.at(static_cast<size_t>(object)).mesh;
+  checkTriangleBudget(L, b, 0);
+  if (b.scene.instances.size() >= static_cast<size_t>(ScriptSandbox::of(L).limits().maxTriangles)) {
+    throw ScriptArgumentError("too many instances");
+  }
+  pushHandle(L, HandleKind::kObject, b.scene.addInstance(mesh, t));
+  return 1;
+}
+
+int apiSetTransform(lua_State* L, SceneBuild& b) {
+  const int object = lua::toHandle(L, 1, HandleKind::kObject, "object");
+  b.scene.instances.at(static_cast<size_t>(object)).worldFromObject = lua::toTransform(L, 2, "transform");
+  return 0;
+}
+
+int apiTriangleCount(lua_State* L, SceneBuild& b) {
+  lua_pushinteger(L, b.scene.triangleCount());
+  return 1;
+}
+
+// ---- transforms ----
+
+int apiIdentity(lua_State* L, SceneBuild&) {
+  lua::pushTransform(L, Eigen::Affine3d::Identity());
+  return 1;
+}
+
+int apiTranslate(lua_State* L, SceneBuild&) {
+  const Eigen::Vector3d t(lua::toNumber(L, 1, "x"), lua::toNumber(L, 2, "y"), lua::toNumber(L, 3, "z"));
+  lua::pushTransform(L, Eigen::Affine3d(Eigen::Translation3d(t)));
+  return 1;
+}
+
+int rotateAbout(lua_State* L, const Eigen::Vector3d& axis) {
+  lua::pushTransform(L, Eigen::Affine3d(Eigen::AngleAxisd(lua::toNumber(L, 1, "angle (radians)"), axis)));
+  return 1;
+}
+int apiRotateX(lua_State* L, SceneBuild&) { return rotateAbout(L, Eigen::Vector3d::UnitX()); }
+int apiRotateY(lua_State* L, SceneBuild&) { return rotateAbout(L, Eigen::Vector3d::UnitY()); }
+int apiRotateZ(lua_State* L, SceneBuild&) { return rotateAbout(L, Eigen::Vector3d::UnitZ()); }
+
+int apiRotate(lua_State* L, SceneBuild&) {
+  const Eigen::Vector3d axis = lua::toVector3(L, 1, "axis");
+  if (!(axis.norm() > 1e-12)) throw ScriptArgumentError("axis: must not be zero");
+  lua::pushTransform(L, Eigen::Affine3d(Eigen::AngleAxisd(lua::toNumber(L, 2, "angle (radians)"), axis.normalized())));
+  return 1;
+}
+
+int apiScale(lua_State* L, SceneBuild&) {
+  const double sx = lua::toNumber(L, 1, "scale");
+  const double sy = lua_isnone(L, 2) ? sx : lua::toNumber(L, 2, "y scale");
+  const double sz = lua_isnone(L, 3) ? sx : lua::toNumber(L, 3, "z scale");
+  if (sx == 0.0 || sy == 0.0 || sz == 0.0) throw ScriptArgumentError("scale must not be zero");
+  lua::pushTransform(L, Eigen::Affine3d(Eigen::Scaling(sx, sy, sz)));
+  return 1;
+}
+
+// ---- lights ----
+
+int apiDirectional(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"direction", "color"});
+  const Eigen::Vector3d d = o.vector3("direction");
+  if (!(d.norm() > 0.0)) throw ScriptArgumentError("direction: must not be zero");
+  b.scene.addLight(Light::makeDirectional(d, o.color("color", Rgb::Ones())));
+  pushHandle(L, HandleKind::kLight, static_cast<int>(b.scene.lights.size() - 1));
+  return 1;
+}
+
+int apiPoint(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"position", "color"});
+  b.scene.addLight(Light::makePoint(o.vector3("position"), o.color("color", Rgb::Ones())));
+  pushHandle(L, HandleKind::kLight, static_cast<int>(b.scene.lights.size() - 1));
+  return 1;
+}
+
+int apiSetLight(lua_State* L, SceneBuild& b) {
+  Light& light = b.scene.lights.at(static_cast<size_t>(lua::toHandle(L, 1, HandleKind::kLight, "light")));
+  const Options o(L, 2, "options", {"direction", "position", "color"});
+  const Eigen::Vector3d d = o.vector3("direction", light.direction);
+  if (!(d.norm() > 0.0)) throw ScriptArgumentError("direction: must not be zero");
+  light.direction = d;
+  light.position = o.vector3("position", light.position);
+  light.intensity = o.color("color", light.intensity);
+  return 0;
+}
+
+// ---- parameters ----
+
+int apiParam(lua_State* L, SceneBuild& b) {
+  const Options o(L, 1, "options", {"name", "default", "min", "max", "description"});
+  ScriptParameter p;
+  p.name = o.string("name", "");
+  if (p.name.empty()) throw ScriptArgumentError("name: required");
+  for (const ScriptParameter& q : b.parameters) {
+    if (q.name == p.name) throw ScriptArgumentError(fmt::format("parameter \"{}\" is declared twice", p.name));
+  }
+  p.defaultValue = o.number("default");
+  p.min = o.number("min");
+  p.max = o.number("max");
+  p.description = o.string("description", "");
+  if (!(p.min <= p.defaultValue && p.defaultValue <= p.max)) {
+    throw ScriptArgumentError(fmt::format("\"{}\": default {} is outside [{}, {}]", p.name, p.defaultValue, p.min, p.max));
+  }
+  p.value = p.defaultValue;
+  if (auto it = b.overrides.find(p.name); it != b.overrides.end()) {
+    if (!(p.min <= it->second && it->second <= p.max)) {
+      throw ScriptArgumentError(
+          fmt::format("\"{}\" was set to {}, outside its range [{}, {}]", p.name, it->second, p.min, p.max));
+    }
+    p.value = it->second;
+  }
+  b.parameters.push_back(p);
+  // Raw access: no metamethod of the script's may run (and raise) while C++ objects are live.
+  lua_rawgeti(L, LUA_REGISTRYINDEX, LUA_RIDX_GLOBALS);
+  lua_pushstring(L, "params");
+  if (lua_rawget(L, -2) == LUA_TTABLE) {
+    lua_pushstring(L, p.name.c_str());
+    lua_pushnumber(L, p.value);
+    lua_rawset(L, -3);
+  }
+  lua_pop(L, 2);
+  lua_pushnumber(L, p.value);
+  return 1;
+}
+
+// ---- the registry ----
+
+struct ApiFunction {
+  SceneApiEntry doc;
+  int (*impl)(lua_State*, SceneBuild&);
+  bool loadOnly;  // adds to the scene: only while the script builds it, never in update()
+};
+
+const std::vector<ApiFunction>& apiFunctions() {
+  static const std::vector<ApiFunction> functions = {
+      {{"name", "px.name(text)", "Names the scene (shown by render and the daemon).", R"(px.name("cornell"))"}, apiName, true},
+      {{"background", "px.background({r, g, b})", "Colour of rays that hit nothing (linear RGB).",
+        "px.background({0.02, 0.02, 0.03})"}, apiBackground, false},
+      {{"ambient", "px.ambient({r, g, b})", "Constant light added to diffuse surfaces (times albedo).",
+        "px.ambient({0.04, 0.04, 0.04})"}, apiAmbient, false},
+      {{"max_depth", "px.max_depth(n)", "Whitted recursion limit, 1..16 (1: primary rays only); default 5.",
+        "px.max_depth(5)"}, apiMaxDepth, true},
+      {{"world_box", "px.world_box{min = {x, y, z}, max = {x, y, z}} | px.world_box()",
+        "Sets B_W, the part of world space shown in the display's box; with no argument, the bounds of the geometry so far.",
+        "px.world_box{min = {-2, 0, -1.25}, max = {2, 2.25, 1.25}}"}, apiWorldBox, true},
+      {{"diffuse", "px.diffuse{color =, texture =, name =} -> material", "A Lambert material, optionally textured.",
+        R"(local white = px.diffuse{color = {0.73, 0.73, 0.73}, name = "white"})"}, apiDiffuse, true},
+      {{"phong", "px.phong{color =, specular =, shininess =, texture =, name =} -> material",
+        "A Lambert material with a Phong highlight.",
+        "local gold = px.phong{color = {0.8, 0.6, 0.2}, specular = {0.6, 0.6, 0.5}, shininess = 60}"}, apiPhong, true},
+      {{"mirror", "px.mirror{reflectance =, name =} -> material", "A perfect mirror scaled by reflectance.",
+        "local m = px.mirror{reflectance = {0.85, 0.85, 0.85}}"}, apiMirror, true},
+      {{"glass", "px.glass{ior =, absorption =, name =} -> material",
+        "A dielectric: Fresnel reflection and refraction, absorption per world unit inside.",
+        "local g = px.glass{ior = 1.45, absorption = {0.2, 0.9, 1.8}}"}, apiGlass, true},
+      {{"emissive", "px.emissive{color =, texture =, name =} -> material", "An unlit surface that emits its colour.",
+        "local lamp = px.emissive{color = {4, 3.6, 3}}"}, apiEmissive, true},
+      {{"set_material", "px.set_material(material, {color =, specular =, shininess =, reflectance =, ior =, absorption =, emission =})",
+        "Changes a material's parameters (in update, to animate them).",
+        "px.set_material(lamp, {emission = {4 * k, 3.6 * k, 3 * k}})"}, apiSetMaterial, false},
+      {{"texture", "px.texture{path =, fallback =, srgb =} -> texture",
+        "An image file below the script's folder (watched for hot reload); fallback colour if unreadable.",
+        R"(local wood = px.texture{path = "textures/wood.png", fallback = {0.5, 0.35, 0.2}})"}, apiTexture, true},
+      {{"image", "px.image{width =, height =, pixels = {r, g, b, ...}, fallback =} -> texture",
+        "An inline texture: width × height × 3 linear values, row 0 at the top.",
+        "local t = px.image{width = 2, height = 1, pixels = {1, 0, 0, 0, 0, 1}}"}, apiImage, true},
+      {{"grid", "px.grid{width =, height =, nx =, ny =, material =, name =, transform =} -> object",
+        "A rectangle in the x-y plane facing +z, split into nx × ny quads.",
+        "px.grid{width = 1, height = 1, nx = 10, ny = 10, material = white}"}, apiGrid, true},
+      {{"plane", "px.plane{width =, height =, material =, name =, transform =} -> object",
+        "A rectangle in the x-y plane facing +z (2 triangles).", "px.plane{width = 4, height = 2, material = wall}"}, apiPlane, true},
+      {{"box", "px.box{size = {x, y, z}, material =, name =, transform =} -> object",
+        "An axis-aligned box centred at the origin (12 triangles).",
+        "px.box{size = {0.28, 0.58, 0.28}, material = white, transform = px.rotate_y(0.3)}"}, apiBox, true},
+      {{"sphere", "px.sphere{radius =, slices = 24, stacks = 12, material =, name =, transform =} -> object",
+        "A UV sphere: 2 · slices · (stacks − 1) triangles.", "px.sphere{radius = 0.5, material = glass}"}, apiSphere, true},
+      {{"torus", "px.torus{major =, minor =, segments = 24, sides = 12, material =, name =, transform =} -> object",
+        "A torus around the y axis: 2 · segments · sides triangles.",
+        "px.torus{major = 0.42, minor = 0.14, material = gold}"}, apiTorus, true},
+      {{"cylinder", "px.cylinder{radius =, height =, slices = 24, material =, name =, transform =} -> object",
+        "A closed cylinder along y, centred: 4 · slices triangles.", "px.cylinder{radius = 0.28, height = 1, material = red}"},
+       apiCylinder, true},
+      {{"cone", "px.cone{radius =, height =, slices = 24, material =, name =, transform =} -> object",
+        "A closed cone along y, base at −height/2: 2 · slices triangles.", "px.cone{radius = 0.35, height = 0.9, material = green}"},
+       apiCone, true},
+      {{"mesh", "px.mesh{positions =, triangles =, normals =, uvs =, colors =, material =, name =, transform =} -> object",
+        "A triangle mesh given inline; triangle indices are 1-based.",
+        "px.mesh{positions = {{0,0,0}, {1,0,0}, {0,1,0}}, triangles = {{1, 2, 3}}, material = white}"}, apiMesh, true},
+      {{"model", "px.model{path =, transform =} -> {object, ...}",
+        "Meshes, materials and textures from a model file below the script's folder (watched for hot reload).",
+        R"(local wuson = px.model{path = "models/WusonOBJ.obj", transform = px.scale(0.1)})"}, apiModel, true},
+      {{"instance", "px.instance(object, transform) -> object", "Draws an object's mesh once more, elsewhere.",
+        "local copy = px.instance(tree, px.translate(2, 0, 0))"}, apiInstance, true},
+      {{"set_transform", "px.set_transform(object, transform)", "Moves an object (in update, to animate it).",
+        "px.set_transform(ball, px.translate(math.cos(t), 0.5, math.sin(t)))"}, apiSetTransform, false},
+      {{"triangle_count", "px.triangle_count() -> n", "Triangles drawn so far (over all instances).",
+        "print(px.triangle_count())"}, apiTriangleCount, false},
+      {{"identity", "px.identity() -> transform", "The identity transform.", "local t = px.identity()"}, apiIdentity, false},
+      {{"translate", "px.translate(x, y, z) -> transform", "A translation.", "px.translate(0.5, 0, 0.5)"}, apiTranslate, false},
+      {{"rotate_x", "px.rotate_x(radians) -> transform", "A rotation about the x axis (right-handed).",
+        "px.rotate_x(-math.pi / 2)"}, apiRotateX, false},
+      {{"rotate_y", "px.rotate_y(radians) -> transform", "A rotation about the y axis (right-handed).", "px.rotate_y(0.3)"},
+       apiRotateY, false},
+      {{"rotate_z", "px.rotate_z(radians) -> transform", "A rotation about the z axis (right-handed).", "px.rotate_z(0.1)"},
+       apiRotateZ, false},
+      {{"rotate", "px.rotate({x, y, z}, radians) -> transform", "A rotation about any axis (normalised for you).",
+        "px.rotate({1, 1, 0}, 0.5)"}, apiRotate, false},
+      {{"scale", "px.scale(s) | px.scale(sx, sy, sz) -> transform", "A uniform or per-axis scaling.", "px.scale(2)"},
+       apiScale, false},
+      {{"directional", "px.directional{direction = {x, y, z}, color =} -> light",
+        "A directional light; direction is the way the light travels; colour is its irradiance.",
+        "local sun = px.directional{direction = {0.3, -0.3, -1}, color = {0.32, 0.32, 0.3}}"}, apiDirectional, true},
+      {{"point", "px.point{position = {x, y, z}, color =} -> light", "A point light; colour is the irradiance at 1 world unit.",
+        "px.point{position = {0, 2, 1}, color = {1, 1, 1}}"}, apiPoint, true},
+      {{"set_light", "px.set_light(light, {direction =, position =, color =})",
+        "Changes a light (in update, to animate it).", "px.set_light(sun, {direction = {math.sin(t), -0.3, -1}})"},
+       apiSetLight, false},
+      {{"param", "px.param{name =, default =, min =, max =, description =} -> value",
+        "Declares a number the user can change (render --set name=value, the daemon); its current value is also params.name.",
+        R"(local speed = px.param{name = "speed", default = 0.25, min = 0, max = 2, description = "turns a second"})"},
+       apiParam, true},
+  };
+  return functions;
+}
+
+int dispatch(lua_State* L) {
+  const ApiFunction& f = apiFunctions()[static_cast<size_t>(lua_tointeger(L, lua_upvalueindex(1)))];
+  try {
+    SceneBuild& b = buildOf(L);
+    if (f.loadOnly && !b.loading) {
+      throw ScriptArgumentError("adds to the scene, so it can be called only while the script builds it, not in update()");
+    }
+    if (b.inCall) throw ScriptArgumentError("cannot be called from a finalizer (__gc)");
+    b.inCall = true;
+    int results = 0;
+    try {
+      results = f.impl(L, b);
+    } catch (...) {
+      b.inCall = false;
+      throw;
+    }
+    b.inCall = false;
+    return results;
+  } catch (const std::exception& e) {
+    lua_pushfstring(L, "px.%s: %s", f.doc.name, e.what());
+  }
+  // Raised only here, with every C++ object of the call destroyed.
+  luaL_where(L, 1);
+  lua_insert(L, -2);
+  lua_concat(L, 2);
+  return lua_error(L);
+}
+
+int installProtected(lua_State* L) {
+  lua::registerTransformType(L);
+  lua::registerHandleType(L);
+  const auto& functions = apiFunctions();
+  lua_createtable(L, 0, static_cast<int>(functions.size()));
+  for (size_t i = 0; i < functions.size(); ++i) {
+    lua_pushinteger(L, static_cast<lua_Integer>(i));
+    lua_pushcclosure(L, &dispatch, 1);
+    lua_setfield(L, -2, functions[i].doc.name);
+  }
+  lua_setglobal(L, "px");
+  lua_newtable(L);
+  lua_setglobal(L, "params");
+  return 0;
+}
+
+int publishProtected(lua_State* L) {
+  const SceneBuild& b = buildOf(L);
+  lua_newtable(L);
+  for (const ScriptParameter& p : b.parameters) {
+    lua_pushnumber(L, p.value);
+    lua_setfield(L, -2, p.name.c_str());
+  }
+  lua_setglobal(L, "params");
+  return 0;
+}
+
+void runProtected(ScriptSandbox& sandbox, lua_CFunction f) {
+  lua_State* L = sandbox.state();
+  lua_pushcfunction(L, f);
+  if (lua_pcall(L, 0, 0, 0) != LUA_OK) {
+    const std::string message = lua_tostring(L, -1) ? lua_tostring(L, -1) : "?";
+    lua_pop(L, 1);
+    throw std::runtime_error("scene API: " + message);
+  }
+}
+
+}  // namespace
+
+void installSceneApi(ScriptSandbox& sandbox, SceneBuild* build) {
+  sandbox.context = build;
+  runProtected(sandbox, &installProtected);
+}
+
+void publishParameters(ScriptSandbox& sandbox, const SceneBuild&) { runProtected(sandbox, &publishProtected); }
+
+const std::vector<SceneApiEntry>& sceneApiReference() {
+  static const std::vector<SceneApiEntry> entries = [] {
+    std::vector<SceneApiEntry> e;
+    for (const ApiFunction& f : apiFunctions()) e.push_back(f.doc);
+    return e;
+  }();
+  return entries;
+}
+
+std::string sceneApiMarkdown() {
+  std::string text =
+      "# Scene script API\n\n"
+      "Generated from the binding's registry (`parallax scene-api`); do not edit by hand.\n\n"
+      "A scene script is Lua 5.4 in a sandbox (no io, os, debug, package, binary chunks; `require` only\n"
+      "finds modules of the scene library and the script's folder). It builds the scene through the\n"
+      "global table `px` and may define `update(t, dt)`, called with the animation time in seconds, to\n"
+      "move objects and change lights and materials. Values declared with `px.param` are in the\n"
+      "global table `params`. Colours are linear RGB tables `{r, g, b}`, points and directions\n"
+      "`{x, y, z}`; transforms compose with `*` (the right one applies first). Functions marked\n"
+      "*build* add to the scene and can be called only while the script loads, not in `update`.\n\n"
+      "| function | what it does | example |\n|---|---|---|\n";
+  for (const ApiFunction& f : apiFunctions()) {
+    std::string example = f.doc.example;
+    std::string signature = f.doc.signature;
+    for (std::string* s : {&example, &signature}) {
+      for (size_t at = s->find('|'); at != std::string::npos; at = s->find('|', at + 2)) s->replace(at, 1, "\\|");
+    }
+    text += fmt::format("| `{}` | {}{} | `{}` |\n", signature, f.doc.description, f.loadOnly ? " *build*" : "", example);
+  }
+  return text;
+}
+
+}  // namespace parallax

@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 #include <lua.hpp>
 
+#include "common/input_error.h"
 #include "scripts/lua_values.h"
 #include "scripts/script_paths.h"
 #include "scripts/script_sandbox.h"
@@ -645,7 +646,7 @@ void runProtected(ScriptSandbox& sandbox, lua_CFunction f) {
   if (lua_pcall(L, 0, 0, 0) != LUA_OK) {
     const std::string message = lua_tostring(L, -1) ? lua_tostring(L, -1) : "?";
     lua_pop(L, 1);
-    throw std::runtime_error("scene API: " + message);
+    throw InputError({"", "params", 0}, "cannot publish the parameters: " + message);
   }
 }
 

@@ -87,7 +87,7 @@ void SceneScript::load(const std::string& source, const ScriptOptions& options) 
   build_.modelLoader = options.modelLoader;
   build_.scene.name = fs::path(name_).stem().string();
   installSceneApi(*sandbox_, &build_);
-  sandbox_->run(source, name_, options.limits.loadInstructions);
+  sandbox_->run(source, name_, options.limits.loadInstructions, options.limits.loadAllocationBytes);
   build_.loading = false;
   build_.inCall = false;
 
@@ -123,8 +123,10 @@ void SceneScript::setTime(double t) {
   const AnimatedState before(build_.scene);
   try {
     build_.inCall = false;
+    sandbox_->startBudget(sandbox_->limits().updateInstructions, sandbox_->limits().updateAllocationBytes);
     publishParameters(*sandbox_, build_);
-    sandbox_->call("update", {t, t - time_}, sandbox_->limits().updateInstructions);
+    sandbox_->call("update", {t, t - time_}, sandbox_->limits().updateInstructions,
+                   sandbox_->limits().updateAllocationBytes);
     build_.scene.validate();
   } catch (const InputError& e) {
     before.restore(&build_.scene);

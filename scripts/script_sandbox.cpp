@@ -41,6 +41,8 @@ void ScriptLimits::validate() const {
   positive(loadInstructions > 0, "limits.loadInstructions");
   positive(updateInstructions > 0, "limits.updateInstructions");
   positive(memoryBytes >= (std::size_t{1} << 20), "limits.memoryBytes (at least 1 MiB)");
+  positive(loadAllocationBytes >= memoryBytes, "limits.loadAllocationBytes (at least memoryBytes)");
+  positive(updateAllocationBytes > 0, "limits.updateAllocationBytes");
   positive(maxTriangles > 0, "limits.maxTriangles");
   positive(maxTexturePixels > 0, "limits.maxTexturePixels");
   positive(maxSourceBytes > 0, "limits.maxSourceBytes");
@@ -49,6 +51,7 @@ void ScriptLimits::validate() const {
 ScriptSandbox::ScriptSandbox(const ScriptLimits& limits, std::string folder, std::string libraryRoot)
     : limits_(limits), folder_(std::move(folder)), libraryRoot_(std::move(libraryRoot)) {
   limits_.validate();
+  allocationBudget_ = limits_.loadAllocationBytes;  // for setting up the state
   L_ = lua_newstate(&ScriptSandbox::allocate, this);
   if (L_ == nullptr) throw std::bad_alloc();
   *static_cast<ScriptSandbox**>(lua_getextraspace(L_)) = this;
@@ -63,7 +66,7 @@ ScriptSandbox::ScriptSandbox(const ScriptLimits& limits, std::string folder, std
 
 ScriptSandbox::~ScriptSandbox() {
   // lua_close runs the script's finalizers (__gc): give them a fresh, bounded budget.
-  startBudget(limits_.updateInstructions);
+  startBudget(limits_.updateInstructions, limits_.updateAllocationBytes);
   lua_close(L_);
 }
 
@@ -78,10 +81,18 @@ void* ScriptSandbox::allocate(void* ud, void* ptr, std::size_t osize, std::size_
     return nullptr;
   }
   // Only growth can be refused: Lua relies on shrinking never failing.
-  if (nsize > old && self->memoryUsed_ - old + nsize > self->limits_.memoryBytes) {
-    self->memoryCapHit_ = true;
-    self->recordWhere();
-    return nullptr;
+  if (nsize > old) {
+    if (self->memoryUsed_ - old + nsize > self->limits_.memoryBytes) {
+      self->memoryCapHit_ = true;
+      self->recordWhere();
+      return nullptr;
+    }
+    self->allocated_ += nsize;
+    if (self->allocated_ > self->allocationBudget_) {
+      if (!self->allocationBudgetHit_) self->recordWhere();
+      self->allocationBudgetHit_ = true;
+      return nullptr;
+    }
   }
   void* block = std::realloc(ptr, nsize);
   if (block == nullptr) return nullptr;
@@ -144,6 +155,14 @@ int ScriptSandbox::openSafeLibraries(lua_State* L) {
   lua_getglobal(L, LUA_STRLIBNAME);
   lua_pushnil(L);
   lua_setfield(L, -2, "dump");
+  for (const char* name : {"match", "gmatch", "gsub"}) {
+    lua_pushstring(L, name);
+    lua_pushcclosure(L, &ScriptSandbox::luaNoPatterns, 1);
+    lua_setfield(L, -2, name);
+  }
+  lua_getfield(L, -1, "find");
+  lua_pushcclosure(L, &ScriptSandbox::luaPlainFind, 1);
+  lua_setfield(L, -2, "find");
   lua_pop(L, 1);
   // Lua seeds math.random from the clock and an address; a scene must be the same every run.
   lua_getglobal(L, LUA_MATHLIBNAME);
@@ -167,6 +186,22 @@ int ScriptSandbox::luaRandomSeed(lua_State* L) {
   lua_pushinteger(L, seed);
   lua_call(L, 1, 0);
   return 0;
+}
+
+int ScriptSandbox::luaNoPatterns(lua_State* L) {
+  return luaL_error(L, "string.%s: Lua patterns are not available in scene scripts (their matching time cannot be "
+                    "bounded); use string.find(s, text, 1, true)", lua_tostring(L, lua_upvalueindex(1)));
+}
+
+int ScriptSandbox::luaPlainFind(lua_State* L) {
+  if (!lua_toboolean(L, 4)) {
+    return luaL_error(L, "string.find: only plain search is available in scene scripts (patterns cannot be bounded); "
+                      "pass true as the fourth argument");
+  }
+  lua_pushvalue(L, lua_upvalueindex(1));
+  lua_insert(L, 1);
+  lua_call(L, lua_gettop(L) - 1, LUA_MULTRET);
+  return lua_gettop(L);
 }
 
 int ScriptSandbox::luaLoad(lua_State* L) {
@@ -275,8 +310,11 @@ int ScriptSandbox::luaRequire(lua_State* L) {
   return 1;
 }
 
-void ScriptSandbox::startBudget(long instructionBudget) {
+void ScriptSandbox::startBudget(long instructionBudget, std::size_t allocationBudget) {
   instructions_ = 0;
+  allocated_ = 0;
+  allocationBudget_ = allocationBudget;
+  allocationBudgetHit_ = false;
   budget_ = instructionBudget;
   budgetSpent_ = false;
   memoryCapHit_ = false;
@@ -285,8 +323,9 @@ void ScriptSandbox::startBudget(long instructionBudget) {
   lua_sethook(L_, &ScriptSandbox::countHook, LUA_MASKCOUNT, kHookInterval);
 }
 
-void ScriptSandbox::run(const std::string& source, const std::string& chunkName, long instructionBudget) {
-  startBudget(instructionBudget);
+void ScriptSandbox::run(const std::string& source, const std::string& chunkName, long instructionBudget,
+                        std::size_t allocationBudget) {
+  startBudget(instructionBudget, allocationBudget);
   int status = luaL_loadbufferx(L_, source.data(), source.size(), ("@" + chunkName).c_str(), "t");
   if (status == LUA_OK) status = lua_pcall(L_, 0, 0, 0);
   if (status != LUA_OK) throwError(status, chunkName);
@@ -298,8 +337,9 @@ bool ScriptSandbox::hasGlobalFunction(const char* name) {
   return is;
 }
 
-void ScriptSandbox::call(const char* name, std::initializer_list<double> args, long instructionBudget) {
-  startBudget(instructionBudget);
+void ScriptSandbox::call(const char* name, std::initializer_list<double> args, long instructionBudget,
+                         std::size_t allocationBudget) {
+  startBudget(instructionBudget, allocationBudget);
   if (!lua_checkstack(L_, static_cast<int>(args.size()) + 2)) throw std::bad_alloc();
   lua_getglobal(L_, name);
   for (double a : args) lua_pushnumber(L_, a);
@@ -313,8 +353,11 @@ void ScriptSandbox::throwError(int status, const std::string& chunkName) {
   lua_pop(L_, 1);
   lua_settop(L_, 0);
   InputLocation location{chunkName, "", 0};
-  if (status == LUA_ERRMEM || (memoryCapHit_ && message.find("not enough memory") != std::string::npos)) {
-    message = fmt::format("memory cap of {} MiB exceeded", limits_.memoryBytes >> 20);
+  if (status == LUA_ERRMEM || ((memoryCapHit_ || allocationBudgetHit_) && message.find("not enough memory") != std::string::npos)) {
+    message = allocationBudgetHit_ && !memoryCapHit_
+                  ? fmt::format("allocation budget of {} MiB a call exceeded (a string grown piece by piece? build "
+                                "a table and use table.concat)", allocationBudget_ >> 20)
+                  : fmt::format("memory cap of {} MiB exceeded", limits_.memoryBytes >> 20);
     if (lastSource_[0] != '\0') location = {lastSource_, "", lastLine_};
     throw InputError(location, message);
   }

@@ -7,6 +7,8 @@
 //     script's own folder (no paths, no C modules);
 //   - an instruction budget per call (a count hook), sticky once spent so that pcall cannot
 //     swallow it, and a memory cap enforced by the allocator;
+//   - Lua patterns (string.find/match/gmatch/gsub) are refused: their backtracking can run
+//     for hours inside one C call, where no budget can reach; plain string.find is allowed;
 //   - math.random is seeded the same way every time, so a script is deterministic.
 // Every failure becomes an InputError naming the script (or module) and line; the host and
 // the sandbox stay usable afterwards.
@@ -27,7 +29,12 @@ namespace parallax {
 struct ScriptLimits {
   long loadInstructions = 200'000'000;   // running the script once (building the scene)
   long updateInstructions = 20'000'000;  // one update(t, dt) call
-  std::size_t memoryBytes = std::size_t{64} << 20;  // everything the Lua state allocates
+  std::size_t memoryBytes = std::size_t{64} << 20;  // everything the Lua state holds at once
+  // Bytes allocated per call, freed or not. The instruction budget counts VM instructions, but
+  // one instruction can copy megabytes (s = s .. "x" in a loop is quadratic), so the copying
+  // work is bounded here.
+  std::size_t loadAllocationBytes = std::size_t{4} << 30;
+  std::size_t updateAllocationBytes = std::size_t{1} << 30;
   // What the binding itself allocates on the script's behalf (outside the Lua heap).
   long maxTriangles = 4'000'000;
   long maxTexturePixels = 16L << 20;
@@ -51,10 +58,15 @@ class ScriptSandbox {
   const std::string& folder() const { return folder_; }
 
   // Runs source text as a chunk named `chunkName` (shown in errors, e.g. "cornell.lua").
-  void run(const std::string& source, const std::string& chunkName, long instructionBudget);
+  void run(const std::string& source, const std::string& chunkName, long instructionBudget,
+           std::size_t allocationBudget);
   // Calls the global function `name` with numeric arguments, if it exists.
   bool hasGlobalFunction(const char* name);
-  void call(const char* name, std::initializer_list<double> args, long instructionBudget);
+  // Starts a call's budgets (run and call do it themselves; the host calls it before its own
+  // work in the state, such as publishing parameters).
+  void startBudget(long instructionBudget, std::size_t allocationBudget);
+  void call(const char* name, std::initializer_list<double> args, long instructionBudget,
+            std::size_t allocationBudget);
 
   // Files `require` read (canonical paths), for the hot-reload watcher.
   const std::vector<std::string>& requiredFiles() const { return requiredFiles_; }
@@ -74,7 +86,8 @@ class ScriptSandbox {
   static int luaLoad(lua_State* L);
   static int luaPrint(lua_State* L);
   static int luaRandomSeed(lua_State* L);
-  void startBudget(long instructionBudget);
+  static int luaNoPatterns(lua_State* L);
+  static int luaPlainFind(lua_State* L);
   void recordWhere();
   // Pops the error at the top of the stack and throws it as an InputError.
   [[noreturn]] void throwError(int status, const std::string& chunkName);
@@ -85,6 +98,9 @@ class ScriptSandbox {
   lua_State* L_ = nullptr;
   std::size_t memoryUsed_ = 0;
   bool memoryCapHit_ = false;
+  std::size_t allocated_ = 0;  // this call
+  std::size_t allocationBudget_ = 0;
+  bool allocationBudgetHit_ = false;
   long instructions_ = 0;
   long budget_ = 0;
   bool budgetSpent_ = false;

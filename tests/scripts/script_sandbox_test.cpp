@@ -72,6 +72,10 @@ INSTANTIATE_TEST_SUITE_P(
                "memory cap of 16 MiB exceeded"},
         // Lua's stack of a million slots needs more than 16 MiB: the cap stops it first.
         Escape{"deep recursion", "local function f(n) return 1 + f(n + 1) end f(1)", "memory cap of 16 MiB exceeded"},
+        Escape{"quadratic string growth", R"(local s = "" for i = 1, 1e8 do s = s .. "xx" end)", "allocation budget"},
+        Escape{"pattern backtracking", R"(string.find(string.rep("a", 3000), string.rep("a-", 12) .. "b"))",
+               "only plain search"},
+        Escape{"gsub", R"(local s = ("abc"):gsub("b", "x"))", "patterns are not available"},
         Escape{"huge tessellation", "px.sphere{radius = 1, slices = 4096, stacks = 4096, material = m}",
                "limit of 4000000"}),
     [](const ::testing::TestParamInfo<Escape>& param) {
@@ -90,6 +94,11 @@ TEST(Sandbox, DeepRecursionWithinTheMemoryCapIsAStackOverflow) {
   const std::string error = loadError(withPrelude("local function f(n) return 1 + f(n + 1) end f(1)"), folder.path(), options);
   EXPECT_NE(error.find("attempt.lua:3: stack overflow"), std::string::npos) << error;
   expectHostUsable(folder.path());
+}
+
+TEST(Sandbox, PlainFindStillWorks) {
+  TempFolder folder;
+  EXPECT_EQ(loadError(withPrelude("assert(string.find(\"a-b\", \"-\", 1, true) == 2)"), folder.path()), "");
 }
 
 TEST(Sandbox, ErrorInUpdateKeepsTheLastGoodSceneAndNamesTheLine) {

@@ -51,6 +51,8 @@ inline ScriptOptions smallLimits() {
   options.limits.loadInstructions = 2'000'000;
   options.limits.updateInstructions = 1'000'000;
   options.limits.memoryBytes = std::size_t{16} << 20;
+  options.limits.loadAllocationBytes = std::size_t{256} << 20;
+  options.limits.updateAllocationBytes = std::size_t{64} << 20;
   options.quiet = true;
   return options;
 }

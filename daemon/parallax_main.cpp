@@ -10,6 +10,7 @@
 int main(int argc, char** argv) {
   CLI::App app{"parallax: drive horizontal-parallax light field displays"};
   app.require_subcommand(1);
+  parallax::cli::addBenchCommand(app);
   parallax::cli::addDisplayCommand(app);
   parallax::cli::addRaytexCommand(app);
   parallax::cli::addRenderCommand(app);

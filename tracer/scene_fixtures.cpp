@@ -66,31 +66,32 @@ Scene makeCornellScene(double scale, const Eigen::Vector3d& offset) {
   scene.materials[static_cast<size_t>(lamp)].name = "lamp";
   scene.materials[static_cast<size_t>(blue)].name = "blue_phong";
 
-  // Everything is placed in the unit box, tilted 11° toward the viewers about the box's
-  // centre (they sit at the screen centre's height and would otherwise see the mirror floor
-  // only at grazing angles), then scaled and offset as a whole.
-  const Eigen::Affine3d worldFromBox = translation(offset) * Eigen::Scaling(scale) * translation({0.5, 0.5, 0.5}) *
-                                       rotationX(0.2) * translation({-0.5, -0.5, -0.5});
+  // The box is 1 wide, 1 tall and kDepth deep, so it fills the displayable box (1.6 × 0.9 ×
+  // 0.5 m) from top to bottom instead of being limited by B_P's shallow depth; everything is
+  // placed in it, then scaled and offset as a whole.
+  constexpr double kDepth = 0.55;
+  const Eigen::Affine3d worldFromBox = translation(offset) * Eigen::Scaling(scale);
+  const Eigen::Affine3d shallow(Eigen::Scaling(1.0, 1.0, kDepth));
   auto add = [&](Mesh mesh, int material, const std::string& name, const Eigen::Affine3d& boxFromObject) {
     scene.addMesh(withMaterial(std::move(mesh), material, name), true, worldFromBox * boxFromObject);
   };
   constexpr double kHalfPi = 1.5707963267948966;
   // Walls: 10×10 grids (200 triangles each), facing into the box.
-  add(makeGrid(1, 1, 10, 10), mirror, "floor", translation({0.5, 0, 0.5}) * rotationX(-kHalfPi));
-  add(makeGrid(1, 1, 10, 10), white, "ceiling", translation({0.5, 1, 0.5}) * rotationX(kHalfPi));
+  add(makeGrid(1, 1, 10, 10), mirror, "floor", shallow * translation({0.5, 0, 0.5}) * rotationX(-kHalfPi));
+  add(makeGrid(1, 1, 10, 10), white, "ceiling", shallow * translation({0.5, 1, 0.5}) * rotationX(kHalfPi));
   add(makeGrid(1, 1, 10, 10), white, "back", translation({0.5, 0.5, 0}));
-  add(makeGrid(1, 1, 10, 10), red, "left", translation({0, 0.5, 0.5}) * rotationY(kHalfPi));
-  add(makeGrid(1, 1, 10, 10), green, "right", translation({1, 0.5, 0.5}) * rotationY(-kHalfPi));
+  add(makeGrid(1, 1, 10, 10), red, "left", shallow * translation({0, 0.5, 0.5}) * rotationY(kHalfPi));
+  add(makeGrid(1, 1, 10, 10), green, "right", shallow * translation({1, 0.5, 0.5}) * rotationY(-kHalfPi));
   // Ceiling lamp just below the ceiling (2 triangles).
-  add(makeGrid(0.3, 0.3, 1, 1), lamp, "lamp", translation({0.5, 0.998, 0.45}) * rotationX(kHalfPi));
+  add(makeGrid(0.3, 0.3, 1, 1), lamp, "lamp", translation({0.5, 0.998, 0.26}) * rotationX(kHalfPi));
   // A tall and a short box (12 each) and a sphere (84).
-  add(makeBox({0.28, 0.58, 0.28}), white, "tall_box", translation({0.33, 0.29, 0.35}) * rotationY(0.3));
-  add(makeBox({0.27, 0.27, 0.27}), white, "short_box", translation({0.68, 0.135, 0.62}) * rotationY(-0.3));
-  add(makeSphere(0.12, 6, 8), blue, "sphere", translation({0.68, 0.39, 0.62}));
+  add(makeBox({0.28, 0.58, 0.28}), white, "tall_box", translation({0.32, 0.29, 0.2}) * rotationY(0.3));
+  add(makeBox({0.27, 0.27, 0.27}), white, "short_box", translation({0.68, 0.135, 0.35}) * rotationY(-0.3));
+  add(makeSphere(0.12, 6, 8), blue, "sphere", translation({0.68, 0.39, 0.35}));
   addPaperLights(&scene);
   scene.ambient = {0.04f, 0.04f, 0.04f};
   scene.background = {0.02f, 0.02f, 0.03f};
-  scene.worldBox = scene.geometryBounds();  // the tilted box's bounds
+  scene.worldBox = Box3{offset, offset + scale * Eigen::Vector3d(1.0, 1.0, kDepth)};
   scene.maxDepth = 5;
   return scene;
 }

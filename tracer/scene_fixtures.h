@@ -16,8 +16,8 @@ Scene makeXyzTriangleScene();
 
 // Cornell box (~1110 triangles): open toward the viewers (+z), red left and green right walls, a
 // mirror floor, two boxes and a sphere, an emissive ceiling panel, 4 directional lights, depth 5.
-// No textures. Built in the unit box, tilted toward the viewers, scaled by `scale` and moved by
-// `offset`; B_W is its bounds (the extreme-scale tests render the same image for any of them).
+// No textures. The box is 1 × 1 × 0.55 (shallow, to fill B_P), scaled by `scale` and moved by
+// `offset`; B_W is the box (the extreme-scale tests render the same image for any of them).
 Scene makeCornellScene(double scale = 1.0, const Eigen::Vector3d& offset = Eigen::Vector3d::Zero());
 
 // Geometric shapes (1556 triangles): a glass sphere and a glass box among a diffuse torus,

@@ -4,6 +4,7 @@
 #include <filesystem>
 
 #include "common/input_error.h"
+#include "tracer/model_loader.h"
 #include "tracer/scene_fixtures.h"
 
 namespace parallax {
@@ -20,7 +21,7 @@ Scene resolveScene(const std::string& nameOrFile) {
                                              "\" is neither a built-in scene (cornell, shapes, statue, xyz) "
                                              "nor an existing file");
   }
-  throw InputError({nameOrFile, "", 0}, "model files are not supported yet");
+  return loadModelScene(nameOrFile);
 }
 
 }  // namespace parallax

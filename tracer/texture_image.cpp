@@ -16,8 +16,16 @@ float linearFromSrgb(float c) {
 }
 
 int wrap(int i, int n) {
+  if (i >= 0 && i < n) return i;  // the common case: no division
   const int m = i % n;
   return m < 0 ? m + n : m;
+}
+
+// floor(f) wrapped into [0, n); f may be any finite float (huge uvs included).
+int wrapFloor(float f, int n) {
+  // Within ±2^24 an int holds f exactly; beyond, reduce with fmod first.
+  if (std::abs(f) < 16777216.0f) return wrap(static_cast<int>(f), n);
+  return wrap(static_cast<int>(std::fmod(f, static_cast<float>(n))), n);
 }
 
 }  // namespace
@@ -96,11 +104,17 @@ Rgb TextureImage::bilinear(int level, float u, float v) const {
   const float y = (1.0f - v) * static_cast<float>(l.height) - 0.5f;
   const float fx = std::floor(x), fy = std::floor(y);
   const float ax = x - fx, ay = y - fy;
-  // Wrap the integer part before converting so huge uvs cannot overflow an int.
-  const int x0 = wrap(static_cast<int>(std::fmod(fx, static_cast<float>(l.width))), l.width);
-  const int y0 = wrap(static_cast<int>(std::fmod(fy, static_cast<float>(l.height))), l.height);
-  return (1 - ay) * ((1 - ax) * texel(level, x0, y0) + ax * texel(level, x0 + 1, y0)) +
-         ay * ((1 - ax) * texel(level, x0, y0 + 1) + ax * texel(level, x0 + 1, y0 + 1));
+  // The +1 neighbours wrap with a compare instead of a second modulo.
+  const int x0 = wrapFloor(fx, l.width);
+  const int y0 = wrapFloor(fy, l.height);
+  const int x1 = x0 + 1 == l.width ? 0 : x0 + 1;
+  const int y1 = y0 + 1 == l.height ? 0 : y0 + 1;
+  const size_t w = static_cast<size_t>(l.width);
+  const float* row0 = l.rgb.data() + static_cast<size_t>(y0) * w * 3;
+  const float* row1 = l.rgb.data() + static_cast<size_t>(y1) * w * 3;
+  const Eigen::Map<const Rgb> c00(row0 + 3 * static_cast<size_t>(x0)), c10(row0 + 3 * static_cast<size_t>(x1));
+  const Eigen::Map<const Rgb> c01(row1 + 3 * static_cast<size_t>(x0)), c11(row1 + 3 * static_cast<size_t>(x1));
+  return (1 - ay) * ((1 - ax) * c00 + ax * c10) + ay * ((1 - ax) * c01 + ax * c11);
 }
 
 Rgb TextureImage::lookup(float u, float v, float lod) const {

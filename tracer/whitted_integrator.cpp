@@ -2,12 +2,15 @@
 
 #include <tbb/blocked_range2d.h>
 #include <tbb/combinable.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 #include <cmath>
 #include <limits>
+#include <memory>
 
 #include <fmt/format.h>
 
@@ -114,7 +117,7 @@ class TileRenderer {
                    RenderCounters* c) const;
   void pushBranch(const Path& parent, const Rgb& weight, const Eigen::Vector3f& origin, const Eigen::Vector3f& dir,
                   int inside, float coneWidth, RenderCounters* c);
-  void logBatch(bool occlusion, bool coherent, const RTCRay* rays, size_t count, size_t stride);
+  void logBatch(bool occlusion, int generation, const RTCRay* rays, size_t count, size_t stride);
 
   const PhysicalScene& scene_;
   const RayTextures& textures_;
@@ -127,6 +130,10 @@ class TileRenderer {
   std::vector<RTCRayHit> rays_, nextRays_;
   std::vector<RTCRay> shadowRays_;
   std::vector<PendingShadow> shadows_;
+  // Shadow rays are gathered per light, then traced light after light: a packet then holds
+  // neighbouring pixels' rays toward the same light, which traverse the BVH together.
+  std::vector<std::vector<RTCRay>> shadowRaysByLight_;
+  std::vector<std::vector<PendingShadow>> shadowsByLight_;
 };
 
 void TileRenderer::cone(int column, int row, Path* path) const {
@@ -161,13 +168,16 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
         continue;
       }
       const Eigen::Vector3f o = f.origin(r);
-      const Eigen::Vector3f d = f.direction(r);
+      // The box test needs no unit direction; most pixels of a small scene stop here, so the
+      // square root of the normalisation is paid only by the rays that are traced.
+      const Eigen::Vector3f toScreen = f.screenPoint(r) - o;
       const int pixel = row * textures_.width() + column;
-      if (!hitsBox(o, d, scene_.boundsMin(), scene_.boundsMax())) {
+      if (!hitsBox(o, toScreen, scene_.boundsMin(), scene_.boundsMax())) {
         ++c->missedBounds;
         frame_->pixels[static_cast<size_t>(pixel)] = scene_.background();
         continue;
       }
+      const Eigen::Vector3f d = toScreen.normalized();
       Path path;
       path.pixel = pixel;
       if (cones) cone(column, row, &path);
@@ -183,15 +193,23 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
   for (int generation = 0; generation < depth_ && !rays_.empty(); ++generation) {
     c->deepest = std::max(c->deepest, generation + 1);
     const bool coherent = generation == 0;
-    if (log_) logBatch(false, coherent, &rays_[0].ray, rays_.size(), sizeof(RTCRayHit));
+    if (log_) logBatch(false, generation, &rays_[0].ray, rays_.size(), sizeof(RTCRayHit));
     intersectBatch(scene_.handle(), rays_, options_.traversal, coherent);
     shadowRays_.clear();
     shadows_.clear();
     nextPaths_.clear();
     nextRays_.clear();
+    shadowRaysByLight_.resize(scene_.lights().size());
+    shadowsByLight_.resize(scene_.lights().size());
     for (size_t i = 0; i < rays_.size(); ++i) shade(i, generation, c);
+    for (size_t l = 0; l < shadowRaysByLight_.size(); ++l) {
+      shadowRays_.insert(shadowRays_.end(), shadowRaysByLight_[l].begin(), shadowRaysByLight_[l].end());
+      shadows_.insert(shadows_.end(), shadowsByLight_[l].begin(), shadowsByLight_[l].end());
+      shadowRaysByLight_[l].clear();
+      shadowsByLight_[l].clear();
+    }
     if (!shadowRays_.empty()) {
-      if (log_) logBatch(true, coherent, shadowRays_.data(), shadowRays_.size(), sizeof(RTCRay));
+      if (log_) logBatch(true, generation, shadowRays_.data(), shadowRays_.size(), sizeof(RTCRay));
       occludedBatch(scene_.handle(), shadowRays_, options_.traversal, coherent);
       for (size_t i = 0; i < shadowRays_.size(); ++i) {
         // Embree sets tfar to -inf on an occluded ray.
@@ -204,10 +222,11 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
   }
 }
 
-void TileRenderer::logBatch(bool occlusion, bool coherent, const RTCRay* rays, size_t count, size_t stride) {
+void TileRenderer::logBatch(bool occlusion, int generation, const RTCRay* rays, size_t count, size_t stride) {
   RayLog::Batch batch;
   batch.occlusion = occlusion;
-  batch.coherent = coherent;
+  batch.coherent = generation == 0;
+  batch.generation = generation;
   batch.rays.reserve(count);
   const auto* bytes = reinterpret_cast<const unsigned char*>(rays);
   // Logged before tracing, so each ray is replayed exactly as it was first handed to Embree.
@@ -283,7 +302,8 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
       const Rgb albedo = m.diffuse.cwiseProduct(h.vertexColor).cwiseProduct(textureColor(m, h, path, t, d, c));
       out += weight.cwiseProduct(albedo).cwiseProduct(scene_.ambient());
       const bool highlight = m.specular.maxCoeff() > 0.0f;
-      for (const PhysicalLight& light : scene_.lights()) {
+      for (size_t lightIndex = 0; lightIndex < scene_.lights().size(); ++lightIndex) {
+        const PhysicalLight& light = scene_.lights()[lightIndex];
         Eigen::Vector3f l = light.toLight;
         float tfar = kInf;
         Rgb irradiance = light.intensity;
@@ -306,8 +326,8 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
         }
         const Rgb contribution = weight.cwiseProduct(response).cwiseProduct(irradiance);
         if (contribution.maxCoeff() <= 0.0f) continue;
-        shadows_.push_back({path.pixel, contribution});
-        shadowRays_.push_back(makeShadowRay(above, l, tfar));
+        shadowsByLight_[lightIndex].push_back({path.pixel, contribution});
+        shadowRaysByLight_[lightIndex].push_back(makeShadowRay(above, l, tfar));
       }
       return;
     }
@@ -385,13 +405,16 @@ Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures, const
   int depth = scene.features().depth;
   if (options.maxDepth > 0) depth = std::min(depth, options.maxDepth);
   tbb::combinable<RenderCounters> perThread;
+  // One renderer per worker thread, so its ray and path arrays are allocated once a frame, not
+  // once a tile.
+  tbb::enumerable_thread_specific<std::unique_ptr<TileRenderer>> renderers(
+      [&] { return std::make_unique<TileRenderer>(scene, textures, options, depth, &frame, log); });
   const tbb::blocked_range2d<int> range(0, textures.height(), options.tileHeight, 0, textures.width(),
                                         options.tileWidth);
   tbb::parallel_for(range, [&](const tbb::blocked_range2d<int>& tile) {
-    TileRenderer renderer(scene, textures, options, depth, &frame, log);
-    renderer.render(tile.cols().begin(), tile.cols().end(), tile.rows().begin(), tile.rows().end(),
-                    &perThread.local());
-  });
+    renderers.local()->render(tile.cols().begin(), tile.cols().end(), tile.rows().begin(), tile.rows().end(),
+                              &perThread.local());
+  }, tbb::simple_partitioner());
   if (counters) {
     *counters = RenderCounters{};
     perThread.combine_each([&](const RenderCounters& c) { *counters += c; });
@@ -399,12 +422,31 @@ Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures, const
   return frame;
 }
 
-double replayRayLog(const PhysicalScene& scene, RayLog& log, Traversal traversal) {
+double processCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
+
+double replayRayLog(const PhysicalScene& scene, const RayLog& log, Traversal traversal, RayKind kind, long* rays,
+                    double* cpuMs) {
+  auto wanted = [&](const RayLog::Batch& batch) {
+    switch (kind) {
+      case RayKind::kAll: return true;
+      case RayKind::kPrimary: return !batch.occlusion && batch.generation == 0;
+      case RayKind::kShadow: return batch.occlusion;
+      case RayKind::kSecondary: return !batch.occlusion && batch.generation > 0;
+    }
+    return false;
+  };
   // Work on copies: tracing overwrites tfar (and the hit fields of intersection rays).
   std::vector<std::vector<RTCRayHit>> hits(log.batches.size());
   std::vector<std::vector<RTCRay>> shadows(log.batches.size());
+  long count = 0;
   for (size_t b = 0; b < log.batches.size(); ++b) {
     const RayLog::Batch& batch = log.batches[b];
+    if (!wanted(batch)) continue;
+    count += static_cast<long>(batch.rays.size());
     if (batch.occlusion) {
       shadows[b] = batch.rays;
     } else {
@@ -415,15 +457,18 @@ double replayRayLog(const PhysicalScene& scene, RayLog& log, Traversal traversal
       }
     }
   }
+  const double cpuStart = processCpuMs();
   const auto start = std::chrono::steady_clock::now();
   tbb::parallel_for(size_t{0}, log.batches.size(), [&](size_t b) {
     const RayLog::Batch& batch = log.batches[b];
     if (batch.occlusion) {
       occludedBatch(scene.handle(), shadows[b], traversal, batch.coherent);
-    } else {
+    } else if (!hits[b].empty()) {
       intersectBatch(scene.handle(), hits[b], traversal, batch.coherent);
     }
   });
+  if (rays) *rays = count;
+  if (cpuMs) *cpuMs = processCpuMs() - cpuStart;
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 

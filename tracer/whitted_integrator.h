@@ -56,7 +56,8 @@ struct RenderCounters {
 struct RayLog {
   struct Batch {
     bool occlusion = false;
-    bool coherent = false;
+    bool coherent = false;  // primary rays and their shadow rays
+    int generation = 0;     // 0: primary (and its shadow rays)
     std::vector<RTCRay> rays;
   };
   std::mutex mutex;
@@ -67,7 +68,12 @@ struct RayLog {
 Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options,
                   RenderCounters* counters = nullptr, RayLog* log = nullptr);
 
-// Traces the logged batches again (in parallel, no shading) with `traversal`; returns ms.
-double replayRayLog(const PhysicalScene& scene, RayLog& log, Traversal traversal);
+enum class RayKind { kAll, kPrimary, kShadow, kSecondary };
+
+// Traces the logged batches of `kind` again (in parallel, no shading) with `traversal`; returns
+// wall-clock ms. `rays` (optional) receives how many rays that was, `cpuMs` (optional) the
+// process CPU time the tracing took (all threads).
+double replayRayLog(const PhysicalScene& scene, const RayLog& log, Traversal traversal, RayKind kind = RayKind::kAll,
+                    long* rays = nullptr, double* cpuMs = nullptr);
 
 }  // namespace parallax

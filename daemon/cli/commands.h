@@ -6,6 +6,8 @@
 
 namespace parallax::cli {
 
+void addBenchCommand(CLI::App& app);
+void addBenchTextureSubcommand(CLI::App* bench);  // under `bench`
 void addDisplayCommand(CLI::App& app);
 void addRaytexCommand(CLI::App& app);
 void addRenderCommand(CLI::App& app);

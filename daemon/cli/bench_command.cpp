@@ -1,0 +1,181 @@
+// parallax bench tracer [--display default] [--module I] [--frames N] [--scenes cornell,shapes,statue]
+// Prints, per scene, ms a frame of one module (1024×768 on the `default` display) with each
+// Embree traversal, beside the paper's GTX 960 figures and beside the raw Embree cost of
+// tracing exactly the same rays with no shading; then Mrays/s by ray type. Figures only: it
+// never fails on time.
+
+#include <algorithm>
+#include <chrono>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <thread>
+
+#include <fmt/format.h>
+
+#include "calibration/display_presets.h"
+#include "calibration/ray_textures.h"
+#include "common/input_error.h"
+#include "daemon/cli/commands.h"
+#include "tracer/physical_scene.h"
+#include "tracer/scene_source.h"
+#include "tracer/whitted_integrator.h"
+
+namespace parallax::cli {
+namespace {
+
+struct BenchArgs {
+  std::string display = "default";
+  int module = -1;
+  int frames = 5;
+  std::string scenes = "cornell,shapes,statue";
+};
+
+// Process CPU time (all threads), ms. On a machine shared with other builds, wall-clock
+// figures include time the scheduler gave to someone else; CPU time divided by the worker count
+// is what the frame would take on two idle cores.
+double cpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
+
+struct Timing {
+  double wallMs = 0.0;
+  double cpuMsPerCore = 0.0;
+};
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+Timing timeFrames(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options, int frames) {
+  std::vector<double> wall, cpu;
+  const double cores = std::max(1u, std::thread::hardware_concurrency());
+  for (int i = 0; i < frames; ++i) {
+    const double cpu0 = cpuMs();
+    const auto start = std::chrono::steady_clock::now();
+    renderFrame(scene, textures, options);
+    wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    cpu.push_back((cpuMs() - cpu0) / cores);
+  }
+  return {median(wall), median(cpu)};
+}
+
+Timing timeReplay(const PhysicalScene& scene, const RayLog& log, Traversal traversal, RayKind kind, int frames,
+                  long* rays) {
+  std::vector<double> wall, cpu;
+  const double cores = std::max(1u, std::thread::hardware_concurrency());
+  for (int i = 0; i < frames; ++i) {
+    double traceCpu = 0.0;
+    wall.push_back(replayRayLog(scene, log, traversal, kind, rays, &traceCpu));
+    cpu.push_back(traceCpu / cores);
+  }
+  return {median(wall), median(cpu)};
+}
+
+void runBenchTracer(const BenchArgs& args) {
+  if (args.frames < 1 || args.frames > 1000) throw InputError({"", "--frames", 0}, "must be in 1..1000");
+  const DisplayModel model = resolveDisplay(args.display);
+  const int module = args.module >= 0 ? args.module : static_cast<int>(model.modules.size() / 2);
+  if (module >= static_cast<int>(model.modules.size())) {
+    throw InputError({"", "--module", 0}, fmt::format("must be 0..{}", model.modules.size() - 1));
+  }
+  const RayTextures textures = generateRayTextures(model, module);
+  const std::map<std::string, double> paperMs = {{"cornell", 146.0}, {"shapes", 205.0}, {"statue", 1085.0}};
+  std::vector<std::string> names;
+  std::stringstream list(args.scenes);
+  for (std::string name; std::getline(list, name, ',');) names.push_back(name);
+
+  std::cout << fmt::format("tracer bench: display \"{}\", module {} ({}x{}, {} unmasked pixels), median of {} frames, "
+                           "{} threads\n",
+                           model.name, module, textures.width(), textures.height(), textures.validCount(),
+                           args.frames, std::thread::hardware_concurrency());
+  std::cout << "(wall-clock on a shared machine: other builds running at the same time make these noisy)\n\n";
+  std::cout << "wall = median wall-clock ms a frame; cpu = process CPU ms / cores (what two idle cores would take)\n";
+  std::cout << fmt::format("{:<8} {:>5} {:>7} | {:>7} {:>7} {:>7} | {:>7} {:>7} | {:>7} {:>7} | {:>5} {:>5} | {:>6}\n",
+                           "scene", "tris", "rays", "single", "pack16", "stream", "chosen", "chosen", "raw16", "raw16",
+                           "ratio", "ratio", "paper");
+  std::cout << fmt::format("{:<8} {:>5} {:>7} | {:>7} {:>7} {:>7} | {:>7} {:>7} | {:>7} {:>7} | {:>5} {:>5} | {:>6}\n",
+                           "", "", "/frame", "wall", "wall", "wall", "wall", "cpu", "wall", "cpu", "wall", "cpu",
+                           "GTX960");
+  struct PerKind {
+    std::string scene;
+    long rays[3];
+    double ms[3];
+  };
+  std::vector<PerKind> kinds;
+  std::vector<std::string> explains;
+  for (const std::string& name : names) {
+    const Scene scene = resolveScene(name);
+    const PhysicalScene physical(scene, model.displayableBox);
+    RenderOptions options;
+    RenderCounters counters;
+    renderFrame(physical, textures, options, &counters);  // warm-up (caches, TBB workers, textures)
+    std::map<Traversal, Timing> timing;
+    for (Traversal t : {Traversal::kSingle, Traversal::kPacket16, Traversal::kStream}) {
+      RenderOptions o = options;
+      o.traversal = t;
+      timing[t] = timeFrames(physical, textures, o, args.frames);
+    }
+    RayLog log;
+    renderFrame(physical, textures, options, nullptr, &log);
+    long rays = 0;
+    const Timing raw = timeReplay(physical, log, Traversal::kPacket16, RayKind::kAll, args.frames, &rays);
+    const Timing& chosen = timing[options.traversal];
+    const auto paper = paperMs.find(name);
+    std::cout << fmt::format(
+        "{:<8} {:>5} {:>6}k | {:>7.1f} {:>7.1f} {:>7.1f} | {:>7.1f} {:>7.1f} | {:>7.1f} {:>7.1f} | {:>5.2f} {:>5.2f} | {:>6}\n",
+        name, physical.counters().trianglesBuilt, rays / 1000, timing[Traversal::kSingle].wallMs,
+        timing[Traversal::kPacket16].wallMs, timing[Traversal::kStream].wallMs, chosen.wallMs, chosen.cpuMsPerCore,
+        raw.wallMs, raw.cpuMsPerCore, chosen.wallMs / raw.wallMs, chosen.cpuMsPerCore / raw.cpuMsPerCore,
+        paper == paperMs.end() ? std::string("-") : fmt::format("{:.0f}", paper->second));
+    PerKind k{name, {0, 0, 0}, {0, 0, 0}};
+    int i = 0;
+    for (RayKind kind : {RayKind::kPrimary, RayKind::kShadow, RayKind::kSecondary}) {
+      k.ms[i] = timeReplay(physical, log, options.traversal, kind, args.frames, &k.rays[i]).cpuMsPerCore;
+      ++i;
+    }
+    kinds.push_back(k);
+    std::string e = fmt::format("{} (left out / ran):\n", name);
+    for (const std::string& line : physical.features().explain()) e += line + "\n";
+    for (const std::string& line : counters.lines()) e += line + "\n";
+    explains.push_back(e);
+  }
+  std::cout << fmt::format("\nchosen traversal: {}. ratio = chosen full frame / raw packet16 intersection of the "
+                           "same rays (no shading).\n",
+                           traversalName(RenderOptions{}.traversal));
+  std::cout << fmt::format("\nMrays/s by ray type (raw {} replay of one frame's rays, CPU time per core):\n",
+                           traversalName(RenderOptions{}.traversal));
+  std::cout << fmt::format("{:<8} {:>20} {:>20} {:>20}\n", "scene", "primary", "shadow", "reflect+refract");
+  for (const PerKind& k : kinds) {
+    std::string cells[3];
+    for (int i = 0; i < 3; ++i) {
+      cells[i] = k.rays[i] == 0 ? std::string("-")
+                                : fmt::format("{:.1f} ({}k)", static_cast<double>(k.rays[i]) / (k.ms[i] * 1e3),
+                                              k.rays[i] / 1000);
+    }
+    std::cout << fmt::format("{:<8} {:>20} {:>20} {:>20}\n", k.scene, cells[0], cells[1], cells[2]);
+  }
+  std::cout << "\nper-frame counters:\n";
+  for (const std::string& e : explains) std::cout << e;
+}
+
+}  // namespace
+
+void addBenchCommand(CLI::App& app) {
+  CLI::App* bench = app.add_subcommand("bench", "print performance figures (never pass/fail)");
+  bench->require_subcommand(1);
+  auto args = std::make_shared<BenchArgs>();
+  CLI::App* tracer = bench->add_subcommand("tracer", "ms a frame of the paper's three scenes, by traversal, vs raw Embree");
+  tracer->add_option("--display", args->display, "display JSON file or built-in name (default: default)");
+  tracer->add_option("--module", args->module, "module index (default: the middle one)");
+  tracer->add_option("--frames", args->frames, "frames to time per figure (median)");
+  tracer->add_option("--scenes", args->scenes, "comma-separated scene names or model files");
+  tracer->callback([args] { runBenchTracer(*args); });
+  addBenchTextureSubcommand(bench);
+}
+
+}  // namespace parallax::cli

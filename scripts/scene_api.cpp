@@ -10,6 +10,7 @@
 #include "scripts/script_paths.h"
 #include "scripts/script_sandbox.h"
 #include "tracer/mesh_shapes.h"
+#include "tracer/model_loader.h"
 
 namespace parallax {
 namespace {
@@ -21,6 +22,22 @@ using lua::ScriptArgumentError;
 constexpr long kMaxTessellation = 4096;  // slices, stacks, grid cells along one side
 
 SceneBuild& buildOf(lua_State* L) { return *static_cast<SceneBuild*>(ScriptSandbox::of(L).context); }
+
+// A file the script names: below its own folder, or below a trusted asset root when the
+// path starts with that root's prefix ("assimp:OBJ/spider.obj").
+std::string resolveAsset(lua_State* L, const SceneBuild& b, const std::string& path) {
+  const size_t colon = path.find(':');
+  if (colon != std::string::npos && colon > 1) {
+    const auto root = b.assetRoots.find(path.substr(0, colon));
+    if (root == b.assetRoots.end()) {
+      std::string known;
+      for (const auto& [name, folder] : b.assetRoots) known += (known.empty() ? "" : ", ") + name + ":";
+      throw ScriptArgumentError(fmt::format("\"{}\": unknown asset root (known: {})", path, known.empty() ? "none" : known));
+    }
+    return resolvePathBelow(root->second, path.substr(colon + 1));
+  }
+  return resolvePathBelow(ScriptSandbox::of(L).folder(), path);
+}
 
 // ---- scene settings ----
 
@@ -123,7 +140,7 @@ int apiSetMaterial(lua_State* L, SceneBuild& b) {
 int apiTexture(lua_State* L, SceneBuild& b) {
   const Options o(L, 1, "options", {"path", "fallback", "srgb"});
   const std::string relative = o.string("path", "");
-  const std::string path = resolvePathBelow(ScriptSandbox::of(L).folder(), relative);
+  const std::string path = resolveAsset(L, b, relative);
   Texture t;
   t.path = path;
   t.fallback = o.color("fallback", t.fallback);
@@ -336,19 +353,27 @@ int apiMesh(lua_State* L, SceneBuild& b) {
 }
 
 int apiModel(lua_State* L, SceneBuild& b) {
-  const Options o(L, 1, "options", {"path", "transform"});
-  const std::string path = resolvePathBelow(ScriptSandbox::of(L).folder(), o.string("path", ""));
-  Eigen::Affine3d worldFromModel = Eigen::Affine3d::Identity();
+  const Options o(L, 1, "options", {"path", "height", "transform"});
+  const std::string path = resolveAsset(L, b, o.string("path", ""));
+  ModelLoadOptions load;
+  load.targetHeight = o.number("height", 0.0);
+  if (load.targetHeight < 0.0) throw ScriptArgumentError("height: must be positive (or 0 for the model's own units)");
   const int t = o.push("transform");
-  if (!lua_isnil(L, t)) worldFromModel = lua::toTransform(L, t, "transform");
+  if (!lua_isnil(L, t)) load.worldFromModel = lua::toTransform(L, t, "transform");
   lua_pop(L, 1);
-  if (!b.modelLoader) {
-    throw ScriptArgumentError("model files cannot be loaded in this build (no model loader is linked yet)");
-  }
   b.assets.push_back(path);
+  // Loaded into a scratch scene first, so a model over the triangle limit never lands.
+  Scene scratch = b.scene;
+  try {
+    appendModel(path, load, &scratch);
+  } catch (const InputError& e) {
+    throw ScriptArgumentError(e.what());
+  }
+  long added = 0;
+  for (size_t i = b.scene.meshes.size(); i < scratch.meshes.size(); ++i) added += static_cast<long>(scratch.meshes[i].triangles.size());
+  checkTriangleBudget(L, b, added);
   const size_t firstInstance = b.scene.instances.size();
-  b.modelLoader(path, worldFromModel, &b.scene);
-  checkTriangleBudget(L, b, 0);
+  b.scene = std::move(scratch);
   lua_createtable(L, static_cast<int>(b.scene.instances.size() - firstInstance), 0);
   for (size_t i = firstInstance; i < b.scene.instances.size(); ++i) {
     pushHandle(L, HandleKind::kObject, static_cast<int>(i));
@@ -521,7 +546,7 @@ const std::vector<ApiFunction>& apiFunctions() {
         "Changes a material's parameters (in update, to animate them).",
         "px.set_material(lamp, {emission = {4 * k, 3.6 * k, 3 * k}})"}, apiSetMaterial, false},
       {{"texture", "px.texture{path =, fallback =, srgb =} -> texture",
-        "An image file below the script's folder (watched for hot reload); fallback colour if unreadable.",
+        "An image file (watched for hot reload); the fallback colour if it cannot be read.",
         R"(local wood = px.texture{path = "textures/wood.png", fallback = {0.5, 0.35, 0.2}})"}, apiTexture, true},
       {{"image", "px.image{width =, height =, pixels = {r, g, b, ...}, fallback =} -> texture",
         "An inline texture: width × height × 3 linear values, row 0 at the top.",
@@ -548,9 +573,11 @@ const std::vector<ApiFunction>& apiFunctions() {
       {{"mesh", "px.mesh{positions =, triangles =, normals =, uvs =, colors =, material =, name =, transform =} -> object",
         "A triangle mesh given inline; triangle indices are 1-based.",
         "px.mesh{positions = {{0,0,0}, {1,0,0}, {0,1,0}}, triangles = {{1, 2, 3}}, material = white}"}, apiMesh, true},
-      {{"model", "px.model{path =, transform =} -> {object, ...}",
-        "Meshes, materials and textures from a model file below the script's folder (watched for hot reload).",
-        R"(local wuson = px.model{path = "models/WusonOBJ.obj", transform = px.scale(0.1)})"}, apiModel, true},
+      {{"model", "px.model{path =, height =, transform =} -> {object, ...}",
+        "Meshes, materials and textures of a model file (OBJ, glTF, ... through assimp), scaled to `height` with its "
+        "base at the origin (0: its own units), then placed by transform; watched for hot reload.",
+        R"(local wuson = px.model{path = "assimp:OBJ/WusonOBJ.obj", height = 1.1, transform = px.translate(-0.55, 0.4, 0)})"},
+       apiModel, true},
       {{"instance", "px.instance(object, transform) -> object", "Draws an object's mesh once more, elsewhere.",
         "local copy = px.instance(tree, px.translate(2, 0, 0))"}, apiInstance, true},
       {{"set_transform", "px.set_transform(object, transform)", "Moves an object (in update, to animate it).",
@@ -678,7 +705,9 @@ std::string sceneApiMarkdown() {
       "move objects and change lights and materials. Values declared with `px.param` are in the\n"
       "global table `params`. Colours are linear RGB tables `{r, g, b}`, points and directions\n"
       "`{x, y, z}`; transforms compose with `*` (the right one applies first). Functions marked\n"
-      "*build* add to the scene and can be called only while the script loads, not in `update`.\n\n"
+      "*build* add to the scene and can be called only while the script loads, not in `update`.\n"
+      "Files are named relative to the script's folder (no `..`, no absolute paths, no symlinks\n"
+      "leading out) or below a trusted root by prefix: `assimp:` is Debian's assimp-testmodels.\n\n"
       "| function | what it does | example |\n|---|---|---|\n";
   for (const ApiFunction& f : apiFunctions()) {
     std::string example = f.doc.example;

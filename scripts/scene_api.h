@@ -4,7 +4,6 @@
 // `params`. Every function is registered with its signature, a one-line description and an
 // example, from which the API reference is generated (`parallax scene-api`, scripts/API.md).
 
-#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -26,11 +25,6 @@ struct ScriptParameter {
   std::string description;
 };
 
-// Loads a model file (already checked to lie below the script's folder) into `scene` with
-// its instances placed by `worldFromModel` and returns how many meshes it added. Supplied by
-// whoever links a model loader (the tracer's, when it has one).
-using ModelLoader = std::function<int(const std::string& path, const Eigen::Affine3d& worldFromModel, Scene* scene)>;
-
 // What the binding keeps for one Lua state.
 struct SceneBuild {
   Scene scene;
@@ -38,7 +32,8 @@ struct SceneBuild {
   std::map<std::string, double> overrides;  // parameter values given before loading
   std::vector<ScriptParameter> parameters;
   std::vector<std::string> assets;  // files read through the API (canonical), for hot reload
-  ModelLoader modelLoader;
+  // Trusted folders a script may read below by prefix, e.g. "assimp:OBJ/spider.obj".
+  std::map<std::string, std::string> assetRoots;
   // Set while a px function runs: a finalizer (__gc) the collector starts inside it must not
   // call back into the scene that the outer call holds references into.
   bool inCall = false;

@@ -8,6 +8,7 @@
 
 #include "common/input_error.h"
 #include "scripts/script_paths.h"
+#include "tracer/scene_source.h"
 
 #ifndef PARALLAX_SCENE_LIBRARY
 #define PARALLAX_SCENE_LIBRARY ""
@@ -42,6 +43,8 @@ std::string ScriptOptions::defaultSceneLibrary() {
   if (const char* env = std::getenv("PARALLAX_SCENE_LIBRARY")) return env;
   return PARALLAX_SCENE_LIBRARY;
 }
+
+std::map<std::string, std::string> ScriptOptions::defaultAssetRoots() { return {{"assimp", assimpTestModelsRoot()}}; }
 
 void ScriptOptions::validate() const {
   limits.validate();
@@ -84,7 +87,7 @@ void SceneScript::load(const std::string& source, const ScriptOptions& options) 
   sandbox_ = std::make_unique<ScriptSandbox>(options.limits, sandboxFolder_, options.libraryRoot);
   sandbox_->quiet = options.quiet;
   build_.overrides = options.parameters;
-  build_.modelLoader = options.modelLoader;
+  build_.assetRoots = options.assetRoots;
   build_.scene.name = fs::path(name_).stem().string();
   installSceneApi(*sandbox_, &build_);
   sandbox_->run(source, name_, options.limits.loadInstructions, options.limits.loadAllocationBytes);

@@ -23,10 +23,13 @@ struct ScriptOptions {
   // A value for a parameter the script does not declare is an error, except when a reload
   // carries the values over to a version that dropped one.
   bool strictParameters = true;
-  ModelLoader modelLoader;
+  // Folders besides the script's own that its asset paths may name by prefix ("assimp:" is
+  // Debian's assimp-testmodels); paths stay confined below each.
+  std::map<std::string, std::string> assetRoots = defaultAssetRoots();
   bool quiet = false;  // silence the script's print()
 
   static std::string defaultSceneLibrary();
+  static std::map<std::string, std::string> defaultAssetRoots();
   void validate() const;
 };
 

@@ -658,12 +658,14 @@ int installProtected(lua_State* L) {
 
 int publishProtected(lua_State* L) {
   const SceneBuild& b = buildOf(L);
+  lua_rawgeti(L, LUA_REGISTRYINDEX, LUA_RIDX_GLOBALS);
+  lua_pushstring(L, "params");
   lua_newtable(L);
   for (const ScriptParameter& p : b.parameters) {
     lua_pushnumber(L, p.value);
     lua_setfield(L, -2, p.name.c_str());
   }
-  lua_setglobal(L, "params");
+  lua_rawset(L, -3);  // raw: a metamethod of the script's on _G does not get a say
   return 0;
 }
 

@@ -331,8 +331,19 @@ void ScriptSandbox::run(const std::string& source, const std::string& chunkName,
   if (status != LUA_OK) throwError(status, chunkName);
 }
 
+// The host reads globals raw: a script may have given _G an __index metamethod, which must
+// not run (and could raise) outside a protected call.
+static int rawGlobal(lua_State* L, const char* name) {
+  lua_rawgeti(L, LUA_REGISTRYINDEX, LUA_RIDX_GLOBALS);
+  lua_pushstring(L, name);
+  const int type = lua_rawget(L, -2);
+  lua_remove(L, -2);
+  return type;
+}
+
 bool ScriptSandbox::hasGlobalFunction(const char* name) {
-  const bool is = lua_getglobal(L_, name) == LUA_TFUNCTION;
+  if (!lua_checkstack(L_, 3)) throw std::bad_alloc();
+  const bool is = rawGlobal(L_, name) == LUA_TFUNCTION;
   lua_pop(L_, 1);
   return is;
 }
@@ -340,8 +351,8 @@ bool ScriptSandbox::hasGlobalFunction(const char* name) {
 void ScriptSandbox::call(const char* name, std::initializer_list<double> args, long instructionBudget,
                          std::size_t allocationBudget) {
   startBudget(instructionBudget, allocationBudget);
-  if (!lua_checkstack(L_, static_cast<int>(args.size()) + 2)) throw std::bad_alloc();
-  lua_getglobal(L_, name);
+  if (!lua_checkstack(L_, static_cast<int>(args.size()) + 3)) throw std::bad_alloc();
+  rawGlobal(L_, name);
   for (double a : args) lua_pushnumber(L_, a);
   const int status = lua_pcall(L_, static_cast<int>(args.size()), 0, 0);
   if (status != LUA_OK) throwError(status, name);

@@ -96,6 +96,20 @@ TEST(Sandbox, DeepRecursionWithinTheMemoryCapIsAStackOverflow) {
   expectHostUsable(folder.path());
 }
 
+TEST(Sandbox, MetamethodsOnTheGlobalsDoNotReachTheHost) {
+  TempFolder folder;
+  // The host looks up update() and publishes params after loading: raw accesses, so these
+  // metamethods never run outside a protected call.
+  const std::string source = withPrelude(
+      "setmetatable(_G, {__index = function() error(\"no reading\") end,\n"
+      "                  __newindex = function() while true do end end})");
+  EXPECT_EQ(loadError(source, folder.path()), "");
+  auto script = SceneScript::loadSource(
+      withPrelude("function update(t) end\nsetmetatable(_G, {__index = function() error(\"boom\") end})"), "g.lua",
+      folder.path(), smallLimits());
+  EXPECT_NO_THROW(script->setTime(1.0));
+}
+
 TEST(Sandbox, PlainFindStillWorks) {
   TempFolder folder;
   EXPECT_EQ(loadError(withPrelude("assert(string.find(\"a-b\", \"-\", 1, true) == 2)"), folder.path()), "");

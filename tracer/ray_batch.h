@@ -53,7 +53,20 @@ inline RTCRayHit makeRayHit(const Eigen::Vector3f& origin, const Eigen::Vector3f
 // Occlusion ray: on return tfar is -inf when something blocks it (Embree's convention).
 inline RTCRay makeShadowRay(const Eigen::Vector3f& origin, const Eigen::Vector3f& direction,
                             float tfar) {
-  return makeRayHit(origin, direction, tfar).ray;
+  RTCRay r;
+  r.org_x = origin.x();
+  r.org_y = origin.y();
+  r.org_z = origin.z();
+  r.tnear = 0.0f;
+  r.dir_x = direction.x();
+  r.dir_y = direction.y();
+  r.dir_z = direction.z();
+  r.time = 0.0f;
+  r.tfar = tfar;
+  r.mask = 0xFFFFFFFFu;
+  r.id = 0;
+  r.flags = 0;
+  return r;
 }
 
 void intersectBatch(RTCScene scene, std::span<RTCRayHit> rays, Traversal traversal, bool coherent);

@@ -111,7 +111,7 @@ class TileRenderer {
 
  private:
   void initialRays(int x0, int x1, int y0, int y1, RenderCounters* c);
-  void cone(int column, int row, Path* path) const;
+  void cone(int column, int row, const Eigen::Vector3f& toScreen, Path* path) const;
   void shade(size_t i, int generation, RenderCounters* c);
   Rgb textureColor(const Material& m, const HitInfo& h, const Path& path, float t, const Eigen::Vector3f& d,
                    RenderCounters* c) const;
@@ -128,27 +128,35 @@ class TileRenderer {
 
   std::vector<Path> paths_, nextPaths_;
   std::vector<RTCRayHit> rays_, nextRays_;
-  std::vector<RTCRay> shadowRays_;
-  std::vector<PendingShadow> shadows_;
   // Shadow rays are gathered per light, then traced light after light: a packet then holds
   // neighbouring pixels' rays toward the same light, which traverse the BVH together.
   std::vector<std::vector<RTCRay>> shadowRaysByLight_;
   std::vector<std::vector<PendingShadow>> shadowsByLight_;
 };
 
-void TileRenderer::cone(int column, int row, Path* path) const {
+// o and s − o of a compact ray. A flat screen (the common case) needs no sag and its square root.
+inline void expand(const RayFrame& f, const CompactRay& r, Eigen::Vector3f* o, Eigen::Vector3f* toScreen) {
+  const float sz = f.curvature == 0.0f ? 0.0f : screenSag(f.curvature, r.screenX);
+  *o = {r.originX, f.observerY, f.observerZ};
+  *toScreen = {r.screenX - r.originX, r.screenY - f.observerY, sz - f.observerZ};
+}
+
+void TileRenderer::cone(int column, int row, const Eigen::Vector3f& toScreen, Path* path) const {
   // Footprint from the neighbouring pixels' rays (a ray differential): the width is the offset
-  // between neighbouring origins, the spread the angle between neighbouring directions.
+  // between neighbouring origins, the spread the angle between neighbouring directions (small
+  // angles: the change of s − o over its length).
   const RayFrame& f = textures_.frame();
   const CompactRay& self = textures_.at(column, row);
-  const Eigen::Vector3f o = f.origin(self), d = f.direction(self);
+  const float inverseLength = 1.0f / toScreen.norm();
   float width = 0.0f, spread = 0.0f;
   const int nx = column + 1 < textures_.width() ? column + 1 : column - 1;
   const int ny = row + 1 < textures_.height() ? row + 1 : row - 1;
   for (const CompactRay* n : {nx >= 0 ? &textures_.at(nx, row) : nullptr, ny >= 0 ? &textures_.at(column, ny) : nullptr}) {
     if (!n || n->masked()) continue;
-    width = std::max(width, (f.origin(*n) - o).norm());
-    spread = std::max(spread, (f.direction(*n) - d).norm());
+    Eigen::Vector3f o, t;
+    expand(f, *n, &o, &t);
+    width = std::max(width, std::abs(n->originX - self.originX));
+    spread = std::max(spread, (t - toScreen).norm() * inverseLength);
   }
   path->coneWidth = width;
   path->coneSpread = spread;
@@ -157,34 +165,38 @@ void TileRenderer::cone(int column, int row, Path* path) const {
 void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c) {
   const RayFrame& f = textures_.frame();
   const bool cones = scene_.features().texturePass();
+  const Eigen::Vector3f lo = scene_.boundsMin(), hi = scene_.boundsMax();
+  const Rgb background = scene_.background();
   paths_.clear();
   rays_.clear();
+  const size_t capacity = static_cast<size_t>(x1 - x0) * static_cast<size_t>(y1 - y0);
+  paths_.reserve(capacity);
+  rays_.reserve(capacity);
   for (int row = y0; row < y1; ++row) {
     for (int column = x0; column < x1; ++column) {
-      ++c->pixels;
       const CompactRay& r = textures_.at(column, row);
       if (r.masked()) {
         ++c->masked;
         continue;
       }
-      const Eigen::Vector3f o = f.origin(r);
+      Eigen::Vector3f o, toScreen;
+      expand(f, r, &o, &toScreen);
       // The box test needs no unit direction; most pixels of a small scene stop here, so the
       // square root of the normalisation is paid only by the rays that are traced.
-      const Eigen::Vector3f toScreen = f.screenPoint(r) - o;
       const int pixel = row * textures_.width() + column;
-      if (!hitsBox(o, toScreen, scene_.boundsMin(), scene_.boundsMax())) {
+      if (!hitsBox(o, toScreen, lo, hi)) {
         ++c->missedBounds;
-        frame_->pixels[static_cast<size_t>(pixel)] = scene_.background();
+        frame_->pixels[static_cast<size_t>(pixel)] = background;
         continue;
       }
-      const Eigen::Vector3f d = toScreen.normalized();
       Path path;
       path.pixel = pixel;
-      if (cones) cone(column, row, &path);
+      if (cones) cone(column, row, toScreen, &path);
       paths_.push_back(path);
-      rays_.push_back(makeRayHit(o, d));
+      rays_.push_back(makeRayHit(o, toScreen.normalized()));
     }
   }
+  c->pixels += static_cast<long>(capacity);
   c->primary += static_cast<long>(rays_.size());
 }
 
@@ -195,27 +207,25 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
     const bool coherent = generation == 0;
     if (log_) logBatch(false, generation, &rays_[0].ray, rays_.size(), sizeof(RTCRayHit));
     intersectBatch(scene_.handle(), rays_, options_.traversal, coherent);
-    shadowRays_.clear();
-    shadows_.clear();
     nextPaths_.clear();
     nextRays_.clear();
     shadowRaysByLight_.resize(scene_.lights().size());
     shadowsByLight_.resize(scene_.lights().size());
     for (size_t i = 0; i < rays_.size(); ++i) shade(i, generation, c);
+    // One batch per light: no copying into a common array, and each batch is coherent.
     for (size_t l = 0; l < shadowRaysByLight_.size(); ++l) {
-      shadowRays_.insert(shadowRays_.end(), shadowRaysByLight_[l].begin(), shadowRaysByLight_[l].end());
-      shadows_.insert(shadows_.end(), shadowsByLight_[l].begin(), shadowsByLight_[l].end());
-      shadowRaysByLight_[l].clear();
-      shadowsByLight_[l].clear();
-    }
-    if (!shadowRays_.empty()) {
-      if (log_) logBatch(true, generation, shadowRays_.data(), shadowRays_.size(), sizeof(RTCRay));
-      occludedBatch(scene_.handle(), shadowRays_, options_.traversal, coherent);
-      for (size_t i = 0; i < shadowRays_.size(); ++i) {
+      std::vector<RTCRay>& rays = shadowRaysByLight_[l];
+      const std::vector<PendingShadow>& pending = shadowsByLight_[l];
+      if (rays.empty()) continue;
+      if (log_) logBatch(true, generation, rays.data(), rays.size(), sizeof(RTCRay));
+      occludedBatch(scene_.handle(), rays, options_.traversal, coherent);
+      for (size_t i = 0; i < rays.size(); ++i) {
         // Embree sets tfar to -inf on an occluded ray.
-        if (shadowRays_[i].tfar >= 0.0f) frame_->pixels[static_cast<size_t>(shadows_[i].pixel)] += shadows_[i].contribution;
+        if (rays[i].tfar >= 0.0f) frame_->pixels[static_cast<size_t>(pending[i].pixel)] += pending[i].contribution;
       }
-      c->shadow += static_cast<long>(shadowRays_.size());
+      c->shadow += static_cast<long>(rays.size());
+      rays.clear();
+      shadowsByLight_[l].clear();
     }
     std::swap(paths_, nextPaths_);
     std::swap(rays_, nextRays_);

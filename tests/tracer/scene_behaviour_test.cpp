@@ -83,6 +83,41 @@ TEST(Shadows, PresentWhereGeometryBlocksTheLightAbsentElsewhere) {
   }
 }
 
+// A point light at the origin in front of a white wall z = -1: Lambert with inverse-square
+// falloff in world units gives L = cos / d² = 1 / d³ at distance d; the same scene 1000×
+// larger with a light 1000² stronger renders the same.
+TEST(PointLights, InverseSquareFalloffInWorldUnitsAtAnyScale) {
+  const DisplayModel display = smallDisplay(1, 160, 120);
+  for (double scale : {1.0, 1000.0}) {
+    Scene scene;
+    const int white = scene.addMaterial(Material::makeDiffuse(Rgb::Ones()));
+    Mesh wall = positionColouredRect(0, 1, 2, -1.0, 1.0, 0.0, white);
+    wall.colors.clear();
+    scene.addMesh(wall, true, Eigen::Affine3d(Eigen::Scaling(scale)));
+    // Intensity is irradiance at 1 world unit: a scene 1000× larger needs 1000² to look the same.
+    scene.addLight(Light::makePoint({0, 0, 0}, Rgb::Constant(static_cast<float>(scale * scale))));
+    scene.worldBox = Box3{Eigen::Vector3d::Constant(-scale), Eigen::Vector3d::Constant(scale)};
+    const PhysicalScene physical(scene, display.displayableBox);
+    const RayTextures textures = generateRayTextures(display, 0);
+    const Frame frame = renderFrame(physical, textures, RenderOptions{});
+    long checked = 0;
+    for (int row = 0; row < textures.height(); ++row) {
+      for (int column = 0; column < textures.width(); ++column) {
+        const auto ray = worldRayOf(textures, column, row, physical.physicalFromWorld());
+        if (!ray) continue;
+        const auto t = hitPlane(*ray, Eigen::Vector3d::UnitZ(), -scale);
+        if (!t) continue;
+        const Eigen::Vector3d p = (ray->origin + *t * ray->direction) / scale;
+        if (std::abs(p.x()) > 0.98 || std::abs(p.y()) > 0.98) continue;
+        ++checked;
+        const double expected = 1.0 / std::pow(p.norm(), 3.0);
+        EXPECT_NEAR(frame.at(column, row).x(), expected, 1e-4 * expected) << "scale " << scale;
+      }
+    }
+    EXPECT_GT(checked, 1000);
+  }
+}
+
 TEST(Textures, LookupReturnsTheTexelsColour) {
   std::vector<float> rgb(8 * 4 * 3);
   for (size_t i = 0; i < rgb.size(); ++i) rgb[i] = static_cast<float>(i % 29) / 29.0f;

@@ -248,6 +248,116 @@ TEST(WhittedIntegrator, TotalInternalReflectionInAPrism) {
   EXPECT_GT(totallyReflected, 500);
 }
 
+// Nearest intersection of a world ray with the exact sphere |x| = r (nullopt on a miss).
+std::optional<double> hitSphere(const WorldRay& ray, double r, bool farSide = false) {
+  const double b = ray.origin.dot(ray.direction);
+  const double c = ray.origin.squaredNorm() - r * r;
+  const double disc = b * b - c;
+  if (disc < 0.0) return std::nullopt;
+  const double t = farSide ? -b + std::sqrt(disc) : -b - std::sqrt(disc);
+  if (!(t > 0.0)) return std::nullopt;
+  return t;
+}
+
+// The tessellated sphere (192 × 96) departs from the exact one by at most r·(1 − cos(π/192)) ≈
+// 7e-5 r in position and a few 1e-5 rad in its interpolated normal; paths are compared with
+// the exact sphere's analytic answer to this tolerance (world units, sphere radius 0.5).
+constexpr double kSphereTolerance = 2e-3;
+
+struct SphereSetup {
+  Scene scene;
+  int sphereMaterial = 0;
+};
+
+SphereSetup sphereBeforeWall(const Material& sphereMaterial, int maxDepth) {
+  SphereSetup s;
+  s.sphereMaterial = s.scene.addMaterial(sphereMaterial);
+  const int wall = s.scene.addMaterial(Material::makeEmissive(Rgb::Ones()));
+  Mesh sphere = makeSphere(0.5, 192, 96);
+  sphere.material = s.sphereMaterial;
+  s.scene.addMesh(sphere);
+  s.scene.addMesh(positionColouredRect(0, 1, 2, -1.0, 1.0, 2.0, wall));
+  s.scene.worldBox = Box3{Eigen::Vector3d::Constant(-1), Eigen::Vector3d::Constant(1)};
+  s.scene.maxDepth = maxDepth;
+  return s;
+}
+
+// Rays meeting a mirror sphere beyond 45° from its front reflect backwards onto the wall.
+TEST(WhittedIntegrator, MirrorSphereReflectsAsTheLawOfReflectionSays) {
+  const DisplayModel display = smallDisplay(2, 240, 180);
+  const SphereSetup setup = sphereBeforeWall(Material::makeMirror(Rgb::Ones()), 5);
+  const PhysicalScene physical(setup.scene, display.displayableBox);
+  long checked = 0;
+  for (int module = 0; module < 2; ++module) {
+    const RayTextures textures = generateRayTextures(display, module);
+    const Frame frame = renderFrame(physical, textures, RenderOptions{});
+    for (int row = 0; row < textures.height(); ++row) {
+      for (int column = 0; column < textures.width(); ++column) {
+        const auto ray = worldRayOf(textures, column, row, physical.physicalFromWorld());
+        if (!ray) continue;
+        const auto t = hitSphere(*ray, 0.5);
+        if (!t) continue;
+        const Eigen::Vector3d p = ray->origin + *t * ray->direction;
+        const Eigen::Vector3d n = p.normalized();
+        const double cosine = -ray->direction.dot(n);
+        if (cosine < std::cos(75.0 * 3.14159265358979 / 180.0)) continue;  // grazing: tessellation dominates
+        WorldRay bounced{p, ray->direction - 2.0 * ray->direction.dot(n) * n};
+        const auto t2 = hitPlane(bounced, Eigen::Vector3d::UnitZ(), -1.0);
+        if (!t2) continue;
+        const Eigen::Vector3d q = bounced.origin + *t2 * bounced.direction;
+        if (std::abs(q.x()) > 0.95 || std::abs(q.y()) > 0.95) continue;
+        ++checked;
+        const Rgb& c = frame.at(column, row);
+        ASSERT_GT(c.z(), 0.5f) << column << "," << row;
+        EXPECT_NEAR(c.x() / c.z(), q.x() + 2.0, kSphereTolerance) << column << "," << row;
+        EXPECT_NEAR(c.y() / c.z(), q.y() + 2.0, kSphereTolerance) << column << "," << row;
+      }
+    }
+  }
+  EXPECT_GT(checked, 30) << "the 45°–75° ring that reflects onto the wall";
+}
+
+// Through a glass sphere and out again onto the wall: two refractions by Snell's law.
+TEST(WhittedIntegrator, GlassSphereRefractsAsSnellsLawSays) {
+  const DisplayModel display = smallDisplay(2, 240, 180);
+  const float ior = 1.5f;
+  const SphereSetup setup = sphereBeforeWall(Material::makeDielectric(ior), 3);
+  const PhysicalScene physical(setup.scene, display.displayableBox);
+  RenderOptions options;
+  options.minWeight = 0.0f;
+  long checked = 0;
+  for (int module = 0; module < 2; ++module) {
+    const RayTextures textures = generateRayTextures(display, module);
+    const Frame frame = renderFrame(physical, textures, options);
+    for (int row = 0; row < textures.height(); ++row) {
+      for (int column = 0; column < textures.width(); ++column) {
+        const auto ray = worldRayOf(textures, column, row, physical.physicalFromWorld());
+        if (!ray) continue;
+        const auto t = hitSphere(*ray, 0.5);
+        if (!t) continue;
+        const Eigen::Vector3d p = ray->origin + *t * ray->direction;
+        const Eigen::Vector3d n = p.normalized();
+        if (-ray->direction.dot(n) < std::cos(50.0 * 3.14159265358979 / 180.0)) continue;
+        WorldRay inside{p, *snell(ray->direction, n, 1.0 / ior)};
+        const Eigen::Vector3d p1 = inside.origin + *hitSphere(inside, 0.5, true) * inside.direction;
+        const auto out = snell(inside.direction, -p1.normalized(), ior);
+        if (!out) continue;
+        WorldRay leaving{p1, *out};
+        const auto t2 = hitPlane(leaving, Eigen::Vector3d::UnitZ(), -1.0);
+        if (!t2) continue;
+        const Eigen::Vector3d q = leaving.origin + *t2 * leaving.direction;
+        if (std::abs(q.x()) > 0.95 || std::abs(q.y()) > 0.95) continue;
+        ++checked;
+        const Rgb& c = frame.at(column, row);
+        ASSERT_GT(c.z(), 0.5f) << column << "," << row;
+        EXPECT_NEAR(c.x() / c.z(), q.x() + 2.0, kSphereTolerance) << column << "," << row;
+        EXPECT_NEAR(c.y() / c.z(), q.y() + 2.0, kSphereTolerance) << column << "," << row;
+      }
+    }
+  }
+  EXPECT_GT(checked, 500);
+}
+
 TEST(Optics, SnellFresnelAndTotalInternalReflection) {
   const Eigen::Vector3f n(0, 0, 1);
   Eigen::Vector3f t;

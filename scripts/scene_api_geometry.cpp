@@ -59,6 +59,7 @@ int apiTexture(lua_State* L, SceneBuild& b) {
 int apiImage(lua_State* L, SceneBuild& b) {
   const Options o(L, 1, "options", {"width", "height", "pixels", "fallback"});
   const long limit = ScriptSandbox::of(L).limits().maxTexturePixels;
+  if (!o.has("width") || !o.has("height")) throw ScriptArgumentError("width and height: required");
   const long width = o.integer("width", 0, 1, 1 << 16);
   const long height = o.integer("height", 0, 1, 1 << 16);
   long used = 0;

@@ -164,6 +164,8 @@ TEST(Sandbox, SyntaxAndApiErrorsNameTheScriptAndLine) {
       loadError(withPrelude("local l = px.point{position = {0, 1, 0}}\npx.box{material = l}"), folder.path());
   EXPECT_NE(wrongHandle.find("attempt.lua:4: px.box: material: expected a material, got light"), std::string::npos)
       << wrongHandle;
+  const std::string noSize = loadError(withPrelude("local t = px.image{pixels = {}}"), folder.path());
+  EXPECT_NE(noSize.find("attempt.lua:3: px.image: width and height: required"), std::string::npos) << noSize;
   const std::string nan = loadError(withPrelude("px.translate(0/0, 0, 0)"), folder.path());
   EXPECT_NE(nan.find("x: must be finite"), std::string::npos) << nan;
   const std::string inUpdate = withPrelude("function update(t) px.box{material = m} end");

@@ -56,6 +56,18 @@ int apiWorldBox(lua_State* L, SceneBuild& b) {
 
 // ---- materials ----
 
+float shininessField(const Options& o, float fallback) {
+  const double v = o.number("shininess", fallback);
+  if (v < 0.0 || v > 1e6) throw ScriptArgumentError(fmt::format("shininess: must be in [0, 1e6], got {}", v));
+  return static_cast<float>(v);
+}
+
+float iorField(const Options& o, float fallback) {
+  const double v = o.number("ior", fallback);
+  if (!(v > 0.0) || v > 100.0) throw ScriptArgumentError(fmt::format("ior: must be in (0, 100], got {}", v));
+  return static_cast<float>(v);
+}
+
 int addMaterial(lua_State* L, SceneBuild& b, Material m, const std::string& name) {
   m.name = name;
   pushHandle(L, HandleKind::kMaterial, b.scene.addMaterial(std::move(m)));
@@ -78,7 +90,7 @@ int apiDiffuse(lua_State* L, SceneBuild& b) {
 int apiPhong(lua_State* L, SceneBuild& b) {
   const Options o(L, 1, "options", {"color", "specular", "shininess", "texture", "name"});
   Material m = Material::makePhong(o.color("color", Rgb(0.8f, 0.8f, 0.8f)), o.color("specular", Rgb(0.5f, 0.5f, 0.5f)),
-                                   static_cast<float>(o.number("shininess", 32.0)));
+                                   shininessField(o, 32.0f));
   m.diffuseTexture = textureField(L, o);
   return addMaterial(L, b, m, o.string("name", "phong"));
 }
@@ -90,7 +102,7 @@ int apiMirror(lua_State* L, SceneBuild& b) {
 
 int apiGlass(lua_State* L, SceneBuild& b) {
   const Options o(L, 1, "options", {"ior", "absorption", "name"});
-  return addMaterial(L, b, Material::makeDielectric(static_cast<float>(o.number("ior", 1.5)), o.color("absorption", Rgb::Zero())),
+  return addMaterial(L, b, Material::makeDielectric(iorField(o, 1.5f), o.color("absorption", Rgb::Zero())),
                      o.string("name", "glass"));
 }
 
@@ -107,9 +119,9 @@ int apiSetMaterial(lua_State* L, SceneBuild& b) {
   Material& m = b.scene.materials.at(static_cast<size_t>(index));
   m.diffuse = o.color("color", m.diffuse);
   m.specular = o.color("specular", m.specular);
-  m.shininess = static_cast<float>(o.number("shininess", m.shininess));
+  m.shininess = shininessField(o, m.shininess);
   m.reflectance = o.color("reflectance", m.reflectance);
-  m.ior = static_cast<float>(o.number("ior", m.ior));
+  m.ior = iorField(o, m.ior);
   m.absorption = o.color("absorption", m.absorption);
   m.emission = o.color("emission", m.emission);
   return 0;

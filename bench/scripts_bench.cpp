@@ -10,7 +10,9 @@
 namespace parallax {
 namespace {
 
-std::string libraryScene(const std::string& name) { return ScriptOptions::defaultSceneLibrary() + "/" + name + ".lua"; }
+std::string libraryScene(const std::string& name) {
+  return ScriptOptions::defaultSceneLibrary() + "/" + name + ".lua";
+}
 
 void loadScene(benchmark::State& state, const std::string& name) {
   ScriptOptions options;
@@ -49,7 +51,8 @@ void sandboxedLoop(benchmark::State& state) {
   ScriptOptions options;
   options.quiet = true;
   const std::string source =
-      "local m = px.diffuse{}\npx.box{material = m}\nlocal s = 0\nfor i = 1, 5000000 do s = s + i % 7 end\n";
+      "local m = px.diffuse{}\npx.box{material = m}\nlocal s = 0\nfor i = 1, 5000000 do s = s + i "
+      "% 7 end\n";
   long instructions = 0;
   for (auto _ : state) {
     auto script = SceneScript::loadSource(source, "loop.lua", ".", options);

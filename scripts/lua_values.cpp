@@ -1,11 +1,11 @@
 #include "scripts/lua_values.h"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <cstring>
-#include <new>
-
-#include <fmt/format.h>
 #include <lua.hpp>
+#include <new>
 
 namespace parallax::lua {
 namespace {
@@ -34,7 +34,8 @@ int rawField(lua_State* L, int table, const char* key) {
 }
 
 std::string describeHandle(lua_State* L, int index) {
-  if (auto* h = static_cast<HandleData*>(luaL_testudata(L, index, kHandleType))) return kHandleNames[static_cast<int>(h->kind)];
+  if (auto* h = static_cast<HandleData*>(luaL_testudata(L, index, kHandleType)))
+    return kHandleNames[static_cast<int>(h->kind)];
   if (luaL_testudata(L, index, kTransformType) != nullptr) return "transform";
   return typeName(L, index);
 }
@@ -62,7 +63,8 @@ int transformMul(lua_State* L) {
 int transformToString(lua_State* L) {
   const Eigen::Affine3d t = toTransform(L, 1, "transform");
   const Eigen::Vector3d p = t.translation();
-  const std::string text = fmt::format("transform(translation {:.6g} {:.6g} {:.6g})", p.x(), p.y(), p.z());
+  const std::string text =
+      fmt::format("transform(translation {:.6g} {:.6g} {:.6g})", p.x(), p.y(), p.z());
   lua_pushlstring(L, text.data(), text.size());
   return 1;
 }
@@ -87,34 +89,41 @@ double toNumber(lua_State* L, int index, const std::string& what) {
   int isNumber = 0;
   const double value = lua_tonumberx(L, index, &isNumber);
   if (lua_type(L, index) != LUA_TNUMBER || !isNumber) {
-    throw ScriptArgumentError(fmt::format("{}: expected a number, got {}", what, typeName(L, index)));
+    throw ScriptArgumentError(
+        fmt::format("{}: expected a number, got {}", what, typeName(L, index)));
   }
-  if (!std::isfinite(value)) throw ScriptArgumentError(fmt::format("{}: must be finite, got {}", what, value));
+  if (!std::isfinite(value))
+    throw ScriptArgumentError(fmt::format("{}: must be finite, got {}", what, value));
   return value;
 }
 
 long toInteger(lua_State* L, int index, const std::string& what, long min, long max) {
   const double value = toNumber(L, index, what);
-  if (value != std::floor(value)) throw ScriptArgumentError(fmt::format("{}: expected a whole number, got {}", what, value));
+  if (value != std::floor(value))
+    throw ScriptArgumentError(fmt::format("{}: expected a whole number, got {}", what, value));
   if (value < static_cast<double>(min) || value > static_cast<double>(max)) {
-    throw ScriptArgumentError(fmt::format("{}: must be in [{}, {}], got {}", what, min, max, value));
+    throw ScriptArgumentError(
+        fmt::format("{}: must be in [{}, {}], got {}", what, min, max, value));
   }
   return static_cast<long>(value);
 }
 
 std::string toString(lua_State* L, int index, const std::string& what) {
   if (lua_type(L, index) != LUA_TSTRING) {
-    throw ScriptArgumentError(fmt::format("{}: expected a string, got {}", what, typeName(L, index)));
+    throw ScriptArgumentError(
+        fmt::format("{}: expected a string, got {}", what, typeName(L, index)));
   }
   size_t length = 0;
   const char* text = lua_tolstring(L, index, &length);
-  if (length > 4096) throw ScriptArgumentError(fmt::format("{}: string longer than 4096 bytes", what));
+  if (length > 4096)
+    throw ScriptArgumentError(fmt::format("{}: string longer than 4096 bytes", what));
   return std::string(text, length);
 }
 
 bool toBoolean(lua_State* L, int index, const std::string& what) {
   if (lua_type(L, index) != LUA_TBOOLEAN) {
-    throw ScriptArgumentError(fmt::format("{}: expected true or false, got {}", what, typeName(L, index)));
+    throw ScriptArgumentError(
+        fmt::format("{}: expected true or false, got {}", what, typeName(L, index)));
   }
   return lua_toboolean(L, index) != 0;
 }
@@ -122,8 +131,9 @@ bool toBoolean(lua_State* L, int index, const std::string& what) {
 Eigen::Vector3d toVector3(lua_State* L, int index, const std::string& what) {
   index = lua_absindex(L, index);
   if (lua_type(L, index) != LUA_TTABLE || lua_rawlen(L, index) != 3) {
-    throw ScriptArgumentError(fmt::format("{}: expected a table of three numbers like {{x, y, z}}, got {}", what,
-                                          typeName(L, index)));
+    throw ScriptArgumentError(
+        fmt::format("{}: expected a table of three numbers like {{x, y, z}}, got {}", what,
+                    typeName(L, index)));
   }
   Eigen::Vector3d v;
   for (int i = 0; i < 3; ++i) {
@@ -137,16 +147,19 @@ Eigen::Vector3d toVector3(lua_State* L, int index, const std::string& what) {
 Rgb toColor(lua_State* L, int index, const std::string& what) {
   const Eigen::Vector3d c = toVector3(L, index, what);
   if ((c.array() < 0.0).any() || (c.array() > 1e6).any()) {
-    throw ScriptArgumentError(fmt::format("{}: colour components must be in [0, 1e6], got {{{}, {}, {}}}", what, c.x(),
-                                          c.y(), c.z()));
+    throw ScriptArgumentError(
+        fmt::format("{}: colour components must be in [0, 1e6], got {{{}, {}, {}}}", what, c.x(),
+                    c.y(), c.z()));
   }
   return c.cast<float>();
 }
 
-Options::Options(lua_State* L, int index, const std::string& function, std::initializer_list<const char*> known)
+Options::Options(lua_State* L, int index, const std::string& function,
+                 std::initializer_list<const char*> known)
     : L_(L), index_(lua_absindex(L, index)) {
   if (lua_type(L, index_) != LUA_TTABLE) {
-    throw ScriptArgumentError(fmt::format("{}: expected a table of options {{...}}, got {}", function, typeName(L, index_)));
+    throw ScriptArgumentError(fmt::format("{}: expected a table of options {{...}}, got {}",
+                                          function, typeName(L, index_)));
   }
   lua_pushnil(L);
   while (lua_next(L, index_) != 0) {
@@ -158,9 +171,11 @@ Options::Options(lua_State* L, int index, const std::string& function, std::init
     if (!ok) {
       std::string list;
       for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);
-      const std::string key = lua_type(L, -2) == LUA_TSTRING ? fmt::format("\"{}\"", lua_tostring(L, -2))
-                                                             : fmt::format("a {} key", typeName(L, -2));
-      throw ScriptArgumentError(fmt::format("{}: unknown field {} (known: {})", function, key, list));
+      const std::string key = lua_type(L, -2) == LUA_TSTRING
+                                  ? fmt::format("\"{}\"", lua_tostring(L, -2))
+                                  : fmt::format("a {} key", typeName(L, -2));
+      throw ScriptArgumentError(
+          fmt::format("{}: unknown field {} (known: {})", function, key, list));
     }
     lua_pop(L, 1);
   }
@@ -177,7 +192,9 @@ bool Options::has(const char* key) const {
   return present;
 }
 
-double Options::number(const char* key, double fallback) const { return has(key) ? number(key) : fallback; }
+double Options::number(const char* key, double fallback) const {
+  return has(key) ? number(key) : fallback;
+}
 
 double Options::number(const char* key) const {
   const int i = push(key);
@@ -247,8 +264,9 @@ void pushTransform(lua_State* L, const Eigen::Affine3d& transform) {
 Eigen::Affine3d toTransform(lua_State* L, int index, const std::string& what) {
   auto* data = static_cast<TransformData*>(luaL_testudata(L, index, kTransformType));
   if (data == nullptr) {
-    throw ScriptArgumentError(fmt::format("{}: expected a transform (px.translate, px.rotate_y, ...), got {}", what,
-                                          describeHandle(L, index)));
+    throw ScriptArgumentError(
+        fmt::format("{}: expected a transform (px.translate, px.rotate_y, ...), got {}", what,
+                    describeHandle(L, index)));
   }
   Eigen::Affine3d t;
   std::memcpy(t.matrix().data(), data->m, sizeof(data->m));
@@ -276,7 +294,8 @@ void pushHandle(lua_State* L, HandleKind kind, int index) {
 int toHandle(lua_State* L, int index, HandleKind kind, const std::string& what) {
   auto* data = static_cast<HandleData*>(luaL_testudata(L, index, kHandleType));
   if (data == nullptr || data->kind != kind) {
-    throw ScriptArgumentError(fmt::format("{}: expected a {}, got {}", what, kHandleNames[static_cast<int>(kind)],
+    throw ScriptArgumentError(fmt::format("{}: expected a {}, got {}", what,
+                                          kHandleNames[static_cast<int>(kind)],
                                           describeHandle(L, index)));
   }
   return data->index;

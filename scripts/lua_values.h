@@ -33,7 +33,8 @@ Rgb toColor(lua_State* L, int index, const std::string& what);  // {r, g, b}, ea
 // function knows: a misspelt field is an error, not silently ignored.
 class Options {
  public:
-  Options(lua_State* L, int index, const std::string& function, std::initializer_list<const char*> known);
+  Options(lua_State* L, int index, const std::string& function,
+          std::initializer_list<const char*> known);
   bool has(const char* key) const;
   double number(const char* key, double fallback) const;
   double number(const char* key) const;  // required

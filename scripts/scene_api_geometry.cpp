@@ -1,12 +1,11 @@
-#include "scripts/scene_api_functions.h"
+#include <fmt/format.h>
 
 #include <cmath>
-
-#include <fmt/format.h>
 #include <lua.hpp>
 
 #include "common/input_error.h"
 #include "scripts/lua_values.h"
+#include "scripts/scene_api_functions.h"
 #include "scripts/script_paths.h"
 #include "scripts/script_sandbox.h"
 #include "tracer/mesh_shapes.h"
@@ -29,8 +28,10 @@ std::string resolveAsset(lua_State* L, const SceneBuild& b, const std::string& p
     const auto root = b.assetRoots.find(path.substr(0, colon));
     if (root == b.assetRoots.end()) {
       std::string known;
-      for (const auto& [name, folder] : b.assetRoots) known += (known.empty() ? "" : ", ") + name + ":";
-      throw ScriptArgumentError(fmt::format("\"{}\": unknown asset root (known: {})", path, known.empty() ? "none" : known));
+      for (const auto& [name, folder] : b.assetRoots)
+        known += (known.empty() ? "" : ", ") + name + ":";
+      throw ScriptArgumentError(fmt::format("\"{}\": unknown asset root (known: {})", path,
+                                            known.empty() ? "none" : known));
     }
     return resolvePathBelow(root->second, path.substr(colon + 1));
   }
@@ -39,7 +40,9 @@ std::string resolveAsset(lua_State* L, const SceneBuild& b, const std::string& p
 
 }  // namespace
 
-SceneBuild& buildOf(lua_State* L) { return *static_cast<SceneBuild*>(ScriptSandbox::of(L).context); }
+SceneBuild& buildOf(lua_State* L) {
+  return *static_cast<SceneBuild*>(ScriptSandbox::of(L).context);
+}
 
 // ---- textures ----
 
@@ -65,13 +68,15 @@ int apiImage(lua_State* L, SceneBuild& b) {
   long used = 0;
   for (const Texture& t : b.scene.textures) used += static_cast<long>(t.width) * t.height;
   if (used + width * height > limit) {
-    throw ScriptArgumentError(fmt::format("{}×{} pixels would pass the scene's limit of {} inline texture pixels", width,
-                                          height, limit));
+    throw ScriptArgumentError(
+        fmt::format("{}×{} pixels would pass the scene's limit of {} inline texture pixels", width,
+                    height, limit));
   }
   const int list = o.push("pixels");
   const size_t count = static_cast<size_t>(width * height * 3);
   if (lua_type(L, list) != LUA_TTABLE || lua_rawlen(L, list) != count) {
-    throw ScriptArgumentError(fmt::format("pixels: expected a table of width × height × 3 = {} numbers", count));
+    throw ScriptArgumentError(
+        fmt::format("pixels: expected a table of width × height × 3 = {} numbers", count));
   }
   Texture t;
   t.width = static_cast<int>(width);
@@ -80,7 +85,8 @@ int apiImage(lua_State* L, SceneBuild& b) {
   for (size_t i = 0; i < count; ++i) {
     lua_rawgeti(L, list, static_cast<lua_Integer>(i + 1));
     const double v = lua::toNumber(L, -1, fmt::format("pixels[{}]", i + 1));
-    if (v < 0.0) throw ScriptArgumentError(fmt::format("pixels[{}]: must be >= 0, got {}", i + 1, v));
+    if (v < 0.0)
+      throw ScriptArgumentError(fmt::format("pixels[{}]: must be >= 0, got {}", i + 1, v));
     t.pixels[i] = static_cast<float>(v);
     lua_pop(L, 1);
   }
@@ -102,7 +108,8 @@ struct Placement {
 Placement placement(lua_State* L, SceneBuild& b, const Options& o, const char* defaultName) {
   Placement p;
   const int m = o.push("material");
-  if (lua_isnil(L, m)) throw ScriptArgumentError("material: required (from px.diffuse, px.mirror, ...)");
+  if (lua_isnil(L, m))
+    throw ScriptArgumentError("material: required (from px.diffuse, px.mirror, ...)");
   p.material = lua::toHandle(L, m, HandleKind::kMaterial, "material");
   lua_pop(L, 1);
   p.name = o.string("name", defaultName);
@@ -118,7 +125,8 @@ void checkTriangleBudget(lua_State* L, const SceneBuild& b, long adding) {
   long meshTriangles = 0;
   for (const Mesh& mesh : b.scene.meshes) meshTriangles += static_cast<long>(mesh.triangles.size());
   if (adding < 0 || meshTriangles + adding > limit) {
-    throw ScriptArgumentError(fmt::format("{} more triangles would pass the scene's limit of {}", adding, limit));
+    throw ScriptArgumentError(
+        fmt::format("{} more triangles would pass the scene's limit of {}", adding, limit));
   }
 }
 
@@ -137,11 +145,14 @@ double positive(const Options& o, const char* key, double fallback) {
 }
 
 int apiGrid(lua_State* L, SceneBuild& b) {
-  const Options o(L, 1, "options", {"width", "height", "nx", "ny", "material", "name", "transform"});
-  const long nx = o.integer("nx", 1, 1, kMaxTessellation), ny = o.integer("ny", 1, 1, kMaxTessellation);
+  const Options o(L, 1, "options",
+                  {"width", "height", "nx", "ny", "material", "name", "transform"});
+  const long nx = o.integer("nx", 1, 1, kMaxTessellation),
+             ny = o.integer("ny", 1, 1, kMaxTessellation);
   checkTriangleBudget(L, b, 2 * nx * ny);
   const Placement p = placement(L, b, o, "grid");
-  return addObject(L, b, makeGrid(positive(o, "width", 1.0), positive(o, "height", 1.0), int(nx), int(ny)), p);
+  return addObject(
+      L, b, makeGrid(positive(o, "width", 1.0), positive(o, "height", 1.0), int(nx), int(ny)), p);
 }
 
 int apiPlane(lua_State* L, SceneBuild& b) {
@@ -162,18 +173,24 @@ int apiBox(lua_State* L, SceneBuild& b) {
 
 int apiSphere(lua_State* L, SceneBuild& b) {
   const Options o(L, 1, "options", {"radius", "slices", "stacks", "material", "name", "transform"});
-  const long slices = o.integer("slices", 24, 3, kMaxTessellation), stacks = o.integer("stacks", 12, 2, kMaxTessellation);
+  const long slices = o.integer("slices", 24, 3, kMaxTessellation),
+             stacks = o.integer("stacks", 12, 2, kMaxTessellation);
   checkTriangleBudget(L, b, 2 * slices * (stacks - 1));
   const Placement p = placement(L, b, o, "sphere");
   return addObject(L, b, makeSphere(positive(o, "radius", 1.0), int(slices), int(stacks)), p);
 }
 
 int apiTorus(lua_State* L, SceneBuild& b) {
-  const Options o(L, 1, "options", {"major", "minor", "segments", "sides", "material", "name", "transform"});
-  const long segments = o.integer("segments", 24, 3, kMaxTessellation), sides = o.integer("sides", 12, 3, kMaxTessellation);
+  const Options o(L, 1, "options",
+                  {"major", "minor", "segments", "sides", "material", "name", "transform"});
+  const long segments = o.integer("segments", 24, 3, kMaxTessellation),
+             sides = o.integer("sides", 12, 3, kMaxTessellation);
   checkTriangleBudget(L, b, 2 * segments * sides);
   const Placement p = placement(L, b, o, "torus");
-  return addObject(L, b, makeTorus(positive(o, "major", 1.0), positive(o, "minor", 0.25), int(segments), int(sides)), p);
+  return addObject(
+      L, b,
+      makeTorus(positive(o, "major", 1.0), positive(o, "minor", 0.25), int(segments), int(sides)),
+      p);
 }
 
 int apiCylinder(lua_State* L, SceneBuild& b) {
@@ -181,7 +198,8 @@ int apiCylinder(lua_State* L, SceneBuild& b) {
   const long slices = o.integer("slices", 24, 3, kMaxTessellation);
   checkTriangleBudget(L, b, 4 * slices);
   const Placement p = placement(L, b, o, "cylinder");
-  return addObject(L, b, makeCylinder(positive(o, "radius", 0.5), positive(o, "height", 1.0), int(slices)), p);
+  return addObject(
+      L, b, makeCylinder(positive(o, "radius", 0.5), positive(o, "height", 1.0), int(slices)), p);
 }
 
 int apiCone(lua_State* L, SceneBuild& b) {
@@ -189,20 +207,25 @@ int apiCone(lua_State* L, SceneBuild& b) {
   const long slices = o.integer("slices", 24, 3, kMaxTessellation);
   checkTriangleBudget(L, b, 2 * slices);
   const Placement p = placement(L, b, o, "cone");
-  return addObject(L, b, makeCone(positive(o, "radius", 0.5), positive(o, "height", 1.0), int(slices)), p);
+  return addObject(
+      L, b, makeCone(positive(o, "radius", 0.5), positive(o, "height", 1.0), int(slices)), p);
 }
 
 // Reads a list of n-tuples of numbers ({{x, y, z}, ...}) into `out` through `store`.
 template <typename Store>
-size_t readTuples(lua_State* L, const Options& o, const char* key, int arity, size_t maxCount, Store store) {
+size_t readTuples(lua_State* L, const Options& o, const char* key, int arity, size_t maxCount,
+                  Store store) {
   const int list = o.push(key);
   if (lua_isnil(L, list)) {
     lua_pop(L, 1);
     return 0;
   }
-  if (lua_type(L, list) != LUA_TTABLE) throw ScriptArgumentError(fmt::format("{}: expected a list of tables", key));
+  if (lua_type(L, list) != LUA_TTABLE)
+    throw ScriptArgumentError(fmt::format("{}: expected a list of tables", key));
   const size_t count = lua_rawlen(L, list);
-  if (count > maxCount) throw ScriptArgumentError(fmt::format("{}: {} entries, more than the {} allowed", key, count, maxCount));
+  if (count > maxCount)
+    throw ScriptArgumentError(
+        fmt::format("{}: {} entries, more than the {} allowed", key, count, maxCount));
   double v[4];
   for (size_t i = 0; i < count; ++i) {
     lua_rawgeti(L, list, static_cast<lua_Integer>(i + 1));
@@ -222,10 +245,13 @@ size_t readTuples(lua_State* L, const Options& o, const char* key, int arity, si
 }
 
 int apiMesh(lua_State* L, SceneBuild& b) {
-  const Options o(L, 1, "options", {"positions", "triangles", "normals", "uvs", "colors", "material", "name", "transform"});
+  const Options o(
+      L, 1, "options",
+      {"positions", "triangles", "normals", "uvs", "colors", "material", "name", "transform"});
   const size_t maxCount = static_cast<size_t>(ScriptSandbox::of(L).limits().maxTriangles) * 3;
   Mesh mesh;
-  readTuples(L, o, "positions", 3, maxCount, [&](size_t, const double* v) { mesh.positions.emplace_back(v[0], v[1], v[2]); });
+  readTuples(L, o, "positions", 3, maxCount,
+             [&](size_t, const double* v) { mesh.positions.emplace_back(v[0], v[1], v[2]); });
   if (mesh.positions.empty()) throw ScriptArgumentError("positions: required, a list of {x, y, z}");
   const double n = static_cast<double>(mesh.positions.size());
   readTuples(L, o, "triangles", 3, maxCount, [&](size_t i, const double* v) {
@@ -233,17 +259,20 @@ int apiMesh(lua_State* L, SceneBuild& b) {
     for (int k = 0; k < 3; ++k) {
       // 1-based, as everything else in Lua.
       if (v[k] != std::floor(v[k]) || v[k] < 1 || v[k] > n) {
-        throw ScriptArgumentError(fmt::format("triangles[{}][{}]: vertex index must be 1..{}, got {}", i + 1, k + 1, n, v[k]));
+        throw ScriptArgumentError(fmt::format(
+            "triangles[{}][{}]: vertex index must be 1..{}, got {}", i + 1, k + 1, n, v[k]));
       }
       t[static_cast<size_t>(k)] = static_cast<std::uint32_t>(v[k] - 1);
     }
     mesh.triangles.push_back(t);
   });
-  if (mesh.triangles.empty()) throw ScriptArgumentError("triangles: required, a list of {a, b, c} (1-based)");
+  if (mesh.triangles.empty())
+    throw ScriptArgumentError("triangles: required, a list of {a, b, c} (1-based)");
   checkTriangleBudget(L, b, static_cast<long>(mesh.triangles.size()));
   auto perVertex = [&](const char* key, size_t count) {
     if (count != 0 && count != mesh.positions.size()) {
-      throw ScriptArgumentError(fmt::format("{}: {} entries for {} positions (one per position)", key, count, mesh.positions.size()));
+      throw ScriptArgumentError(fmt::format("{}: {} entries for {} positions (one per position)",
+                                            key, count, mesh.positions.size()));
     }
   };
   perVertex("normals", readTuples(L, o, "normals", 3, maxCount, [&](size_t, const double* v) {
@@ -264,7 +293,8 @@ int apiModel(lua_State* L, SceneBuild& b) {
   const std::string path = resolveAsset(L, b, o.string("path", ""));
   ModelLoadOptions load;
   load.targetHeight = o.number("height", 0.0);
-  if (load.targetHeight < 0.0) throw ScriptArgumentError("height: must be positive (or 0 for the model's own units)");
+  if (load.targetHeight < 0.0)
+    throw ScriptArgumentError("height: must be positive (or 0 for the model's own units)");
   const int t = o.push("transform");
   if (!lua_isnil(L, t)) load.worldFromModel = lua::toTransform(L, t, "transform");
   lua_pop(L, 1);
@@ -277,7 +307,8 @@ int apiModel(lua_State* L, SceneBuild& b) {
     throw ScriptArgumentError(e.what());
   }
   long added = 0;
-  for (size_t i = b.scene.meshes.size(); i < scratch.meshes.size(); ++i) added += static_cast<long>(scratch.meshes[i].triangles.size());
+  for (size_t i = b.scene.meshes.size(); i < scratch.meshes.size(); ++i)
+    added += static_cast<long>(scratch.meshes[i].triangles.size());
   checkTriangleBudget(L, b, added);
   const size_t firstInstance = b.scene.instances.size();
   b.scene = std::move(scratch);
@@ -303,7 +334,8 @@ int apiInstance(lua_State* L, SceneBuild& b) {
 
 int apiSetTransform(lua_State* L, SceneBuild& b) {
   const int object = lua::toHandle(L, 1, HandleKind::kObject, "object");
-  b.scene.instances.at(static_cast<size_t>(object)).worldFromObject = lua::toTransform(L, 2, "transform");
+  b.scene.instances.at(static_cast<size_t>(object)).worldFromObject =
+      lua::toTransform(L, 2, "transform");
   return 0;
 }
 

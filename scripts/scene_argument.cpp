@@ -1,8 +1,8 @@
 #include "scripts/scene_argument.h"
 
-#include <cmath>
-
 #include <fmt/format.h>
+
+#include <cmath>
 
 #include "common/input_error.h"
 #include "scripts/scene_script.h"
@@ -30,17 +30,20 @@ std::map<std::string, double> parseParameterSettings(const std::vector<std::stri
       used = 0;
     }
     if (used == 0 || used != text.size() || !std::isfinite(value)) {
-      throw InputError({"", "--set " + name, 0}, fmt::format("\"{}\" is not a finite number", text));
+      throw InputError({"", "--set " + name, 0},
+                       fmt::format("\"{}\" is not a finite number", text));
     }
     values[name] = value;
   }
   return values;
 }
 
-Scene loadSceneArgument(const std::string& nameOrFile, const std::vector<std::string>& settings, double time) {
+Scene loadSceneArgument(const std::string& nameOrFile, const std::vector<std::string>& settings,
+                        double time) {
   if (!std::isfinite(time)) throw InputError({"", "--time", 0}, "must be finite");
   if (!isSceneScript(nameOrFile)) {
-    if (!settings.empty()) throw InputError({"", "--set", 0}, "parameters apply only to scene scripts (*.lua)");
+    if (!settings.empty())
+      throw InputError({"", "--set", 0}, "parameters apply only to scene scripts (*.lua)");
     return resolveScene(nameOrFile);
   }
   ScriptOptions options;

@@ -18,6 +18,7 @@ std::map<std::string, double> parseParameterSettings(const std::vector<std::stri
 
 // Builds the scene the argument names at animation time `time` (seconds). Throws InputError
 // (script name and line for script errors; --set / --time for bad options).
-Scene loadSceneArgument(const std::string& nameOrFile, const std::vector<std::string>& settings, double time);
+Scene loadSceneArgument(const std::string& nameOrFile, const std::vector<std::string>& settings,
+                        double time);
 
 }  // namespace parallax

@@ -1,10 +1,10 @@
 #include "scripts/scene_script.h"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
-
-#include <fmt/format.h>
 
 #include "common/input_error.h"
 #include "scripts/script_paths.h"
@@ -27,7 +27,11 @@ struct AnimatedState {
   Rgb background, ambient;
 
   explicit AnimatedState(const Scene& s)
-      : instances(s.instances), materials(s.materials), lights(s.lights), background(s.background), ambient(s.ambient) {}
+      : instances(s.instances),
+        materials(s.materials),
+        lights(s.lights),
+        background(s.background),
+        ambient(s.ambient) {}
   void restore(Scene* s) const {
     s->instances = instances;
     s->materials = materials;
@@ -44,7 +48,9 @@ std::string ScriptOptions::defaultSceneLibrary() {
   return PARALLAX_SCENE_LIBRARY;
 }
 
-std::map<std::string, std::string> ScriptOptions::defaultAssetRoots() { return {{"assimp", assimpTestModelsRoot()}}; }
+std::map<std::string, std::string> ScriptOptions::defaultAssetRoots() {
+  return {{"assimp", assimpTestModelsRoot()}};
+}
 
 void ScriptOptions::validate() const {
   limits.validate();
@@ -55,7 +61,8 @@ void ScriptOptions::validate() const {
 
 SceneScript::~SceneScript() = default;
 
-std::unique_ptr<SceneScript> SceneScript::loadFile(const std::string& path, const ScriptOptions& options) {
+std::unique_ptr<SceneScript> SceneScript::loadFile(const std::string& path,
+                                                   const ScriptOptions& options) {
   std::error_code ec;
   const fs::path canonical = fs::canonical(path, ec);
   if (ec) throw InputError({path, "", 0}, "cannot open the scene script: " + ec.message());
@@ -73,8 +80,10 @@ std::unique_ptr<SceneScript> SceneScript::loadFile(const std::string& path, cons
   return script;
 }
 
-std::unique_ptr<SceneScript> SceneScript::loadSource(const std::string& source, const std::string& name,
-                                                     const std::string& folder, const ScriptOptions& options) {
+std::unique_ptr<SceneScript> SceneScript::loadSource(const std::string& source,
+                                                     const std::string& name,
+                                                     const std::string& folder,
+                                                     const ScriptOptions& options) {
   std::unique_ptr<SceneScript> script(new SceneScript());
   script->name_ = name;
   script->sandboxFolder_ = folder;
@@ -103,7 +112,8 @@ void SceneScript::load(const std::string& source, const ScriptOptions& options) 
     }
     if (!declared && options.strictParameters) {
       throw InputError({name_, "--set " + key, 0},
-                       fmt::format("the script declares no such parameter (it declares: {})", names.empty() ? "none" : names));
+                       fmt::format("the script declares no such parameter (it declares: {})",
+                                   names.empty() ? "none" : names));
     }
   }
   animated_ = sandbox_->hasGlobalFunction("update");
@@ -126,7 +136,8 @@ void SceneScript::setTime(double t) {
   const AnimatedState before(build_.scene);
   try {
     build_.inCall = false;
-    sandbox_->startBudget(sandbox_->limits().updateInstructions, sandbox_->limits().updateAllocationBytes);
+    sandbox_->startBudget(sandbox_->limits().updateInstructions,
+                          sandbox_->limits().updateAllocationBytes);
     publishParameters(*sandbox_, build_);
     sandbox_->call("update", {t, t - time_}, sandbox_->limits().updateInstructions,
                    sandbox_->limits().updateAllocationBytes);
@@ -143,8 +154,9 @@ void SceneScript::setParameter(const std::string& name, double value) {
   for (ScriptParameter& p : build_.parameters) {
     if (p.name != name) continue;
     if (!std::isfinite(value) || value < p.min || value > p.max) {
-      throw InputError({name_, "parameter " + name, 0},
-                       fmt::format("{} is outside its range [{}, {}] ({})", value, p.min, p.max, p.description));
+      throw InputError(
+          {name_, "parameter " + name, 0},
+          fmt::format("{} is outside its range [{}, {}] ({})", value, p.min, p.max, p.description));
     }
     p.value = value;
     return;

@@ -36,10 +36,12 @@ struct ScriptOptions {
 class SceneScript {
  public:
   // Both throw InputError with the script's name and line (or the field of a bad option).
-  static std::unique_ptr<SceneScript> loadFile(const std::string& path, const ScriptOptions& options);
+  static std::unique_ptr<SceneScript> loadFile(const std::string& path,
+                                               const ScriptOptions& options);
   // `folder` is what the script may read files below (and require from).
   static std::unique_ptr<SceneScript> loadSource(const std::string& source, const std::string& name,
-                                                 const std::string& folder, const ScriptOptions& options);
+                                                 const std::string& folder,
+                                                 const ScriptOptions& options);
   ~SceneScript();
 
   const Scene& scene() const { return build_.scene; }

@@ -24,27 +24,34 @@ bool isBelow(const fs::path& outer, const fs::path& inner) {
 
 std::string resolvePathBelow(const std::string& folder, const std::string& relative) {
   if (relative.empty()) throw std::runtime_error("empty path");
-  if (relative.find('\0') != std::string::npos) throw std::runtime_error("path contains a NUL byte");
+  if (relative.find('\0') != std::string::npos)
+    throw std::runtime_error("path contains a NUL byte");
   const fs::path rel(relative);
   // Refused on sight, before touching the file system: the script names files relative to
   // its own folder, and ".." has no use there but to climb out.
   if (rel.is_absolute() || rel.has_root_name() || rel.has_root_directory()) {
-    throw std::runtime_error("\"" + relative + "\": absolute paths are not allowed (name files relative to the script)");
+    throw std::runtime_error(
+        "\"" + relative + "\": absolute paths are not allowed (name files relative to the script)");
   }
   for (const fs::path& part : rel) {
-    if (part == "..") throw std::runtime_error("\"" + relative + "\": \"..\" is not allowed in a script's paths");
+    if (part == "..")
+      throw std::runtime_error("\"" + relative + "\": \"..\" is not allowed in a script's paths");
   }
   std::error_code ec;
   const fs::path root = fs::canonical(folder, ec);
-  if (ec) throw std::runtime_error("the script's folder \"" + folder + "\" cannot be resolved: " + ec.message());
+  if (ec)
+    throw std::runtime_error("the script's folder \"" + folder +
+                             "\" cannot be resolved: " + ec.message());
   // canonical() follows every symlink, so a link inside the folder that points outside it is
   // caught here.
   const fs::path target = fs::canonical(root / rel, ec);
   if (ec) throw std::runtime_error("\"" + relative + "\": " + ec.message());
   if (!isBelow(root, target)) {
-    throw std::runtime_error("\"" + relative + "\" leads outside the script's folder (through a symlink)");
+    throw std::runtime_error("\"" + relative +
+                             "\" leads outside the script's folder (through a symlink)");
   }
-  if (!fs::is_regular_file(target, ec)) throw std::runtime_error("\"" + relative + "\" is not a regular file");
+  if (!fs::is_regular_file(target, ec))
+    throw std::runtime_error("\"" + relative + "\" is not a regular file");
   return target.string();
 }
 
@@ -53,8 +60,9 @@ std::string readSmallFile(const std::string& path, std::uintmax_t maxBytes) {
   const std::uintmax_t size = fs::file_size(path, ec);
   if (ec) throw std::runtime_error("cannot read \"" + path + "\": " + ec.message());
   if (size > maxBytes) {
-    throw std::runtime_error("\"" + path + "\" is " + std::to_string(size) + " bytes, more than the " +
-                             std::to_string(maxBytes) + " allowed for a script");
+    throw std::runtime_error("\"" + path + "\" is " + std::to_string(size) +
+                             " bytes, more than the " + std::to_string(maxBytes) +
+                             " allowed for a script");
   }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error("cannot open \"" + path + "\"");

@@ -1,13 +1,13 @@
 #include "scripts/script_sandbox.h"
 
+#include <fmt/format.h>
+
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <iostream>
-#include <stdexcept>
-
-#include <fmt/format.h>
 #include <lua.hpp>
+#include <stdexcept>
 
 #include "scripts/script_paths.h"
 
@@ -25,8 +25,8 @@ bool validModuleName(const char* name, std::size_t length) {
   if (length == 0 || length > 128 || name[0] == '.' || name[length - 1] == '.') return false;
   for (std::size_t i = 0; i < length; ++i) {
     const char c = name[i];
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-                    (c == '.' && name[i + 1] != '.');
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                    c == '_' || (c == '.' && name[i + 1] != '.');
     if (!ok) return false;
   }
   return true;
@@ -48,7 +48,8 @@ void ScriptLimits::validate() const {
   positive(maxSourceBytes > 0, "limits.maxSourceBytes");
 }
 
-ScriptSandbox::ScriptSandbox(const ScriptLimits& limits, std::string folder, std::string libraryRoot)
+ScriptSandbox::ScriptSandbox(const ScriptLimits& limits, std::string folder,
+                             std::string libraryRoot)
     : limits_(limits), folder_(std::move(folder)), libraryRoot_(std::move(libraryRoot)) {
   limits_.validate();
   allocationBudget_ = limits_.loadAllocationBytes;  // for setting up the state
@@ -70,7 +71,9 @@ ScriptSandbox::~ScriptSandbox() {
   lua_close(L_);
 }
 
-ScriptSandbox& ScriptSandbox::of(lua_State* L) { return **static_cast<ScriptSandbox**>(lua_getextraspace(L)); }
+ScriptSandbox& ScriptSandbox::of(lua_State* L) {
+  return **static_cast<ScriptSandbox**>(lua_getextraspace(L));
+}
 
 void* ScriptSandbox::allocate(void* ud, void* ptr, std::size_t osize, std::size_t nsize) {
   auto* self = static_cast<ScriptSandbox*>(ud);
@@ -133,9 +136,10 @@ void ScriptSandbox::countHook(lua_State* L, lua_Debug* ar) {
 }
 
 int ScriptSandbox::openSafeLibraries(lua_State* L) {
-  const luaL_Reg libraries[] = {{LUA_GNAME, luaopen_base},       {LUA_TABLIBNAME, luaopen_table},
-                                {LUA_STRLIBNAME, luaopen_string}, {LUA_MATHLIBNAME, luaopen_math},
-                                {LUA_UTF8LIBNAME, luaopen_utf8},  {LUA_COLIBNAME, luaopen_coroutine}};
+  const luaL_Reg libraries[] = {
+      {LUA_GNAME, luaopen_base},        {LUA_TABLIBNAME, luaopen_table},
+      {LUA_STRLIBNAME, luaopen_string}, {LUA_MATHLIBNAME, luaopen_math},
+      {LUA_UTF8LIBNAME, luaopen_utf8},  {LUA_COLIBNAME, luaopen_coroutine}};
   for (const luaL_Reg& lib : libraries) {
     luaL_requiref(L, lib.name, lib.func, 1);
     lua_pop(L, 1);
@@ -189,13 +193,18 @@ int ScriptSandbox::luaRandomSeed(lua_State* L) {
 }
 
 int ScriptSandbox::luaNoPatterns(lua_State* L) {
-  return luaL_error(L, "string.%s: Lua patterns are not available in scene scripts (their matching time cannot be "
-                    "bounded); use string.find(s, text, 1, true)", lua_tostring(L, lua_upvalueindex(1)));
+  return luaL_error(
+      L,
+      "string.%s: Lua patterns are not available in scene scripts (their matching time cannot be "
+      "bounded); use string.find(s, text, 1, true)",
+      lua_tostring(L, lua_upvalueindex(1)));
 }
 
 int ScriptSandbox::luaPlainFind(lua_State* L) {
   if (!lua_toboolean(L, 4)) {
-    return luaL_error(L, "string.find: only plain search is available in scene scripts (patterns cannot be bounded); "
+    return luaL_error(L,
+                      "string.find: only plain search is available in scene scripts (patterns "
+                      "cannot be bounded); "
                       "pass true as the fourth argument");
   }
   lua_pushvalue(L, lua_upvalueindex(1));
@@ -208,11 +217,13 @@ int ScriptSandbox::luaLoad(lua_State* L) {
   size_t length = 0;
   const char* text = lua_tolstring(L, 1, &length);
   if (text == nullptr || lua_type(L, 1) != LUA_TSTRING) {
-    return luaL_error(L, "load: only source text can be loaded in a scene script (got a %s)", luaL_typename(L, 1));
+    return luaL_error(L, "load: only source text can be loaded in a scene script (got a %s)",
+                      luaL_typename(L, 1));
   }
   const char* chunkName = luaL_optstring(L, 2, "=(load)");
   const char* mode = luaL_optstring(L, 3, "t");
-  if (std::strcmp(mode, "t") != 0) return luaL_error(L, "load: mode \"%s\" is not allowed (text chunks only)", mode);
+  if (std::strcmp(mode, "t") != 0)
+    return luaL_error(L, "load: mode \"%s\" is not allowed (text chunks only)", mode);
   const bool hasEnv = !lua_isnone(L, 4);
   if (luaL_loadbufferx(L, text, length, chunkName, "t") != LUA_OK) {
     luaL_pushfail(L);
@@ -245,7 +256,8 @@ int ScriptSandbox::luaRequire(lua_State* L) {
   size_t length = 0;
   const char* name = luaL_checklstring(L, 1, &length);
   if (!validModuleName(name, length)) {
-    return luaL_error(L, "require \"%s\": module names are dotted words (like \"lib.paper\"), not paths", name);
+    return luaL_error(
+        L, "require \"%s\": module names are dotted words (like \"lib.paper\"), not paths", name);
   }
   lua_getfield(L, LUA_REGISTRYINDEX, kLoadedKey);
   lua_getfield(L, -1, name);
@@ -274,8 +286,11 @@ int ScriptSandbox::luaRequire(lua_State* L) {
       }
     }
     if (path.empty()) {
-      lua_pushfstring(L, "module \"%s\" not found: require looks only for %s in the scene library and the script's folder "
-                      "(no C modules, no paths)", name, relative.c_str());
+      lua_pushfstring(L,
+                      "module \"%s\" not found: require looks only for %s in the scene library and "
+                      "the script's folder "
+                      "(no C modules, no paths)",
+                      name, relative.c_str());
       status = LUA_ERRFILE;
     } else {
       std::string source;
@@ -323,8 +338,8 @@ void ScriptSandbox::startBudget(long instructionBudget, std::size_t allocationBu
   lua_sethook(L_, &ScriptSandbox::countHook, LUA_MASKCOUNT, kHookInterval);
 }
 
-void ScriptSandbox::run(const std::string& source, const std::string& chunkName, long instructionBudget,
-                        std::size_t allocationBudget) {
+void ScriptSandbox::run(const std::string& source, const std::string& chunkName,
+                        long instructionBudget, std::size_t allocationBudget) {
   startBudget(instructionBudget, allocationBudget);
   int status = luaL_loadbufferx(L_, source.data(), source.size(), ("@" + chunkName).c_str(), "t");
   if (status == LUA_OK) status = lua_pcall(L_, 0, 0, 0);
@@ -348,8 +363,8 @@ bool ScriptSandbox::hasGlobalFunction(const char* name) {
   return is;
 }
 
-void ScriptSandbox::call(const char* name, std::initializer_list<double> args, long instructionBudget,
-                         std::size_t allocationBudget) {
+void ScriptSandbox::call(const char* name, std::initializer_list<double> args,
+                         long instructionBudget, std::size_t allocationBudget) {
   startBudget(instructionBudget, allocationBudget);
   if (!lua_checkstack(L_, static_cast<int>(args.size()) + 3)) throw std::bad_alloc();
   rawGlobal(L_, name);
@@ -359,15 +374,20 @@ void ScriptSandbox::call(const char* name, std::initializer_list<double> args, l
 }
 
 void ScriptSandbox::throwError(int status, const std::string& chunkName) {
-  std::string message = lua_type(L_, -1) == LUA_TSTRING ? lua_tostring(L_, -1)
-                                                        : fmt::format("(error object is a {} value)", luaL_typename(L_, -1));
+  std::string message = lua_type(L_, -1) == LUA_TSTRING
+                            ? lua_tostring(L_, -1)
+                            : fmt::format("(error object is a {} value)", luaL_typename(L_, -1));
   lua_pop(L_, 1);
   lua_settop(L_, 0);
   InputLocation location{chunkName, "", 0};
-  if (status == LUA_ERRMEM || ((memoryCapHit_ || allocationBudgetHit_) && message.find("not enough memory") != std::string::npos)) {
+  if (status == LUA_ERRMEM || ((memoryCapHit_ || allocationBudgetHit_) &&
+                               message.find("not enough memory") != std::string::npos)) {
     message = allocationBudgetHit_ && !memoryCapHit_
-                  ? fmt::format("allocation budget of {} MiB a call exceeded (a string grown piece by piece? build "
-                                "a table and use table.concat)", allocationBudget_ >> 20)
+                  ? fmt::format(
+                        "allocation budget of {} MiB a call exceeded (a string grown piece by "
+                        "piece? build "
+                        "a table and use table.concat)",
+                        allocationBudget_ >> 20)
                   : fmt::format("memory cap of {} MiB exceeded", limits_.memoryBytes >> 20);
     if (lastSource_[0] != '\0') location = {lastSource_, "", lastLine_};
     throw InputError(location, message);
@@ -376,7 +396,8 @@ void ScriptSandbox::throwError(int status, const std::string& chunkName) {
   const std::size_t colon = message.find(':');
   if (colon != std::string::npos && colon > 0 && message.find('\n') > colon) {
     std::size_t end = colon + 1;
-    while (end < message.size() && end < colon + 10 && message[end] >= '0' && message[end] <= '9') ++end;
+    while (end < message.size() && end < colon + 10 && message[end] >= '0' && message[end] <= '9')
+      ++end;
     if (end > colon + 1 && message.compare(end, 2, ": ") == 0) {
       location.file = message.substr(0, colon);
       location.line = std::stoi(message.substr(colon + 1, end - colon - 1));

@@ -27,8 +27,8 @@ struct lua_Debug;
 namespace parallax {
 
 struct ScriptLimits {
-  long loadInstructions = 200'000'000;   // running the script once (building the scene)
-  long updateInstructions = 20'000'000;  // one update(t, dt) call
+  long loadInstructions = 200'000'000;              // running the script once (building the scene)
+  long updateInstructions = 20'000'000;             // one update(t, dt) call
   std::size_t memoryBytes = std::size_t{64} << 20;  // everything the Lua state holds at once
   // Bytes allocated per call, freed or not. The instruction budget counts VM instructions, but
   // one instruction can copy megabytes (s = s .. "x" in a loop is quadratic), so the copying

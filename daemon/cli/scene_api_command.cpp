@@ -10,7 +10,8 @@
 namespace parallax::cli {
 
 void addSceneApiCommand(CLI::App& app) {
-  CLI::App* command = app.add_subcommand("scene-api", "print the scene script (Lua) API reference as markdown");
+  CLI::App* command =
+      app.add_subcommand("scene-api", "print the scene script (Lua) API reference as markdown");
   command->callback([] { std::cout << sceneApiMarkdown(); });
 }
 

@@ -12,7 +12,8 @@ namespace {
 
 const std::string& scratchFolder() {
   static const std::string folder = [] {
-    const std::filesystem::path p = std::filesystem::temp_directory_path() / "parallax_fuzz_scene_script";
+    const std::filesystem::path p =
+        std::filesystem::temp_directory_path() / "parallax_fuzz_scene_script";
     std::filesystem::create_directories(p);
     return p.string();
   }();

@@ -54,7 +54,8 @@ void expectSameScene(const Scene& lua, const Scene& cpp) {
   ASSERT_EQ(lua.instances.size(), cpp.instances.size());
   for (size_t i = 0; i < lua.instances.size(); ++i) {
     EXPECT_EQ(lua.instances[i].mesh, cpp.instances[i].mesh);
-    EXPECT_EQ(lua.instances[i].worldFromObject.matrix(), cpp.instances[i].worldFromObject.matrix()) << i;
+    EXPECT_EQ(lua.instances[i].worldFromObject.matrix(), cpp.instances[i].worldFromObject.matrix())
+        << i;
   }
   ASSERT_EQ(lua.materials.size(), cpp.materials.size());
   for (size_t i = 0; i < lua.materials.size(); ++i) {
@@ -129,14 +130,17 @@ TEST(SceneLibrary, StatueMatchesTheFixture) {
     // always correctly rounded, Lua's double sin rounded to single is: 1 ulp apart at most.
     long differing = 0;
     for (size_t k = 0; k < a.pixels.size(); ++k) {
-      EXPECT_NEAR(a.pixels[k], b.pixels[k], 2e-7f * std::abs(b.pixels[k]) + 1e-30f) << "texture " << i << " value " << k;
+      EXPECT_NEAR(a.pixels[k], b.pixels[k], 2e-7f * std::abs(b.pixels[k]) + 1e-30f)
+          << "texture " << i << " value " << k;
       differing += a.pixels[k] != b.pixels[k] ? 1 : 0;
     }
-    std::cout << "statue texture " << i << ": " << differing << " of " << a.pixels.size() << " values 1 ulp apart\n";
+    std::cout << "statue texture " << i << ": " << differing << " of " << a.pixels.size()
+              << " values 1 ulp apart\n";
   }
   // The models were read through the sandbox's asset root: both are watched for hot reload.
   int models = 0;
-  for (const std::string& f : script->files()) models += f.find(".obj") != std::string::npos ? 1 : 0;
+  for (const std::string& f : script->files())
+    models += f.find(".obj") != std::string::npos ? 1 : 0;
   EXPECT_EQ(models, 2);
   const Frame frame = render(script->scene());
   EXPECT_GT(litPixels(frame), static_cast<long>(frame.pixels.size() / 20));
@@ -146,12 +150,16 @@ TEST(SceneLibrary, StatueMatchesTheFixture) {
 }
 
 TEST(SceneLibrary, CornellDepthParameterChangesTheScene) {
-  const Scene tilted = loadSceneArgument(testing::sceneLibrary() + "/cornell.lua", {"depth=0.8"}, 0.0);
+  const Scene tilted =
+      loadSceneArgument(testing::sceneLibrary() + "/cornell.lua", {"depth=0.8"}, 0.0);
   const Scene fixture = makeCornellScene();
   EXPECT_EQ(tilted.triangleCount(), fixture.triangleCount());
-  EXPECT_NE(tilted.instances[0].worldFromObject.matrix(), fixture.instances[0].worldFromObject.matrix());
-  EXPECT_THROW(loadSceneArgument(testing::sceneLibrary() + "/cornell.lua", {"depth=2"}, 0.0), InputError);
-  EXPECT_THROW(loadSceneArgument(testing::sceneLibrary() + "/cornell.lua", {"depth"}, 0.0), InputError);
+  EXPECT_NE(tilted.instances[0].worldFromObject.matrix(),
+            fixture.instances[0].worldFromObject.matrix());
+  EXPECT_THROW(loadSceneArgument(testing::sceneLibrary() + "/cornell.lua", {"depth=2"}, 0.0),
+               InputError);
+  EXPECT_THROW(loadSceneArgument(testing::sceneLibrary() + "/cornell.lua", {"depth"}, 0.0),
+               InputError);
   EXPECT_THROW(loadSceneArgument("cornell", {"depth=0.1"}, 0.0), InputError);
 }
 
@@ -162,7 +170,8 @@ TEST(SceneLibrary, OrbitMovesAndIsDeterministic) {
   ASSERT_TRUE(at0->scene().animated);
   EXPECT_EQ(at0->scene().lights.size(), 4u);
   EXPECT_EQ(at0->scene().triangleCount(), at1->scene().triangleCount());
-  const Frame f0 = render(at0->scene()), f1 = render(at1->scene()), f1again = render(at1again->scene());
+  const Frame f0 = render(at0->scene()), f1 = render(at1->scene()),
+              f1again = render(at1again->scene());
   EXPECT_GT(litPixels(f0), static_cast<long>(f0.pixels.size() / 10));
   long differing = 0;
   for (size_t i = 0; i < f0.pixels.size(); ++i) differing += f0.pixels[i] == f1.pixels[i] ? 0 : 1;
@@ -173,7 +182,8 @@ TEST(SceneLibrary, OrbitMovesAndIsDeterministic) {
   stepped->setTime(0.5);
   stepped->setTime(1.0);
   for (size_t i = 0; i < at1->scene().instances.size(); ++i) {
-    EXPECT_EQ(stepped->scene().instances[i].worldFromObject.matrix(), at1->scene().instances[i].worldFromObject.matrix());
+    EXPECT_EQ(stepped->scene().instances[i].worldFromObject.matrix(),
+              at1->scene().instances[i].worldFromObject.matrix());
   }
 }
 
@@ -181,8 +191,10 @@ TEST(SceneLibrary, RenderCommandArgumentLoadsScriptsAndBuiltIns) {
   const Scene orbit = loadSceneArgument(testing::sceneLibrary() + "/orbit.lua", {"speed=0.5"}, 1.5);
   EXPECT_TRUE(orbit.animated);
   EXPECT_EQ(loadSceneArgument("shapes", {}, 0.0).triangleCount(), 1556);
-  EXPECT_THROW(loadSceneArgument(testing::sceneLibrary() + "/nothing_here.lua", {}, 0.0), InputError);
-  EXPECT_THROW(loadSceneArgument(testing::sceneLibrary() + "/orbit.lua", {"spin=1"}, 0.0), InputError);
+  EXPECT_THROW(loadSceneArgument(testing::sceneLibrary() + "/nothing_here.lua", {}, 0.0),
+               InputError);
+  EXPECT_THROW(loadSceneArgument(testing::sceneLibrary() + "/orbit.lua", {"spin=1"}, 0.0),
+               InputError);
 }
 
 }  // namespace

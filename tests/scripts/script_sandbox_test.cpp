@@ -44,7 +44,8 @@ TEST_P(EscapeAttempt, FailsWithAClearErrorAndTheLine) {
   const std::string error = loadError(withPrelude(e.code), folder.path());
   ASSERT_NE(error, "") << e.what << " was not stopped";
   EXPECT_NE(error.find(e.expected), std::string::npos) << e.what << ": " << error;
-  EXPECT_NE(error.find("attempt.lua:3"), std::string::npos) << e.what << " error without its line: " << error;
+  EXPECT_NE(error.find("attempt.lua:3"), std::string::npos)
+      << e.what << " error without its line: " << error;
   expectHostUsable(folder.path());
 }
 
@@ -56,7 +57,8 @@ INSTANTIATE_TEST_SUITE_P(
         Escape{"require ffi", R"(local ffi = require "ffi")", "module \"ffi\" not found"},
         Escape{"require a path", R"(require "../../etc/passwd")", "not paths"},
         Escape{"package.loadlib", R"(package.loadlib("libc.so.6", "system"))", "global 'package'"},
-        Escape{"binary chunk", R"(assert(load("\27LuaT\0\25\147\r\n\26\n\4\8\8xV\0\0")))", "binary chunk"},
+        Escape{"binary chunk", R"(assert(load("\27LuaT\0\25\147\r\n\26\n\4\8\8xV\0\0")))",
+               "binary chunk"},
         Escape{"load mode b", R"(load("return 1", "x", "b"))", "mode \"b\" is not allowed"},
         Escape{"string.dump", R"(local s = string.dump(function() end))", "field 'dump'"},
         Escape{"string.dump via metatable", R"(local s = ("").dump(print))", "field 'dump'"},
@@ -64,19 +66,27 @@ INSTANTIATE_TEST_SUITE_P(
         Escape{"dofile", R"(dofile("/etc/passwd"))", "global 'dofile'"},
         Escape{"collectgarbage", R"(collectgarbage("stop"))", "global 'collectgarbage'"},
         Escape{"mesh loader ..", R"(px.model{path = "../../etc/passwd"})", "\"..\" is not allowed"},
-        Escape{"texture absolute", R"(px.texture{path = "/etc/passwd"})", "absolute paths are not allowed"},
-        Escape{"symlink out", R"(px.texture{path = "passwd_link"})", "leads outside the script's folder"},
+        Escape{"texture absolute", R"(px.texture{path = "/etc/passwd"})",
+               "absolute paths are not allowed"},
+        Escape{"symlink out", R"(px.texture{path = "passwd_link"})",
+               "leads outside the script's folder"},
         Escape{"endless loop", "while true do end", "instruction budget"},
-        Escape{"endless loop in pcall", "while true do pcall(function() while true do end end) end", "instruction budget"},
-        Escape{"memory bomb", R"(local t = {} for i = 1, 1e9 do t[i] = string.rep("x", 1e6, tostring(i)) end)",
+        Escape{"endless loop in pcall", "while true do pcall(function() while true do end end) end",
+               "instruction budget"},
+        Escape{"memory bomb",
+               R"(local t = {} for i = 1, 1e9 do t[i] = string.rep("x", 1e6, tostring(i)) end)",
                "memory cap of 16 MiB exceeded"},
         // Lua's stack of a million slots needs more than 16 MiB: the cap stops it first.
-        Escape{"deep recursion", "local function f(n) return 1 + f(n + 1) end f(1)", "memory cap of 16 MiB exceeded"},
-        Escape{"quadratic string growth", R"(local s = "" for i = 1, 1e8 do s = s .. "xx" end)", "allocation budget"},
-        Escape{"pattern backtracking", R"(string.find(string.rep("a", 3000), string.rep("a-", 12) .. "b"))",
+        Escape{"deep recursion", "local function f(n) return 1 + f(n + 1) end f(1)",
+               "memory cap of 16 MiB exceeded"},
+        Escape{"quadratic string growth", R"(local s = "" for i = 1, 1e8 do s = s .. "xx" end)",
+               "allocation budget"},
+        Escape{"pattern backtracking",
+               R"(string.find(string.rep("a", 3000), string.rep("a-", 12) .. "b"))",
                "only plain search"},
         Escape{"gsub", R"(local s = ("abc"):gsub("b", "x"))", "patterns are not available"},
-        Escape{"huge tessellation", "px.sphere{radius = 1, slices = 4096, stacks = 4096, material = m}",
+        Escape{"huge tessellation",
+               "px.sphere{radius = 1, slices = 4096, stacks = 4096, material = m}",
                "limit of 4000000"}),
     [](const ::testing::TestParamInfo<Escape>& param) {
       std::string name = param.param.what;
@@ -91,7 +101,8 @@ TEST(Sandbox, DeepRecursionWithinTheMemoryCapIsAStackOverflow) {
   ScriptOptions options = smallLimits();
   options.limits.memoryBytes = std::size_t{256} << 20;
   options.limits.loadInstructions = 100'000'000;
-  const std::string error = loadError(withPrelude("local function f(n) return 1 + f(n + 1) end f(1)"), folder.path(), options);
+  const std::string error = loadError(
+      withPrelude("local function f(n) return 1 + f(n + 1) end f(1)"), folder.path(), options);
   EXPECT_NE(error.find("attempt.lua:3: stack overflow"), std::string::npos) << error;
   expectHostUsable(folder.path());
 }
@@ -105,14 +116,17 @@ TEST(Sandbox, MetamethodsOnTheGlobalsDoNotReachTheHost) {
       "                  __newindex = function() while true do end end})");
   EXPECT_EQ(loadError(source, folder.path()), "");
   auto script = SceneScript::loadSource(
-      withPrelude("function update(t) end\nsetmetatable(_G, {__index = function() error(\"boom\") end})"), "g.lua",
-      folder.path(), smallLimits());
+      withPrelude(
+          "function update(t) end\nsetmetatable(_G, {__index = function() error(\"boom\") end})"),
+      "g.lua", folder.path(), smallLimits());
   EXPECT_NO_THROW(script->setTime(1.0));
 }
 
 TEST(Sandbox, PlainFindStillWorks) {
   TempFolder folder;
-  EXPECT_EQ(loadError(withPrelude("assert(string.find(\"a-b\", \"-\", 1, true) == 2)"), folder.path()), "");
+  EXPECT_EQ(
+      loadError(withPrelude("assert(string.find(\"a-b\", \"-\", 1, true) == 2)"), folder.path()),
+      "");
 }
 
 TEST(Sandbox, ErrorInUpdateKeepsTheLastGoodSceneAndNamesTheLine) {
@@ -144,28 +158,37 @@ TEST(Sandbox, ErrorInUpdateKeepsTheLastGoodSceneAndNamesTheLine) {
 
 TEST(Sandbox, EndlessLoopInUpdateStopsAndTheScriptStaysUsable) {
   TempFolder folder;
-  const std::string source = withPrelude("function update(t, dt) if t > 1 then while true do end end end");
+  const std::string source =
+      withPrelude("function update(t, dt) if t > 1 then while true do end end end");
   auto script = SceneScript::loadSource(source, "loop.lua", folder.path(), smallLimits());
   try {
     script->setTime(2.0);
     FAIL();
   } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("loop.lua:3: instruction budget"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("loop.lua:3: instruction budget"), std::string::npos)
+        << e.what();
   }
   EXPECT_NO_THROW(script->setTime(0.5));  // a fresh budget for the next call
 }
 
 TEST(Sandbox, SyntaxAndApiErrorsNameTheScriptAndLine) {
   TempFolder folder;
-  EXPECT_NE(loadError("local a = 1\nlocal b = = 2\n", folder.path()).find("attempt.lua:2:"), std::string::npos);
-  const std::string misspelt = loadError(withPrelude("px.box{sise = {1, 1, 1}, material = m}"), folder.path());
-  EXPECT_NE(misspelt.find("attempt.lua:3: px.box: options: unknown field \"sise\""), std::string::npos) << misspelt;
-  const std::string wrongHandle =
-      loadError(withPrelude("local l = px.point{position = {0, 1, 0}}\npx.box{material = l}"), folder.path());
-  EXPECT_NE(wrongHandle.find("attempt.lua:4: px.box: material: expected a material, got light"), std::string::npos)
+  EXPECT_NE(loadError("local a = 1\nlocal b = = 2\n", folder.path()).find("attempt.lua:2:"),
+            std::string::npos);
+  const std::string misspelt =
+      loadError(withPrelude("px.box{sise = {1, 1, 1}, material = m}"), folder.path());
+  EXPECT_NE(misspelt.find("attempt.lua:3: px.box: options: unknown field \"sise\""),
+            std::string::npos)
+      << misspelt;
+  const std::string wrongHandle = loadError(
+      withPrelude("local l = px.point{position = {0, 1, 0}}\npx.box{material = l}"), folder.path());
+  EXPECT_NE(wrongHandle.find("attempt.lua:4: px.box: material: expected a material, got light"),
+            std::string::npos)
       << wrongHandle;
-  const std::string noSize = loadError(withPrelude("local t = px.image{pixels = {}}"), folder.path());
-  EXPECT_NE(noSize.find("attempt.lua:3: px.image: width and height: required"), std::string::npos) << noSize;
+  const std::string noSize =
+      loadError(withPrelude("local t = px.image{pixels = {}}"), folder.path());
+  EXPECT_NE(noSize.find("attempt.lua:3: px.image: width and height: required"), std::string::npos)
+      << noSize;
   const std::string nan = loadError(withPrelude("px.translate(0/0, 0, 0)"), folder.path());
   EXPECT_NE(nan.find("x: must be finite"), std::string::npos) << nan;
   const std::string inUpdate = withPrelude("function update(t) px.box{material = m} end");
@@ -182,7 +205,8 @@ TEST(Sandbox, RandomNumbersAreTheSameEveryRun) {
   auto a = SceneScript::loadSource(source, "r.lua", folder.path(), smallLimits());
   auto b = SceneScript::loadSource(source, "r.lua", folder.path(), smallLimits());
   for (size_t i = 0; i < a->scene().instances.size(); ++i) {
-    EXPECT_EQ(a->scene().instances[i].worldFromObject.matrix(), b->scene().instances[i].worldFromObject.matrix());
+    EXPECT_EQ(a->scene().instances[i].worldFromObject.matrix(),
+              b->scene().instances[i].worldFromObject.matrix());
   }
   EXPECT_NE(loadError(withPrelude("math.randomseed()"), folder.path()), "");
 }
@@ -190,17 +214,20 @@ TEST(Sandbox, RandomNumbersAreTheSameEveryRun) {
 TEST(Sandbox, ParametersTakeDefaultsSettingsAndRanges) {
   TempFolder folder;
   const std::string source = withPrelude(
-      "local r = px.param{name = \"radius\", default = 0.5, min = 0.1, max = 2, description = \"ball radius\"}\n"
+      "local r = px.param{name = \"radius\", default = 0.5, min = 0.1, max = 2, description = "
+      "\"ball radius\"}\n"
       "px.sphere{radius = r, material = m}\n"
       "function update(t) px.set_transform(1, px.identity()) end");
   ScriptOptions options = smallLimits();
   options.parameters["radius"] = 1.5;
-  auto script = SceneScript::loadSource(withPrelude(
-      "local r = px.param{name = \"radius\", default = 0.5, min = 0.1, max = 2, description = \"ball radius\"}\n"
-      "local ball = px.sphere{radius = r, material = m}\n"
-      "seen = 0\n"
-      "function update(t) seen = params.radius; px.set_transform(ball, px.scale(params.radius)) end"),
-                                        "p.lua", folder.path(), options);
+  auto script =
+      SceneScript::loadSource(withPrelude("local r = px.param{name = \"radius\", default = 0.5, "
+                                          "min = 0.1, max = 2, description = \"ball radius\"}\n"
+                                          "local ball = px.sphere{radius = r, material = m}\n"
+                                          "seen = 0\n"
+                                          "function update(t) seen = params.radius; "
+                                          "px.set_transform(ball, px.scale(params.radius)) end"),
+                              "p.lua", folder.path(), options);
   ASSERT_EQ(script->parameters().size(), 1u);
   EXPECT_EQ(script->parameters()[0].value, 1.5);
   EXPECT_EQ(script->parameters()[0].description, "ball radius");
@@ -212,19 +239,22 @@ TEST(Sandbox, ParametersTakeDefaultsSettingsAndRanges) {
   options.parameters["radius"] = 5.0;
   EXPECT_NE(loadError(source, folder.path(), options).find("outside its range"), std::string::npos);
   options.parameters = {{"speed", 1.0}};
-  EXPECT_NE(loadError(source, folder.path(), options).find("declares no such parameter"), std::string::npos);
+  EXPECT_NE(loadError(source, folder.path(), options).find("declares no such parameter"),
+            std::string::npos);
 }
 
 TEST(SceneApi, ReferenceIsCompleteAndCheckedIn) {
   for (const SceneApiEntry& e : sceneApiReference()) {
     EXPECT_GT(std::string(e.description).size(), 10u) << e.name;
-    EXPECT_NE(std::string(e.example).find(std::string("px.") + e.name), std::string::npos) << e.name;
+    EXPECT_NE(std::string(e.example).find(std::string("px.") + e.name), std::string::npos)
+        << e.name;
   }
   // scripts/API.md is what `parallax scene-api` prints; regenerate it when the API changes.
   std::ifstream in(std::string(PARALLAX_SOURCE_DIR) + "/scripts/API.md");
   std::stringstream text;
   text << in.rdbuf();
-  EXPECT_EQ(text.str(), sceneApiMarkdown()) << "scripts/API.md is stale: parallax scene-api > scripts/API.md";
+  EXPECT_EQ(text.str(), sceneApiMarkdown())
+      << "scripts/API.md is stale: parallax scene-api > scripts/API.md";
 }
 
 }  // namespace

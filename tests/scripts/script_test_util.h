@@ -20,7 +20,8 @@ class TempFolder {
  public:
   TempFolder() {
     std::random_device random;
-    path_ = std::filesystem::temp_directory_path() / ("parallax_scripts_" + std::to_string(random()));
+    path_ =
+        std::filesystem::temp_directory_path() / ("parallax_scripts_" + std::to_string(random()));
     std::filesystem::create_directories(path_);
   }
   ~TempFolder() {
@@ -35,7 +36,8 @@ class TempFolder {
     const std::filesystem::path p = path_ / name;
     std::filesystem::create_directories(p.parent_path());
     const bool existed = std::filesystem::exists(p);
-    const auto before = existed ? std::filesystem::last_write_time(p) : std::filesystem::file_time_type{};
+    const auto before =
+        existed ? std::filesystem::last_write_time(p) : std::filesystem::file_time_type{};
     std::ofstream(p, std::ios::binary) << text;
     if (existed) std::filesystem::last_write_time(p, before + std::chrono::seconds(2));
     return p.string();

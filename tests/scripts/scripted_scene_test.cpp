@@ -15,7 +15,8 @@ const char* const kHelperV2 = "return {slices = 16}\n";
 
 std::string sceneSource(int stacks) {
   return "local helper = require \"helper\"\n"
-         "local m = px.diffuse{color = {0.5, 0.5, 0.5}, texture = px.texture{path = \"wood.png\"}}\n"
+         "local m = px.diffuse{color = {0.5, 0.5, 0.5}, texture = px.texture{path = "
+         "\"wood.png\"}}\n"
          "px.sphere{radius = 1, slices = helper.slices, stacks = " +
          std::to_string(stacks) + ", material = m}\n";
 }
@@ -55,9 +56,11 @@ TEST(ScriptedScene, FailedReloadKeepsTheOldSceneAndReportsTheLine) {
 
   folder.write("scene.lua", sceneSource(4) + "px.box{size = {1, 1}, material = m}\n");
   EXPECT_EQ(scene.reloadIfChanged(), ScriptedScene::Reload::kFailed);
-  EXPECT_NE(scene.lastError().find("scene.lua:4: px.box: size"), std::string::npos) << scene.lastError();
+  EXPECT_NE(scene.lastError().find("scene.lua:4: px.box: size"), std::string::npos)
+      << scene.lastError();
   EXPECT_EQ(scene.scene().triangleCount(), before);
-  EXPECT_EQ(scene.reloadIfChanged(), ScriptedScene::Reload::kUnchanged);  // no retry until it changes
+  EXPECT_EQ(scene.reloadIfChanged(),
+            ScriptedScene::Reload::kUnchanged);  // no retry until it changes
 
   folder.write("helper.lua", "return {slices = }\n");  // a broken module, the script unchanged
   folder.write("scene.lua", sceneSource(6));
@@ -73,16 +76,18 @@ TEST(ScriptedScene, FailedReloadKeepsTheOldSceneAndReportsTheLine) {
 
 TEST(ScriptedScene, ParametersSurviveReloadAndRebuildStaticScenes) {
   TempFolder folder;
-  const std::string path = folder.write(
-      "p.lua",
-      "local n = px.param{name = \"slices\", default = 6, min = 3, max = 64, description = \"sphere slices\"}\n"
-      "px.sphere{radius = 1, slices = n, stacks = 2, material = px.diffuse{}}\n");
+  const std::string path =
+      folder.write("p.lua",
+                   "local n = px.param{name = \"slices\", default = 6, min = 3, max = 64, "
+                   "description = \"sphere slices\"}\n"
+                   "px.sphere{radius = 1, slices = n, stacks = 2, material = px.diffuse{}}\n");
   ScriptedScene scene(path, smallLimits());
   EXPECT_EQ(scene.scene().triangleCount(), 2 * 6);
   EXPECT_TRUE(scene.setParameter("slices", 10));  // static: built again
   EXPECT_EQ(scene.scene().triangleCount(), 2 * 10);
   folder.write("p.lua",
-               "local n = px.param{name = \"slices\", default = 6, min = 3, max = 64, description = \"sphere slices\"}\n"
+               "local n = px.param{name = \"slices\", default = 6, min = 3, max = 64, description "
+               "= \"sphere slices\"}\n"
                "px.sphere{radius = 1, slices = n, stacks = 3, material = px.diffuse{}}\n");
   EXPECT_EQ(scene.reloadIfChanged(), ScriptedScene::Reload::kReloaded);
   EXPECT_EQ(scene.scene().triangleCount(), 2 * 10 * 2);
@@ -91,10 +96,10 @@ TEST(ScriptedScene, ParametersSurviveReloadAndRebuildStaticScenes) {
 
 TEST(ScriptedScene, AnimatedSceneKeepsItsTimeAcrossReloadAndSurvivesUpdateErrors) {
   TempFolder folder;
-  const std::string path = folder.write(
-      "a.lua",
-      "local ball = px.sphere{radius = 0.1, material = px.diffuse{}}\n"
-      "function update(t) px.set_transform(ball, px.translate(t, 0, 0)) end\n");
+  const std::string path =
+      folder.write("a.lua",
+                   "local ball = px.sphere{radius = 0.1, material = px.diffuse{}}\n"
+                   "function update(t) px.set_transform(ball, px.translate(t, 0, 0)) end\n");
   ScriptedScene scene(path, smallLimits());
   EXPECT_TRUE(scene.setTime(2.0));
   folder.write("a.lua",

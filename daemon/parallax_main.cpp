@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   parallax::cli::addBenchLinkCommand(app);
   parallax::cli::addSimulateCommand(app);
   parallax::cli::addCalibrateCommand(app);
+  parallax::cli::addSceneApiCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -15,5 +15,6 @@ void addRenderCommand(CLI::App& app);
 void addViewCommand(CLI::App& app);
 void addSimulateCommand(CLI::App& app);
 void addCalibrateCommand(CLI::App& app);
+void addSceneApiCommand(CLI::App& app);
 
 }  // namespace parallax::cli

@@ -1,4 +1,5 @@
-// parallax render [--display FILE|default|demo] --scene NAME|FILE [--module I|all] [--out DIR]
+// parallax render [--display FILE|default|demo] --scene NAME|FILE|SCRIPT.lua [--set name=value]
+//                 [--time T] [--module I|all] [--out DIR]
 //                 [--explain] [--float] [--traversal single|packet16|stream]
 // Ray traces module frames of a scene through the display's ray textures and writes them as
 // sRGB PNG (and float EXR with --float). --explain prints what the scene needs, what ran and
@@ -17,6 +18,7 @@
 #include "common/progress_bar.h"
 #include "daemon/cli/commands.h"
 #include "tracer/physical_scene.h"
+#include "scripts/scene_argument.h"
 #include "tracer/scene_source.h"
 #include "tracer/whitted_integrator.h"
 
@@ -31,6 +33,8 @@ struct RenderArgs {
   std::string traversal;
   bool explain = false;
   bool floatOutput = false;
+  std::vector<std::string> sets;  // --set name=value (scene scripts)
+  double time = 0.0;              // --time T (animated scene scripts)
 };
 
 std::vector<int> moduleIndices(const std::string& text, size_t count) {
@@ -60,7 +64,7 @@ void runRender(const RenderArgs& args) {
   if (!args.traversal.empty() && !parseTraversal(args.traversal.c_str(), &options.traversal)) {
     throw InputError({"", "--traversal", 0}, "must be single, packet16 or stream");
   }
-  const Scene scene = resolveScene(args.scene);
+  const Scene scene = loadSceneArgument(args.scene, args.sets, args.time);
   const PhysicalScene physical(scene, model.displayableBox);
   for (const std::string& w : physical.warnings()) std::cerr << "parallax: warning: " << w << "\n";
 
@@ -109,8 +113,10 @@ void addRenderCommand(CLI::App& app) {
   auto args = std::make_shared<RenderArgs>();
   CLI::App* command = app.add_subcommand("render", "ray trace module frames of a scene (PNG, EXR with --float)");
   command->add_option("--display", args->display, "display JSON file or built-in name (default, demo)");
-  command->add_option("--scene", args->scene, "built-in scene (cornell, shapes, statue, xyz) or a model file")
+  command->add_option("--scene", args->scene, "built-in scene (cornell, shapes, statue, xyz), a scene script (.lua) or a model file")
       ->required();
+  command->add_option("--set", args->sets, "scene script parameter name=value (repeatable)");
+  command->add_option("--time", args->time, "animation time in seconds (scene scripts)");
   command->add_option("--module", args->module, "module index, or all");
   command->add_option("--out", args->out, "output folder");
   command->add_option("--traversal", args->traversal, "Embree traversal: single, packet16, stream");

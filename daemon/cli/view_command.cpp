@@ -17,7 +17,7 @@
 #include "daemon/cli/commands.h"
 #include "tracer/observer_view.h"
 #include "tracer/physical_scene.h"
-#include "tracer/scene_source.h"
+#include "scripts/scene_argument.h"
 #include "tracer/whitted_integrator.h"
 
 namespace parallax::cli {
@@ -80,7 +80,7 @@ void runView(const ViewArgs& args) {
     if (viewer.y() != model.observer.y || viewer.z() != model.observer.z) {
       throw InputError({"", "--traced-scene", 0}, "the traced reference is for viewers on the observer line");
     }
-    const PhysicalScene scene(resolveScene(args.tracedScene), model.displayableBox);
+    const PhysicalScene scene(loadSceneArgument(args.tracedScene, {}, 0.0), model.displayableBox);
     const Frame traced = renderFrame(scene, observerViewRays(model, viewer.x(), options), RenderOptions{});
     const std::string tracedPath = std::filesystem::path(args.out).replace_extension("").string() + "_traced.png";
     writePng(traced, tracedPath);

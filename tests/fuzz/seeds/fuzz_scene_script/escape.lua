@@ -1,0 +1,3 @@
+px.texture{path = "../x.png"}
+require "lib.paper"
+setmetatable({}, {__gc = function() px.box{} end})

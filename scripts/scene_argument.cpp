@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <filesystem>
 
 #include "common/input_error.h"
 #include "scripts/scene_script.h"
@@ -38,9 +39,23 @@ std::map<std::string, double> parseParameterSettings(const std::vector<std::stri
   return values;
 }
 
+std::string librarySceneScript(const std::string& name) {
+  if (name.empty() || name.find_first_not_of("abcdefghijklmnopqrstuvwxyz_0123456789") != std::string::npos) {
+    return "";
+  }
+  const std::filesystem::path script = std::filesystem::path(ScriptOptions::defaultSceneLibrary()) / (name + ".lua");
+  return std::filesystem::is_regular_file(script) ? script.string() : "";
+}
+
 Scene loadSceneArgument(const std::string& nameOrFile, const std::vector<std::string>& settings,
                         double time) {
   if (!std::isfinite(time)) throw InputError({"", "--time", 0}, "must be finite");
+  // A bare name of the scene library (cornell, shapes, statue, orbit) means its script: the
+  // library is the source of truth; the tracer's C++ fixtures remain as the test oracles it is
+  // checked against.
+  if (const std::string script = librarySceneScript(nameOrFile); !script.empty()) {
+    return loadSceneArgument(script, settings, time);
+  }
   if (!isSceneScript(nameOrFile)) {
     if (!settings.empty())
       throw InputError({"", "--set", 0}, "parameters apply only to scene scripts (*.lua)");

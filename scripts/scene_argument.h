@@ -16,7 +16,11 @@ bool isSceneScript(const std::string& nameOrFile);
 // "name=value" settings → values; throws InputError naming the bad setting.
 std::map<std::string, double> parseParameterSettings(const std::vector<std::string>& settings);
 
-// Builds the scene the argument names at animation time `time` (seconds). Throws InputError
+// The scene library's script for a bare name ("cornell" → <library>/cornell.lua), or "".
+std::string librarySceneScript(const std::string& name);
+
+// Builds the scene the argument names at animation time `time` (seconds). A bare library name
+// loads its script. Throws InputError
 // (script name and line for script errors; --set / --time for bad options).
 Scene loadSceneArgument(const std::string& nameOrFile, const std::vector<std::string>& settings,
                         double time);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <numbers>
 
@@ -415,6 +416,52 @@ class DisplayFitter {
     }
   }
 
+  // Largest σ (module px, RMS of u and v) of the pixel that the fitted module uses to light a
+  // screen point, over a 5 × 5 grid across its image: J Σ Jᵀ with J the derivative of the
+  // projection with respect to the module's tangent parameters (central differences through
+  // the manifold), the screen point held fixed.
+  double worstPixelStdDev(size_t m, const Eigen::MatrixXd& cov) const {
+    if (!cov.allFinite()) return std::numeric_limits<double>::infinity();
+    const OpticalModule& nominalModule = nominal_.modules[m];
+    OpticalModule fitted = nominalModule;
+    unpackModule(state_.modules[m].data(), &fitted);
+    const ModuleOptics optics(fitted);
+    const ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<9>> manifold;
+    const double mirrorSign = fitted.mirror ? -1.0 : 1.0;
+    double worst = 0.0;
+    for (int gy = 0; gy < 5; ++gy) {
+      for (int gx = 0; gx < 5; ++gx) {
+        const double u = (0.02 + 0.96 * gx / 4.0) * fitted.width;
+        const double v = (0.02 + 0.96 * gy / 4.0) * fitted.height;
+        Eigen::Vector3d d, s;
+        double t;
+        if (!optics.rayDirection(u, v, &d)) continue;
+        // Pixels off the screen are masked: their uncertainty does not matter.
+        if (!nominal_.screen.intersect(fitted.position, d, &t, &s)) continue;
+        Eigen::Matrix<double, 2, kModuleTangentSize> jacobian;
+        bool ok = true;
+        for (int p = 0; p < kModuleTangentSize && ok; ++p) {
+          const double h = p < 3 ? 1e-6 : (p < 6 ? 1e-6 : 1e-7);
+          double delta[kModuleTangentSize] = {};
+          std::array<double, kModuleBlockSize> plus, minus;
+          delta[p] = h;
+          manifold.Plus(state_.modules[m].data(), delta, plus.data());
+          delta[p] = -h;
+          manifold.Plus(state_.modules[m].data(), delta, minus.data());
+          double a[2], b[2];
+          ok = projectIntoModule(plus.data(), fitted.width, mirrorSign, Vec3<double>(s), a) &&
+               projectIntoModule(minus.data(), fitted.width, mirrorSign, Vec3<double>(s), b);
+          jacobian(0, p) = (a[0] - b[0]) / (2.0 * h);
+          jacobian(1, p) = (a[1] - b[1]) / (2.0 * h);
+        }
+        if (!ok) continue;
+        const Eigen::Matrix2d pixelCov = jacobian * cov * jacobian.transpose();
+        worst = std::max(worst, std::sqrt(std::max(0.0, 0.5 * pixelCov.trace())));
+      }
+    }
+    return worst;
+  }
+
   void diagnoseJacobian(FitResult* result) {
     std::vector<double*> blocks;
     std::vector<size_t> moduleOf;
@@ -454,6 +501,17 @@ class DisplayFitter {
         else if (p < 6) sd *= 1e3;
         else if (p < 10) sd *= width;
         mf.stdDev[static_cast<size_t>(p)] = sd;
+      }
+      mf.worstPixelStdDevPx = worstPixelStdDev(moduleOf[j], d.moduleCovariance[j]);
+      if (d.modules[j].state != Conditioning::kRankDeficient && !(mf.worstPixelStdDevPx <= options_.maxPixelStdDevPx)) {
+        // Well conditioned but too little data: the covariance says the rays are unknown.
+        Deficiency def;
+        def.module = static_cast<int>(moduleOf[j]);
+        def.state = Conditioning::kUndetermined;
+        def.reciprocalCondition = d.modules[j].reciprocalCondition;
+        def.parameters = {fmt::format("its rays (pixel σ up to {:.2f} px > {:.2f} px allowed)",
+                                      mf.worstPixelStdDevPx, options_.maxPixelStdDevPx)};
+        result->deficiencies.push_back(def);
       }
       if (d.modules[j].state != Conditioning::kGood) {
         Deficiency def;
@@ -548,6 +606,7 @@ void FitOptions::validate() const {
   positive(tapeSigmaM, "tape_sigma_m");
   positive(robustScale, "robust_scale");
   positive(transferMismatchRatio, "transfer_mismatch_ratio");
+  positive(maxPixelStdDevPx, "max_pixel_std_dev_px");
   if (maxIterations < 1 || maxIterations > 10000) throw InputError({"", "max_iterations", 0}, "must be 1..10000");
   if (threads < 1 || threads > 256) throw InputError({"", "threads", 0}, "must be 1..256");
   conditioning.validate();
@@ -564,7 +623,7 @@ std::string Deficiency::describe() const {
 bool FitResult::passesQualityChecks() const {
   if (!converged || transferMismatch) return false;
   for (const Deficiency& d : deficiencies) {
-    if (d.state == Conditioning::kRankDeficient) return false;
+    if (d.state == Conditioning::kRankDeficient || d.state == Conditioning::kUndetermined) return false;
   }
   if (!std::isfinite(model.screen.curvature)) return false;
   for (const OpticalModule& m : model.modules) {

@@ -48,6 +48,12 @@ struct FitOptions {
   // mean the screen does not follow the assumed transfer.
   double transferMismatchRatio = 5.0;
   ConditioningOptions conditioning;
+  // The covariance side of the quality gate: each module's parameter covariance is carried to
+  // the pixel it would use to light a screen point, over a grid across its image; a module
+  // whose worst pixel σ exceeds this (module px) is reported as undetermined, whatever its
+  // conditioning. Catches well-conditioned but data-starved setups (two stations: each module
+  // seen in two stripes, its image corners extrapolated by tens of pixels).
+  double maxPixelStdDevPx = 1.5;
   std::function<void(int iteration, double cost)> onIteration;  // progress, optional
 
   void validate() const;
@@ -63,6 +69,7 @@ struct ModuleFit {
   // Standard deviations: rotation about x, y, z (deg), position x, y, z (mm), fx, fy, cx, cy
   // (px), k1, k2. +inf where the data cannot determine the parameter.
   std::array<double, 12> stdDev{};
+  double worstPixelStdDevPx = 0.0;  // the covariance carried to the image (see FitOptions)
 };
 
 struct CameraFit {
@@ -101,8 +108,8 @@ struct FitResult {
   bool converged = false;
   int outliers = 0;
 
-  // The quality gate: converged, no NaN, every observed module determined, no transfer
-  // mismatch. A calibration that fails it is not installed.
+  // The quality gate: converged, no NaN, every observed module determined (conditioning and
+  // position σ), no transfer mismatch. A calibration that fails it is not installed.
   bool passesQualityChecks() const;
 };
 

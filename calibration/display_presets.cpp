@@ -15,7 +15,7 @@ namespace {
 constexpr double kScreenWidth = 1.6;
 constexpr double kScreenHeight = 0.9;
 constexpr double kModuleDistance = 1.0;     // behind the screen
-constexpr double kFieldOfViewDeg = 70.0;    // seen from every point of the screen
+constexpr double kFieldOfViewDeg = 70.0;    // of the module row, seen from the screen centre
 constexpr double kObserverDistance = 2.0;
 constexpr double kDisplayableDepth = 0.5;
 constexpr double kCoverMargin = 1.02;
@@ -89,9 +89,7 @@ DisplayModel makeNominalDisplay(const NominalDisplayOptions& options) {
   const int count = options.modules.value_or(demo ? 16 : 72);
   const int width = options.width.value_or(demo ? 512 : 1024);
   const int height = options.height.value_or(demo ? 384 : 768);
-  // Every screen point must send light over the whole field of view, the edges included, so
-  // the row reaches past each edge of the screen by D·tan(FOV/2).
-  const double rowHalfWidth = 0.5 * kScreenWidth + kModuleDistance * std::tan(radians(0.5 * kFieldOfViewDeg));
+  const double rowHalfWidth = kModuleDistance * std::tan(radians(0.5 * kFieldOfViewDeg));
   for (int i = 0; i < count; ++i) {
     OpticalModule m;
     m.id = i;

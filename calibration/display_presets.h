@@ -5,9 +5,8 @@
 //  demo:    16 modules of 512×384 behind the same screen.
 //
 // Both: a straight row of modules 1.0 m behind the screen at its centre's height, evenly
-// spaced so that every point of the screen, its edges included, sends light over ±35° (the 70°
-// field of view of a HoloVizio 722RC): the row reaches D·tan 35° past each edge of the screen.
-// Each module is yawed to aim at the screen centre, upright and mirrored (rear projection), with
+// spaced across ±35° as seen from the screen centre (the 70° field of view of a HoloVizio
+// 722RC), each yawed to aim at the screen centre, upright and mirrored (rear projection), with
 // the largest focal length whose image still covers the whole screen with a 2% margin. The
 // observer line is 2 m in front at the screen centre's height; the diffusion width is 1.5× the
 // angular pitch between neighbouring modules seen from the screen centre; B_P is the screen's

@@ -59,6 +59,7 @@ const char* conditioningName(Conditioning c) {
     case Conditioning::kGood: return "good";
     case Conditioning::kPoor: return "poorly conditioned";
     case Conditioning::kRankDeficient: return "rank deficient";
+    case Conditioning::kUndetermined: return "undetermined by the data";
   }
   return "?";
 }
@@ -179,6 +180,7 @@ Diagnostics diagnose(const InformationBlocks& info, const ConditioningOptions& o
       if (nullMasks[m][static_cast<size_t>(j)]) sd[j] = kInf;
     }
     out.moduleStdDev.push_back(sd);
+    out.moduleCovariance.push_back(cov);
   }
   return out;
 }

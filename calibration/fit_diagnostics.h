@@ -38,7 +38,9 @@ struct ConditioningOptions {
   void validate() const;
 };
 
-enum class Conditioning { kGood, kPoor, kRankDeficient };
+// kUndetermined: well conditioned, but the covariance says a parameter is unknown (too little
+// data); set by the fit's quality gate, not by conditioningOf.
+enum class Conditioning { kGood, kPoor, kRankDeficient, kUndetermined };
 const char* conditioningName(Conditioning c);
 
 struct BlockConditioning {
@@ -57,6 +59,7 @@ struct InformationBlocks {
 struct Diagnostics {
   std::vector<BlockConditioning> modules;
   std::vector<Eigen::VectorXd> moduleStdDev;  // +inf where undetermined
+  std::vector<Eigen::MatrixXd> moduleCovariance;  // marginal, tangent units
   BlockConditioning shared;
   Eigen::VectorXd sharedStdDev;
 };

@@ -335,6 +335,16 @@ TEST(DisplayFit, StripesLiftTheDegeneracy) {
   EXPECT_TRUE(o.fit.passesQualityChecks());
 }
 
+TEST(DisplayFit, TooFewStationsAreRefused) {
+  // Two stations: each module is seen in two narrow stripes. The blocks are not singular, but
+  // the covariance puts module positions centimetres wide: refused, not installed.
+  Case c = demoCase(27);
+  c.sim.rig.stations = 2;
+  const Outcome o = run("2 stations (too few)", c);
+  EXPECT_FALSE(o.fit.passesQualityChecks());
+  EXPECT_FALSE(o.fit.deficiencies.empty());
+}
+
 TEST(DisplayFit, StandardDeviationsMatchTheActualErrors) {
   // The reported σ of the module positions must describe the real errors: over all modules,
   // the normalised errors (error / σ) have an RMS near 1 (between 0.4 and 2.5 here, a loose

@@ -1,0 +1,125 @@
+#include "calibration/camera_renderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <opencv2/imgproc.hpp>
+#include <tbb/parallel_for.h>
+
+#include "calibration/fit_geometry.h"
+#include "calibration/synthetic_observations.h"
+#include "common/input_error.h"
+
+namespace parallax {
+namespace {
+
+// Bilinear sample of a CV_32F image at a continuous pixel position (centres at +0.5); zero
+// outside the image (no light beyond the module's frame).
+float sampleBilinear(const cv::Mat& image, float u, float v) {
+  const float x = u - 0.5f, y = v - 0.5f;
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const float fx = x - static_cast<float>(x0), fy = y - static_cast<float>(y0);
+  auto at = [&](int xx, int yy) {
+    xx = std::clamp(xx, 0, image.cols - 1);
+    yy = std::clamp(yy, 0, image.rows - 1);
+    return image.at<float>(yy, xx);
+  };
+  return (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) +
+         fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
+}
+
+}  // namespace
+
+void CameraRenderOptions::validate() const {
+  auto check = [](bool ok, const char* field, const char* why) {
+    if (!ok) throw InputError({"", field, 0}, why);
+  };
+  check(ambient >= 0.0 && ambient < 1.0, "ambient", "must be 0..1");
+  check(gamma >= 0.2 && gamma <= 5.0, "gamma", "must be 0.2..5");
+  check(noiseSigma >= 0.0 && noiseSigma < 0.5, "noise_sigma", "must be 0..0.5");
+  check(blurSigmaPx >= 0.0 && blurSigmaPx < 20.0, "blur_sigma_px", "must be 0..20");
+  check(minLobeWeight > 0.0 && minLobeWeight < 0.5, "min_lobe_weight", "must be in (0, 0.5)");
+}
+
+StationView viewFromStation(const DisplayModel& truth, const CameraIntrinsics& intrinsics,
+                            const CameraPose& pose, const CameraRenderOptions& options) {
+  options.validate();
+  StationView view;
+  view.width = intrinsics.width;
+  view.height = intrinsics.height;
+  view.pixels.resize(static_cast<size_t>(view.width) * static_cast<size_t>(view.height));
+  std::vector<ModuleOptics> optics;
+  for (const OpticalModule& m : truth.modules) optics.emplace_back(m);
+  // FWHM = diffusion width ⇒ σ = FWHM / (2 √(2 ln 2)).
+  const double sigma = truth.screen.diffusionDeg * std::numbers::pi / 180.0 / 2.354820045;
+  const auto camera = packCamera(pose);
+  tbb::parallel_for(0, view.height, [&](int y) {
+    for (int x = 0; x < view.width; ++x) {
+      auto& out = view.pixels[static_cast<size_t>(y) * static_cast<size_t>(view.width) + static_cast<size_t>(x)];
+      const Eigen::Vector2d n = intrinsics.normalized({x + 0.5, y + 0.5});
+      Vec3<double> s;
+      if (!screenPointOfCameraRay(truth.screen.curvature, camera.data(), n.x(), n.y(), &s)) continue;
+      if (!truth.screen.contains(s.x(), s.y())) continue;
+      for (size_t m = 0; m < truth.modules.size(); ++m) {
+        const double angle = stripeAngle(truth.screen, s, truth.modules[m].position, pose.centre);
+        const double weight = std::exp(-0.5 * (angle / sigma) * (angle / sigma));
+        if (!(weight >= options.minLobeWeight)) continue;
+        Eigen::Vector2d uv;
+        if (!optics[m].project(s - truth.modules[m].position, &uv)) continue;
+        const OpticalModule& mod = truth.modules[m];
+        if (uv.x() < 0.0 || uv.y() < 0.0 || uv.x() > mod.width || uv.y() > mod.height) continue;
+        LobeContribution c{static_cast<int>(m), static_cast<float>(uv.x()), static_cast<float>(uv.y()),
+                           static_cast<float>(weight)};
+        // Keep the strongest few, sorted.
+        for (int k = 0; k < kMaxContributions; ++k) {
+          if (c.weight > out[static_cast<size_t>(k)].weight) std::swap(c, out[static_cast<size_t>(k)]);
+        }
+      }
+    }
+  });
+  return view;
+}
+
+cv::Mat renderFrame(const StationView& view, const std::vector<cv::Mat>& moduleImages,
+                    const CameraRenderOptions& options, SeededRandom& random) {
+  cv::Mat linear(view.height, view.width, CV_32F);
+  tbb::parallel_for(0, view.height, [&](int y) {
+    float* row = linear.ptr<float>(y);
+    for (int x = 0; x < view.width; ++x) {
+      float value = static_cast<float>(options.ambient);
+      for (const LobeContribution& c : view.at(x, y)) {
+        if (c.module < 0) break;
+        const cv::Mat& image = moduleImages[static_cast<size_t>(c.module)];
+        if (image.empty()) continue;
+        value += c.weight * sampleBilinear(image, c.u, c.v);
+      }
+      row[x] = value;
+    }
+  });
+  if (options.blurSigmaPx > 0.0) cv::GaussianBlur(linear, linear, cv::Size(0, 0), options.blurSigmaPx);
+  // Sensor: response curve, then noise (drawn serially from the seeded stream: deterministic).
+  cv::Mat recorded(view.height, view.width, CV_32F);
+  for (int y = 0; y < view.height; ++y) {
+    const float* in = linear.ptr<float>(y);
+    float* out = recorded.ptr<float>(y);
+    for (int x = 0; x < view.width; ++x) {
+      const double v = std::pow(std::clamp(static_cast<double>(in[x]), 0.0, 1.0), 1.0 / options.gamma) +
+                       random.normal(options.noiseSigma);
+      out[x] = static_cast<float>(std::clamp(v, 0.0, 1.0));
+    }
+  }
+  return recorded;
+}
+
+cv::Mat linearFromRecorded(const cv::Mat& recorded, double gamma) {
+  cv::Mat linear(recorded.size(), CV_32F);
+  for (int y = 0; y < recorded.rows; ++y) {
+    const float* in = recorded.ptr<float>(y);
+    float* out = linear.ptr<float>(y);
+    for (int x = 0; x < recorded.cols; ++x) out[x] = static_cast<float>(std::pow(std::max(in[x], 0.0f), gamma));
+  }
+  return linear;
+}
+
+}  // namespace parallax

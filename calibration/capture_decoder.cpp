@@ -1,0 +1,86 @@
+#include "calibration/capture_decoder.h"
+
+#include <cmath>
+#include <map>
+
+#include "calibration/fit_geometry.h"
+#include "calibration/synthetic_observations.h"
+#include "common/check.h"
+#include "common/input_error.h"
+
+namespace parallax {
+
+void CaptureDecoderOptions::validate() const {
+  patterns.validate();
+  if (!(minContrastFraction > 0.0 && minContrastFraction < 1.0)) {
+    throw InputError({"", "min_contrast_fraction", 0}, "must be in (0, 1)");
+  }
+  if (pixelStep < 1 || pixelStep > 64) throw InputError({"", "pixel_step", 0}, "must be 1..64");
+  if (minStripePixels < 1) throw InputError({"", "min_stripe_pixels", 0}, "must be >= 1");
+}
+
+void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<cv::Mat>& rowFrames,
+                   const std::vector<int>& group, const DisplayModel& nominal, int station,
+                   const CaptureDecoderOptions& options, CalibrationObservations* obs) {
+  options.validate();
+  PARALLAX_CHECK(!columnFrames.empty() && !rowFrames.empty());
+  PARALLAX_CHECK(station >= 0 && station < static_cast<int>(obs->stations.size()));
+  const int width = columnFrames[0].cols, height = columnFrames[0].rows;
+  const int mw = nominal.modules[0].width, mh = nominal.modules[0].height;
+  const CameraIntrinsics& in = obs->intrinsics;
+  // The decoder's idea of the camera: at the tape mark, aimed at the screen centre.
+  CameraPose pose;
+  pose.centre = obs->stations[static_cast<size_t>(station)].tapeCentre;
+  pose.physicalFromCamera = aimCameraAt(pose.centre, Eigen::Vector3d::Zero());
+  const auto camera = packCamera(pose);
+
+  for (int y = 0; y < height; ++y) {
+    // Per module in this row: contrast-weighted sums for the stripe centre.
+    // module → {Σw, Σw·x, count, contrast at the run's first pixel, at its last, peak}
+    std::map<int, std::array<double, 6>> stripe;
+    double rowMax = 0.0;
+    for (int x = 0; x < width; ++x) rowMax = std::max(rowMax, static_cast<double>(columnFrames[0].at<float>(y, x) - columnFrames[1].at<float>(y, x)));
+    if (!(rowMax > options.patterns.minContrast)) continue;
+    for (int x = 0; x < width; ++x) {
+      const double contrast = columnFrames[0].at<float>(y, x) - columnFrames[1].at<float>(y, x);
+      if (!(contrast >= options.minContrastFraction * rowMax)) continue;
+      const Eigen::Vector2d n = in.normalized({x + 0.5, y + 0.5});
+      Vec3<double> s;
+      if (!screenPointOfCameraRay(nominal.screen.curvature, camera.data(), n.x(), n.y(), &s)) continue;
+      int label = -1;
+      double best = 1e9;
+      for (int m : group) {
+        const double angle = std::abs(stripeAngle(nominal.screen, s, nominal.modules[static_cast<size_t>(m)].position, pose.centre));
+        if (angle < best) { best = angle; label = m; }
+      }
+      if (label < 0) continue;
+      auto [it, fresh] = stripe.try_emplace(label, std::array<double, 6>{0, 0, 0, contrast, 0, 0});
+      auto& acc = it->second;
+      acc[4] = contrast;
+      acc[5] = std::max(acc[5], contrast);
+      acc[0] += contrast;
+      acc[1] += contrast * (x + 0.5);
+      acc[2] += 1.0;
+      if (x % options.pixelStep != 0 || y % options.pixelStep != 0) continue;
+      std::vector<float> ic, ir;
+      for (const cv::Mat& f : columnFrames) ic.push_back(f.at<float>(y, x));
+      for (const cv::Mat& f : rowFrames) ir.push_back(f.at<float>(y, x));
+      const auto u = decodePixel(ic, mw, options.patterns);
+      const auto v = decodePixel(ir, mh, options.patterns);
+      if (!u || !v) continue;
+      obs->correspondences.push_back({station, label, {x + 0.5, y + 0.5}, {*u, *v}});
+    }
+    // Stripe centres on the same row subsampling as the correspondences: neighbouring rows'
+    // centres are nearly the same measurement, and each costs the solver a residual.
+    if (y % options.pixelStep != 0) continue;
+    for (const auto& [module, acc] : stripe) {
+      if (acc[2] < options.minStripePixels) continue;
+      // A run that starts or ends bright was cut (by the module's image edge or the screen's):
+      // its centroid would not be the lobe's centre.
+      if (acc[3] > 0.5 * acc[5] || acc[4] > 0.5 * acc[5]) continue;
+      obs->stripes.push_back({station, module, {acc[1] / acc[0], y + 0.5}});
+    }
+  }
+}
+
+}  // namespace parallax

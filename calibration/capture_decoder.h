@@ -1,0 +1,41 @@
+#pragma once
+// From one camera station's recorded frames to CalibrationObservations: every camera pixel
+// decodes to a module pixel (structured_light.h), is given to a module, and each module's
+// stripe centre is found in every camera row.
+//
+// Which module lit a pixel: the modules of one group show their patterns at once, and from one
+// station each appears only in its own stripe. The decoder predicts, from the nominal display
+// and the tape-measured station, the horizontal angle at which each group module's light
+// leaves the screen point the pixel sees, and gives the pixel to the module whose predicted
+// angle to the camera is smallest. Stripe position depends only on module position (not on
+// its orientation or intrinsics), and groups are spaced several diffusion widths apart, so
+// the nominal layout is enough to tell them apart.
+// Stripe centre: the contrast-weighted centroid (white − black) of a module's pixels along a
+// camera row — the lobe is symmetric about the exact transfer direction.
+
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "calibration/calibration_observations.h"
+#include "calibration/display_model.h"
+#include "calibration/structured_light.h"
+
+namespace parallax {
+
+struct CaptureDecoderOptions {
+  StructuredLightOptions patterns;
+  double minContrastFraction = 0.25;  // of the row's brightest contrast, for a correspondence
+  int pixelStep = 2;                  // decode every n-th camera pixel in x and y (and
+                                      // find stripe centres on every n-th row)
+  int minStripePixels = 3;            // per row, for a stripe centre
+
+  void validate() const;
+};
+
+// frames: per axis (columns, rows), the station's recorded frames already converted to linear
+// light, in makePatternFrames' order. group: the modules that showed the patterns.
+void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<cv::Mat>& rowFrames,
+                   const std::vector<int>& group, const DisplayModel& nominal, int station,
+                   const CaptureDecoderOptions& options, CalibrationObservations* observations);
+
+}  // namespace parallax

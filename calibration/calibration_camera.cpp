@@ -1,3 +1,4 @@
+#include "calibration/conventions.h"
 #include "calibration/calibration_camera.h"
 
 namespace parallax {
@@ -27,13 +28,7 @@ Eigen::Vector2d CameraIntrinsics::normalized(const Eigen::Vector2d& pixel) const
 }
 
 Eigen::Quaterniond aimCameraAt(const Eigen::Vector3d& centre, const Eigen::Vector3d& target) {
-  const Eigen::Vector3d forward = (target - centre).normalized();
-  const Eigen::Vector3d down(0.0, -1.0, 0.0);
-  const Eigen::Vector3d downOrtho = (down - down.dot(forward) * forward).normalized();
-  const Eigen::Vector3d right = downOrtho.cross(forward);
-  Eigen::Matrix3d physicalFromCamera;
-  physicalFromCamera << right, downOrtho, forward;
-  return Eigen::Quaterniond(physicalFromCamera).normalized();
+  return uprightLookingAt(centre, target);
 }
 
 bool projectPhysical(const CameraIntrinsics& intrinsics, const CameraPose& pose,

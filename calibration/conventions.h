@@ -36,6 +36,7 @@
 // Primary ray of a pixel: origin o on the observer line, through screen point s (ray_function.h).
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 namespace parallax {
 
@@ -45,6 +46,19 @@ inline Eigen::Vector2d pixelFromOpenCv(const Eigen::Vector2d& opencv) {
 }
 inline Eigen::Vector2d openCvFromPixel(const Eigen::Vector2d& pixel) {
   return pixel - Eigen::Vector2d(0.5, 0.5);
+}
+
+// physicalFromDevice of an upright module or camera at `from` whose optical axis points at
+// `target` (device frame as above: x right, y down, z forward; "upright": its y axis is as close
+// to physical −y as the axis allows).
+inline Eigen::Quaterniond uprightLookingAt(const Eigen::Vector3d& from, const Eigen::Vector3d& target) {
+  const Eigen::Vector3d forward = (target - from).normalized();
+  const Eigen::Vector3d down(0.0, -1.0, 0.0);
+  const Eigen::Vector3d downOrtho = (down - down.dot(forward) * forward).normalized();
+  const Eigen::Vector3d right = downOrtho.cross(forward);
+  Eigen::Matrix3d physicalFromDevice;
+  physicalFromDevice << right, downOrtho, forward;
+  return Eigen::Quaterniond(physicalFromDevice).normalized();
 }
 
 }  // namespace parallax

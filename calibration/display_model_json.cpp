@@ -9,6 +9,8 @@
 
 #include <fmt/format.h>
 
+#include "calibration/json_file.h"
+#include "common/atomic_file.h"
 #include "common/input_error.h"
 
 namespace parallax {
@@ -176,23 +178,7 @@ DisplayModel displayModelFromJson(const json& j) {
 }
 
 DisplayModel loadDisplayModel(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError({path, "", 0}, "cannot open the display file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string text = buffer.str();
-  json j;
-  try {
-    j = json::parse(text);
-  } catch (const json::parse_error& e) {
-    // Turn the byte offset into a line number a person can jump to.
-    const size_t end = std::min(text.size(), static_cast<size_t>(e.byte));
-    const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(end), '\n'));
-    std::string reason = e.what();
-    const size_t colon = reason.find(": ");
-    if (colon != std::string::npos) reason = reason.substr(colon + 2);
-    throw InputError({path, "", line}, "not valid JSON: " + reason);
-  }
+  const json j = readJsonFile(path);
   try {
     return displayModelFromJson(j);
   } catch (const InputError& e) {
@@ -201,21 +187,7 @@ DisplayModel loadDisplayModel(const std::string& path) {
 }
 
 void saveDisplayModel(const DisplayModel& model, const std::string& path) {
-  const std::string temporary = path + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) throw InputError({path, "", 0}, "cannot write the display file");
-    out << displayModelToJson(model).dump(2) << "\n";
-    out.flush();
-    if (!out) {
-      std::remove(temporary.c_str());
-      throw InputError({path, "", 0}, "writing the display file failed");
-    }
-  }
-  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
-    std::remove(temporary.c_str());
-    throw InputError({path, "", 0}, "cannot move the display file into place");
-  }
+  writeFileAtomically(path, displayModelToJson(model).dump(2) + "\n");
 }
 
 }  // namespace parallax

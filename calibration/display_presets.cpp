@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 
+#include "calibration/conventions.h"
 #include "calibration/display_model_json.h"
 #include "common/input_error.h"
 
@@ -23,17 +24,6 @@ constexpr double kDiffusionPerPitch = 1.5;
 
 double radians(double deg) { return deg * std::numbers::pi / 180.0; }
 double degrees(double rad) { return rad * 180.0 / std::numbers::pi; }
-
-// Orientation of an upright module at p looking at `target` (module frame: conventions.h).
-Eigen::Quaterniond aimAt(const Eigen::Vector3d& p, const Eigen::Vector3d& target) {
-  const Eigen::Vector3d forward = (target - p).normalized();
-  const Eigen::Vector3d down(0.0, -1.0, 0.0);
-  const Eigen::Vector3d downOrtho = (down - down.dot(forward) * forward).normalized();
-  const Eigen::Vector3d right = downOrtho.cross(forward);
-  Eigen::Matrix3d physicalFromModule;
-  physicalFromModule << right, downOrtho, forward;
-  return Eigen::Quaterniond(physicalFromModule).normalized();
-}
 
 // Largest focal length (square pixels, centred principal point) for which every point of the
 // screen's outline projects inside the image with the cover margin.
@@ -95,7 +85,7 @@ DisplayModel makeNominalDisplay(const NominalDisplayOptions& options) {
     m.id = i;
     const double x = count == 1 ? 0.0 : rowHalfWidth * (-1.0 + 2.0 * (i + 0.5) / count);
     m.position = {x, 0.0, -kModuleDistance};
-    m.orientation = aimAt(m.position, Eigen::Vector3d::Zero());
+    m.orientation = uprightLookingAt(m.position, Eigen::Vector3d::Zero());
     m.width = width;
     m.height = height;
     m.cx = 0.5 * width;

@@ -1,3 +1,4 @@
+#include "calibration/conventions.h"
 #include "calibration/ground_truth.h"
 
 #include <algorithm>
@@ -51,13 +52,7 @@ Eigen::Quaterniond rotateModule(const Eigen::Quaterniond& physicalFromModule, do
 }
 
 Eigen::Quaterniond aimModuleAt(const Eigen::Vector3d& position, const Eigen::Vector3d& target) {
-  const Eigen::Vector3d forward = (target - position).normalized();
-  const Eigen::Vector3d down(0.0, -1.0, 0.0);
-  const Eigen::Vector3d downOrtho = (down - down.dot(forward) * forward).normalized();
-  const Eigen::Vector3d right = downOrtho.cross(forward);
-  Eigen::Matrix3d physicalFromModule;
-  physicalFromModule << right, downOrtho, forward;
-  return Eigen::Quaterniond(physicalFromModule).normalized();
+  return uprightLookingAt(position, target);
 }
 
 DisplayModel makeGroundTruth(const DisplayModel& nominal, const GroundTruthOptions& options) {

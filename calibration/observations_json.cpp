@@ -10,6 +10,8 @@
 
 #include <fmt/format.h>
 
+#include "calibration/json_file.h"
+#include "common/atomic_file.h"
 #include "common/input_error.h"
 
 namespace parallax {
@@ -182,42 +184,6 @@ void decodedFromJson(const json& j, CalibrationObservations* o) {
     if (!r.is_array() || r.size() != 4) fail(field, "must be [camera, fiducial, camera_u, camera_v]");
     o->fiducialSightings.push_back({index(r[0], field + "[0]", kMaxIndex), index(r[1], field + "[1]", kMaxIndex),
                                     {finiteNumber(r[2], field + "[2]"), finiteNumber(r[3], field + "[3]")}});
-  }
-}
-
-json readJsonFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError({path, "", 0}, "cannot open the file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string text = buffer.str();
-  try {
-    return json::parse(text);
-  } catch (const json::parse_error& e) {
-    const size_t end = std::min(text.size(), static_cast<size_t>(e.byte));
-    const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(end), '\n'));
-    std::string reason = e.what();
-    const size_t colon = reason.find(": ");
-    if (colon != std::string::npos) reason = reason.substr(colon + 2);
-    throw InputError({path, "", line}, "not valid JSON: " + reason);
-  }
-}
-
-void writeFileAtomically(const std::string& path, const std::string& text) {
-  const std::string temporary = path + ".tmp." + std::to_string(::getpid());
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) throw InputError({path, "", 0}, "cannot write the file");
-    out << text;
-    out.flush();
-    if (!out) {
-      std::remove(temporary.c_str());
-      throw InputError({path, "", 0}, "writing the file failed");
-    }
-  }
-  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
-    std::remove(temporary.c_str());
-    throw InputError({path, "", 0}, "cannot move the file into place");
   }
 }
 

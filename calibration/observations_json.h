@@ -38,9 +38,5 @@ CalibrationObservations loadObservations(const std::string& directory);
 // Writes both atomically (temporary file, then rename).
 void saveObservations(const CalibrationObservations& observations, const std::string& directory);
 
-// Reads a JSON file, turning syntax errors into an InputError with the line.
-nlohmann::json readJsonFile(const std::string& path);
-// Writes text atomically beside `path` (temporary file, then rename).
-void writeFileAtomically(const std::string& path, const std::string& text);
 
 }  // namespace parallax

@@ -7,13 +7,10 @@
 #include <cmath>
 
 #include "common/check.h"
+#include "tracer/frame.h"
 
 namespace parallax {
 namespace {
-
-float linearFromSrgb(float c) {
-  return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
-}
 
 int wrap(int i, int n) {
   if (i >= 0 && i < n) return i;  // the common case: no division

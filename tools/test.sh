@@ -21,12 +21,14 @@ if [ "$fuzz_seconds" -gt 0 ]; then
     [ -n "$target" ] || continue
     corpus=$fuzz_dir/corpus/$target
     mkdir -p "$corpus"
-    seeds=$root/tests/fuzz/seeds/$target
-    [ -d "$seeds" ] || seeds=
+    seeds=()
+    [ -d "$root/tests/fuzz/seeds/$target" ] && seeds+=("$root/tests/fuzz/seeds/$target")
+    # The scene library is the script loader's best seed corpus; read it in place, not copied.
+    [ "$target" = fuzz_scene_script ] && seeds+=("$root/scripts/scenes")
     echo "fuzz: $target for ${fuzz_seconds}s"
     log=$fuzz_dir/$target.log
     if ! "$fuzz_dir/tests/fuzz/$target" -max_total_time="$fuzz_seconds" -print_final_stats=1 \
-      -rss_limit_mb=4096 "$corpus" $seeds >"$log" 2>&1; then
+      -rss_limit_mb=4096 "$corpus" "${seeds[@]}" >"$log" 2>&1; then
       tail -n 60 "$log"
       echo "fuzz: $target FAILED"
       exit 1

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
 
 #include "common/input_error.h"
 
@@ -56,6 +58,12 @@ void writeExr(const Frame& frame, const std::string& path) {
   OIIO::ImageSpec spec(frame.width, frame.height, 3, OIIO::TypeDesc::FLOAT);
   spec.attribute("oiio:ColorSpace", "Linear");
   writeImage(path, spec, floats.data());
+}
+
+std::string moduleFrameStem(const std::string& directory, int moduleIndex) {
+  char name[32];
+  std::snprintf(name, sizeof name, "module_%03d", moduleIndex);
+  return (std::filesystem::path(directory) / name).string();
 }
 
 Frame readFrame(const std::string& path) {

@@ -32,6 +32,10 @@ float linearFromSrgb(float encoded);  // encoded in [0, 1]
 // Both throw InputError naming the file when it cannot be written.
 void writePng(const Frame& frame, const std::string& path);
 void writeExr(const Frame& frame, const std::string& path);
+// Where a module's frame lives in a frames folder, without extension: DIR/module_NNN (NNN the
+// module index). `render` writes there and `view` reads from there.
+std::string moduleFrameStem(const std::string& directory, int moduleIndex);
+
 // Reads a frame back: 8/16-bit files are sRGB-decoded, float files taken as linear; grey and
 // RGBA files are reduced to RGB. Throws InputError naming the file.
 Frame readFrame(const std::string& path);

@@ -82,7 +82,7 @@ void runRender(const RenderArgs& args) {
     const Frame frame = renderFrame(physical, textures, options, &counters);
     renderMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     total += counters;
-    const std::string stem = (std::filesystem::path(args.out) / fmt::format("module_{:03d}", index)).string();
+    const std::string stem = moduleFrameStem(args.out, index);
     writePng(frame, stem + ".png");
     if (args.floatOutput) writeExr(frame, stem + ".exr");
     progress.advance();

@@ -36,7 +36,7 @@ struct ViewArgs {
 std::vector<Frame> readModuleFrames(const DisplayModel& model, const std::string& directory) {
   std::vector<Frame> frames;
   for (size_t i = 0; i < model.modules.size(); ++i) {
-    const std::string stem = (std::filesystem::path(directory) / fmt::format("module_{:03d}", i)).string();
+    const std::string stem = moduleFrameStem(directory, static_cast<int>(i));
     const std::string path = std::filesystem::exists(stem + ".exr") ? stem + ".exr" : stem + ".png";
     if (!std::filesystem::exists(path)) {
       throw InputError({path, "", 0}, fmt::format("module {} has no frame (expected {}.png or .exr)", i, stem));

@@ -8,7 +8,7 @@ namespace parallax {
 ForwardMap::ForwardMap(const DisplayModel& model, int moduleIndex)
     : model_(model), rays_(model, moduleIndex) {}
 
-ForwardMapResult ForwardMap::linearPixelOf(const Eigen::Vector3d& point) const {
+ForwardMapResult ForwardMap::linearPixelOf(const Eigen::Vector3d& point, bool withinScreen) const {
   ForwardMapResult result;
   const Eigen::Vector3d& p = rays_.optics().position();
   // Top-view line from the module through the point, oriented toward the viewers.
@@ -28,7 +28,7 @@ ForwardMapResult ForwardMap::linearPixelOf(const Eigen::Vector3d& point) const {
                             : (s.x() - o.x()) / toPoint.x();
   if (!std::isfinite(lambda)) return result;
   s.y() = o.y() + lambda * toPoint.y();
-  if (!model_.screen.contains(s.x(), s.y())) return result;
+  if (withinScreen && !model_.screen.contains(s.x(), s.y())) return result;
   if (!rays_.optics().project((s - p).normalized(), &result.pixel)) return result;
   result.ok = true;
   return result;
@@ -45,7 +45,7 @@ bool ForwardMap::residual(const Eigen::Vector2d& uv, const Eigen::Vector3d& poin
   return true;
 }
 
-ForwardMapResult ForwardMap::refineConical(const Eigen::Vector3d& point, Eigen::Vector2d uv) const {
+ForwardMapResult ForwardMap::refineConical(const Eigen::Vector3d& point, Eigen::Vector2d uv, bool withinScreen) const {
   ForwardMapResult result;
   // Newton with a central-difference Jacobian: its truncation error only slows convergence, it
   // does not move the root, so the answer is as exact as the ray function itself.
@@ -78,7 +78,8 @@ ForwardMapResult ForwardMap::refineConical(const Eigen::Vector3d& point, Eigen::
     if (step.norm() < 1e-10) {
       // Converged; it is an answer only if the ray really passes through the point and the
       // pixel's module ray lands on the screen itself, not on its continuation.
-      result.ok = r.norm() <= 1e-9 * (1.0 + point.norm()) && rays_.at(uv.x(), uv.y()).valid();
+      result.ok = r.norm() <= 1e-9 * (1.0 + point.norm()) &&
+                  (withinScreen ? rays_.at(uv.x(), uv.y()) : rays_.atUnclipped(uv.x(), uv.y())).valid();
       result.pixel = uv;
       return result;
     }
@@ -144,20 +145,24 @@ std::vector<Eigen::Vector2d> ForwardMap::conicalStarts(const Eigen::Vector3d& po
   return starts;
 }
 
-ForwardMapResult ForwardMap::pixelOf(const Eigen::Vector3d& point) const {
-  if (model_.screen.transfer == ScreenTransfer::kLinear) return linearPixelOf(point);
+ForwardMapResult ForwardMap::pixelOf(const Eigen::Vector3d& point) const { return solve(point, true); }
+
+ForwardMapResult ForwardMap::pixelOfContinued(const Eigen::Vector3d& point) const { return solve(point, false); }
+
+ForwardMapResult ForwardMap::solve(const Eigen::Vector3d& point, bool withinScreen) const {
+  if (model_.screen.transfer == ScreenTransfer::kLinear) return linearPixelOf(point, withinScreen);
   // Conical: Newton from the closed-form linear answer converges in a few steps for almost
   // every point. Where it does not (grazing pixels far from it), every root of the 1-D cone
   // condition is a candidate; Newton on the ray function itself polishes each, and the one whose
   // ray passes through P is the answer (the others belong to the mirror branch the ray
   // function's root rule rejects).
-  const ForwardMapResult linear = linearPixelOf(point);
+  const ForwardMapResult linear = linearPixelOf(point, withinScreen);
   if (linear.ok) {
-    const ForwardMapResult quick = refineConical(point, linear.pixel);
+    const ForwardMapResult quick = refineConical(point, linear.pixel, withinScreen);
     if (quick.ok) return quick;
   }
   for (const Eigen::Vector2d& start : conicalStarts(point)) {
-    const ForwardMapResult result = refineConical(point, start);
+    const ForwardMapResult result = refineConical(point, start, withinScreen);
     if (result.ok) return result;
   }
   return {};

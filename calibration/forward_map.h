@@ -33,10 +33,16 @@ class ForwardMap {
   // Pixel position whose primary ray passes through the physical point; not ok when none does
   // (the point is off every ray of the module, or the solve does not converge).
   ForwardMapResult pixelOf(const Eigen::Vector3d& physicalPoint) const;
+  // The same map continued past the screen's edges (RayFunction::atUnclipped): a point whose
+  // ray would cross the screen's plane beyond its extent still gets the pixel, off the image
+  // or masked. What a rasterizer needs for the vertices of a triangle that leaves the image:
+  // their pixels lie outside it and clipping in the image does the rest.
+  ForwardMapResult pixelOfContinued(const Eigen::Vector3d& physicalPoint) const;
 
  private:
-  ForwardMapResult linearPixelOf(const Eigen::Vector3d& point) const;
-  ForwardMapResult refineConical(const Eigen::Vector3d& point, Eigen::Vector2d start) const;
+  ForwardMapResult solve(const Eigen::Vector3d& point, bool withinScreen) const;
+  ForwardMapResult linearPixelOf(const Eigen::Vector3d& point, bool withinScreen) const;
+  ForwardMapResult refineConical(const Eigen::Vector3d& point, Eigen::Vector2d start, bool withinScreen) const;
   // Pixel candidates from the bracketed 1-D solve over the origin X (see above).
   std::vector<Eigen::Vector2d> conicalStarts(const Eigen::Vector3d& point) const;
   // Cosine mismatch for origin X: (o − s)/|o − s|·t − d·t; false where o → P misses the screen.

@@ -97,8 +97,19 @@ Frame synthesizeObserverView(const DisplayModel& model, const std::vector<Frame>
 }
 
 RayTextures observerViewRays(const DisplayModel& model, double viewerX, const ObserverViewOptions& options) {
+  return observerViewRays(model, model.observer.pointAt(viewerX), options);
+}
+
+RayTextures observerViewRays(const DisplayModel& model, const Eigen::Vector3d& viewer,
+                             const ObserverViewOptions& options) {
   options.validate();
-  RayTextures rays(options.width, options.height, rayFrameOf(model));
+  // Every ray of a view starts at the viewer, so the compact form's shared o.y, o.z are the
+  // viewer's, on the observer line or off it.
+  RayFrame frame = rayFrameOf(model);
+  frame.observerY = static_cast<float>(viewer.y());
+  frame.observerZ = static_cast<float>(viewer.z());
+  const double viewerX = viewer.x();
+  RayTextures rays(options.width, options.height, frame);
   for (int j = 0; j < options.height; ++j) {
     for (int i = 0; i < options.width; ++i) {
       const Eigen::Vector3d s = viewPixelOnScreen(model.screen, options, i, j);

@@ -39,6 +39,9 @@ Frame synthesizeObserverView(const DisplayModel& model, const std::vector<Frame>
 // viewer, s = the view pixel's screen point), in the tracer's compact form: rendering them with
 // renderFrame gives the view traced directly, the reference for synthesizeObserverView.
 RayTextures observerViewRays(const DisplayModel& model, double viewerX, const ObserverViewOptions& options);
+// The same for a viewer anywhere in front of the screen (off the observer line too).
+RayTextures observerViewRays(const DisplayModel& model, const Eigen::Vector3d& viewer,
+                             const ObserverViewOptions& options);
 
 // Peak signal-to-noise ratio (dB) of two same-sized frames over sRGB-encoded values in [0, 1];
 // +inf when they are identical. With `mask`, only pixels whose mask value is ≥ 0.5 count.

@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 
 #include "common/input_error.h"
+#include "tracer/hit_info.h"
 #include "tracer/optics.h"
 
 namespace parallax {
@@ -50,55 +51,6 @@ bool hitsBox(const Eigen::Vector3f& o, const Eigen::Vector3f& d, const Eigen::Ve
     if (t0 > t1) return false;
   }
   return true;
-}
-
-struct HitInfo {
-  Eigen::Vector3f position;
-  Eigen::Vector3f geometricNormal;  // unit, facing the incoming ray
-  Eigen::Vector3f shadingNormal;    // unit, same side as geometricNormal
-  bool frontFace = true;            // the ray arrived on the side the CCW normal points to
-  Eigen::Vector2f uv = Eigen::Vector2f::Zero();
-  Rgb vertexColor = Rgb::Ones();
-  float texelsPerMetreSq = 0.0f;  // uv area / physical area (for the texture footprint)
-};
-
-HitInfo hitInfoOf(const PhysicalMesh& mesh, unsigned prim, float u, float v, const Eigen::Vector3f& d) {
-  const auto& tri = mesh.triangles[prim];
-  const Eigen::Vector3f& p0 = mesh.positions[tri[0]];
-  const Eigen::Vector3f& p1 = mesh.positions[tri[1]];
-  const Eigen::Vector3f& p2 = mesh.positions[tri[2]];
-  const float w = 1.0f - u - v;
-  HitInfo h;
-  // From the vertices, not o + t d: its error is then ulps of the vertices, not of the ray length.
-  h.position = w * p0 + u * p1 + v * p2;
-  const Eigen::Vector3f cross = (p1 - p0).cross(p2 - p0);
-  Eigen::Vector3f ng = cross.normalized();
-  h.frontFace = ng.dot(d) < 0.0f;
-  if (!h.frontFace) ng = -ng;
-  h.geometricNormal = ng;
-  h.shadingNormal = ng;
-  if (!mesh.normals.empty()) {
-    const Eigen::Vector3f ns = w * mesh.normals[tri[0]] + u * mesh.normals[tri[1]] + v * mesh.normals[tri[2]];
-    const float length = ns.norm();
-    if (length > 0.0f && std::isfinite(length)) {
-      Eigen::Vector3f n = ns / length;
-      // Interpolated normals may point to the other side than the face; keep them on the
-      // incoming side so shading and secondary rays stay consistent with the offset.
-      if (n.dot(ng) < 0.0f) n = -n;
-      h.shadingNormal = n;
-    }
-  }
-  if (!mesh.uvs.empty()) {
-    const Eigen::Vector2f& t0 = mesh.uvs[tri[0]];
-    const Eigen::Vector2f& t1 = mesh.uvs[tri[1]];
-    const Eigen::Vector2f& t2 = mesh.uvs[tri[2]];
-    h.uv = w * t0 + u * t1 + v * t2;
-    const Eigen::Vector2f a = t1 - t0, b = t2 - t0;
-    const float uvArea = std::abs(a.x() * b.y() - a.y() * b.x());
-    h.texelsPerMetreSq = uvArea / cross.norm();
-  }
-  if (!mesh.colors.empty()) h.vertexColor = w * mesh.colors[tri[0]] + u * mesh.colors[tri[1]] + v * mesh.colors[tri[2]];
-  return h;
 }
 
 class TileRenderer {
@@ -381,6 +333,10 @@ void RenderOptions::validate() const {
     throw InputError({"", "min_weight", 0}, "must be in [0, 1)");
   }
   if (maxDepth < 0 || maxDepth > 64) throw InputError({"", "max_depth", 0}, "must be in 0..64 (0: the scene's)");
+  const int side = static_cast<int>(std::lround(std::sqrt(static_cast<double>(samplesPerPixel))));
+  if (samplesPerPixel < 1 || samplesPerPixel > 256 || side * side != samplesPerPixel) {
+    throw InputError({"", "samples_per_pixel", 0}, "must be a square in 1..256 (an n x n sub-pixel grid)");
+  }
 }
 
 RenderCounters& RenderCounters::operator+=(const RenderCounters& o) {
@@ -411,6 +367,10 @@ std::vector<std::string> RenderCounters::lines() const {
 Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options,
                   RenderCounters* counters, RayLog* log) {
   options.validate();
+  if (options.samplesPerPixel != 1) {
+    throw InputError({"", "samples_per_pixel", 0},
+                     "sub-pixel rays need the display model: use the renderFrame of supersampled_render.h");
+  }
   Frame frame(textures.width(), textures.height());
   int depth = scene.features().depth;
   if (options.maxDepth > 0) depth = std::min(depth, options.maxDepth);

@@ -29,6 +29,10 @@ struct RenderOptions {
   float minWeight = 1.0f / 512.0f;
   int maxDepth = 0;  // 0: the scene's own (always capped at what its materials need)
   bool textureFiltering = true;  // false: bilinear on the full-resolution level only
+  // Anti-aliasing: n × n sub-pixel rays a pixel (a square: 1, 4, 9, ...). Sub-pixel rays come
+  // from the ray function, so anything above 1 needs the display model: renderFrame of
+  // supersampled_render.h. 1 is the plain ray textures, unchanged.
+  int samplesPerPixel = 1;
 
   // Throws InputError naming the option.
   void validate() const;
@@ -65,6 +69,7 @@ struct RayLog {
 };
 
 // Renders one module frame. `textures` must come from the display the scene was mapped into.
+// Throws InputError for samplesPerPixel > 1 (see supersampled_render.h).
 Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options,
                   RenderCounters* counters = nullptr, RayLog* log = nullptr);
 

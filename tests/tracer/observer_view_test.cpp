@@ -104,6 +104,28 @@ TEST(ObserverView, ModuleFramesSeenThroughThePhysicsMatchTheViewTracedDirectly) 
   }
 }
 
+// The traced reference for a viewer off the observer line: every ray starts at the viewer and
+// passes through its view pixel's screen point; on the line it is the x-only form exactly.
+TEST(ObserverView, TracedReferenceRaysStartAtTheViewerOnOrOffTheLine) {
+  const DisplayModel model = viewDisplay(8, 1.5);
+  ObserverViewOptions options;
+  options.width = 32;
+  options.height = 18;
+  const RayTextures online = observerViewRays(model, 0.3, options);
+  const RayTextures same = observerViewRays(model, model.observer.pointAt(0.3), options);
+  ASSERT_EQ(online.rays().size(), same.rays().size());
+  for (size_t i = 0; i < online.rays().size(); ++i) {
+    EXPECT_EQ(online.frame().origin(online.rays()[i]), same.frame().origin(same.rays()[i]));
+    EXPECT_EQ(online.frame().screenPoint(online.rays()[i]), same.frame().screenPoint(same.rays()[i]));
+  }
+  const Eigen::Vector3d viewer(-0.2, model.observer.y + 0.25, model.observer.z - 0.6);
+  const RayTextures off = observerViewRays(model, viewer, options);
+  for (size_t i = 0; i < off.rays().size(); ++i) {
+    EXPECT_TRUE(off.frame().origin(off.rays()[i]).isApprox(viewer.cast<float>()));
+    EXPECT_EQ(off.frame().screenPoint(off.rays()[i]), online.frame().screenPoint(online.rays()[i]));
+  }
+}
+
 }  // namespace
 }  // namespace parallax
 

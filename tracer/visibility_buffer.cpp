@@ -1,0 +1,51 @@
+#include "tracer/visibility_buffer.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+
+#include "tracer/ray_batch.h"
+
+namespace parallax {
+
+long VisibilityBuffer::coveredCount() const {
+  return std::count_if(samples.begin(), samples.end(), [](const SurfaceSample& s) { return s.covered(); });
+}
+
+Eigen::Vector3f surfacePosition(const PhysicalScene& scene, const SurfaceSample& sample) {
+  const PhysicalMesh& mesh = scene.meshes()[static_cast<size_t>(sample.mesh)];
+  const auto& tri = mesh.triangles[static_cast<size_t>(sample.triangle)];
+  const float b0 = 1.0f - sample.b1 - sample.b2;
+  return b0 * mesh.positions[tri[0]] + sample.b1 * mesh.positions[tri[1]] + sample.b2 * mesh.positions[tri[2]];
+}
+
+VisibilityBuffer tracePrimaryVisibility(const PhysicalScene& scene, const RayTextures& textures) {
+  VisibilityBuffer out(textures.width(), textures.height());
+  const RayFrame& frame = textures.frame();
+  tbb::parallel_for(tbb::blocked_range<int>(0, textures.height(), 8), [&](const tbb::blocked_range<int>& rows) {
+    std::vector<RTCRayHit> rays;
+    std::vector<int> pixels;
+    for (int row = rows.begin(); row < rows.end(); ++row) {
+      for (int column = 0; column < textures.width(); ++column) {
+        const CompactRay& r = textures.at(column, row);
+        if (r.masked()) continue;
+        rays.push_back(makeRayHit(frame.origin(r), frame.direction(r)));
+        pixels.push_back(row * textures.width() + column);
+      }
+    }
+    intersectBatch(scene.handle(), rays, Traversal::kStream, true);
+    for (size_t i = 0; i < rays.size(); ++i) {
+      const RTCRayHit& h = rays[i];
+      if (h.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+      SurfaceSample& s = out.samples[static_cast<size_t>(pixels[i])];
+      s.mesh = static_cast<int>(h.hit.geomID);
+      s.triangle = static_cast<int>(h.hit.primID);
+      s.b1 = h.hit.u;
+      s.b2 = h.hit.v;
+    }
+  });
+  return out;
+}
+
+}  // namespace parallax

@@ -3,6 +3,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
+#include <string>
 
 #include "common/input_error.h"
 #include "daemon/cli/commands.h"
@@ -19,6 +20,9 @@ int main(int argc, char** argv) {
   parallax::cli::addSimulateCommand(app);
   parallax::cli::addCalibrateCommand(app);
   parallax::cli::addSceneApiCommand(app);
+  std::string commandLine = "parallax";
+  for (int i = 1; i < argc; ++i) commandLine += std::string(" ") + argv[i];
+  parallax::cli::addReportCommand(app, commandLine);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

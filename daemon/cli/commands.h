@@ -3,6 +3,7 @@
 // it installs; errors propagate as exceptions to main(), which prints one line and exits 1.
 
 #include <CLI/CLI.hpp>
+#include <string>
 
 namespace parallax::cli {
 
@@ -16,5 +17,7 @@ void addViewCommand(CLI::App& app);
 void addSimulateCommand(CLI::App& app);
 void addCalibrateCommand(CLI::App& app);
 void addSceneApiCommand(CLI::App& app);
+// `commandLine`: how parallax was invoked, recorded in the report.
+void addReportCommand(CLI::App& app, const std::string& commandLine);
 
 }  // namespace parallax::cli

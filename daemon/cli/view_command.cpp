@@ -77,11 +77,8 @@ void runView(const ViewArgs& args) {
                            viewer.x(), viewer.y(), viewer.z(), args.out, options.width, options.height,
                            100.0 * static_cast<double>(covered) / static_cast<double>(coverage.size()));
   if (!args.tracedScene.empty()) {
-    if (viewer.y() != model.observer.y || viewer.z() != model.observer.z) {
-      throw InputError({"", "--traced-scene", 0}, "the traced reference is for viewers on the observer line");
-    }
     const PhysicalScene scene(loadSceneArgument(args.tracedScene, {}, 0.0), model.displayableBox);
-    const Frame traced = renderFrame(scene, observerViewRays(model, viewer.x(), options), RenderOptions{});
+    const Frame traced = renderFrame(scene, observerViewRays(model, viewer, options), RenderOptions{});
     const std::string tracedPath = std::filesystem::path(args.out).replace_extension("").string() + "_traced.png";
     writePng(traced, tracedPath);
     std::cout << fmt::format("traced reference written to {}; PSNR over the lit part: {:.2f} dB\n", tracedPath,

@@ -72,8 +72,9 @@ DisplayModel scaleDisplayResolution(const DisplayModel& model, double factor);
 // Shared formatting.
 std::string fixed(double value, int decimals);
 std::string general(double value);
-// Wall-clock ms of `run`, the minimum over repetitions until ~`budgetMs` is spent (at least 1,
-// at most `maxRuns`): the least disturbed run on a shared machine.
+// Wall-clock ms of `run`, the minimum over repetitions until ~`budgetMs` is spent (at least 3
+// unless a run takes over a second, at most `maxRuns`): the least disturbed run on a shared
+// machine.
 template <typename F>
 double timeMs(F&& run, double budgetMs = 300.0, int maxRuns = 5);
 

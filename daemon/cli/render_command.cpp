@@ -1,9 +1,9 @@
 // parallax render [--display FILE|default|demo] --scene NAME|FILE|SCRIPT.lua [--set name=value]
 //                 [--time T] [--module I|all] [--out DIR]
-//                 [--explain] [--float] [--traversal single|packet16|stream]
+//                 [--explain] [--float] [--traversal single|packet16|stream] [--spp N]
 // Ray traces module frames of a scene through the display's ray textures and writes them as
 // sRGB PNG (and float EXR with --float). --explain prints what the scene needs, what ran and
-// what was left out, with the per-frame counters.
+// what was left out, with the per-frame counters. --spp N (a square): N sub-pixel rays a pixel.
 
 #include <chrono>
 #include <filesystem>
@@ -18,6 +18,7 @@
 #include "common/progress_bar.h"
 #include "daemon/cli/commands.h"
 #include "tracer/physical_scene.h"
+#include "tracer/supersampled_render.h"
 #include "scripts/scene_argument.h"
 #include "tracer/scene_source.h"
 #include "tracer/whitted_integrator.h"
@@ -35,6 +36,7 @@ struct RenderArgs {
   bool floatOutput = false;
   std::vector<std::string> sets;  // --set name=value (scene scripts)
   double time = 0.0;              // --time T (animated scene scripts)
+  int samplesPerPixel = 1;        // --spp N
 };
 
 std::vector<int> moduleIndices(const std::string& text, size_t count) {
@@ -64,6 +66,12 @@ void runRender(const RenderArgs& args) {
   if (!args.traversal.empty() && !parseTraversal(args.traversal.c_str(), &options.traversal)) {
     throw InputError({"", "--traversal", 0}, "must be single, packet16 or stream");
   }
+  options.samplesPerPixel = args.samplesPerPixel;
+  try {
+    options.validate();
+  } catch (const InputError& e) {
+    throw InputError({"", "--spp", 0}, e.reason());
+  }
   const Scene scene = loadSceneArgument(args.scene, args.sets, args.time);
   const PhysicalScene physical(scene, model.displayableBox);
   for (const std::string& w : physical.warnings()) std::cerr << "parallax: warning: " << w << "\n";
@@ -79,7 +87,7 @@ void runRender(const RenderArgs& args) {
     const RayTextures textures = generateRayTextures(model, index);
     RenderCounters counters;
     const auto start = std::chrono::steady_clock::now();
-    const Frame frame = renderFrame(physical, textures, options, &counters);
+    const Frame frame = renderFrame(physical, model, index, textures, options, &counters);
     renderMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     total += counters;
     const std::string stem = moduleFrameStem(args.out, index);
@@ -120,6 +128,7 @@ void addRenderCommand(CLI::App& app) {
   command->add_option("--module", args->module, "module index, or all");
   command->add_option("--out", args->out, "output folder");
   command->add_option("--traversal", args->traversal, "Embree traversal: single, packet16, stream");
+  command->add_option("--spp", args->samplesPerPixel, "anti-aliasing: sub-pixel rays a pixel, a square (1, 4, 9, ...)");
   command->add_flag("--explain", args->explain, "print what ran, what was left out, and the counters");
   command->add_flag("--float", args->floatOutput, "also write float EXR frames");
   command->callback([args] { runRender(*args); });

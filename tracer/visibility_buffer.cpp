@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <limits>
 
 #include "tracer/ray_batch.h"
 
@@ -23,6 +24,8 @@ Eigen::Vector3f surfacePosition(const PhysicalScene& scene, const SurfaceSample&
 VisibilityBuffer tracePrimaryVisibility(const PhysicalScene& scene, const RayTextures& textures) {
   VisibilityBuffer out(textures.width(), textures.height());
   const RayFrame& frame = textures.frame();
+  const Eigen::Vector3f lo = scene.boundsMin(), hi = scene.boundsMax();
+  const float margin = 0.01f * (hi - lo).norm();
   tbb::parallel_for(tbb::blocked_range<int>(0, textures.height(), 8), [&](const tbb::blocked_range<int>& rows) {
     std::vector<RTCRayHit> rays;
     std::vector<int> pixels;
@@ -30,7 +33,20 @@ VisibilityBuffer tracePrimaryVisibility(const PhysicalScene& scene, const RayTex
       for (int column = 0; column < textures.width(); ++column) {
         const CompactRay& r = textures.at(column, row);
         if (r.masked()) continue;
-        rays.push_back(makeRayHit(frame.origin(r), frame.direction(r)));
+        // As renderFrame does: start just before the scene's bounds, not metres away on the
+        // observer line, so Embree's float intersection is exact to the scene's size.
+        Eigen::Vector3f o = frame.origin(r);
+        const Eigen::Vector3f d = frame.direction(r);
+        float entry = 0.0f, exit = std::numeric_limits<float>::infinity();
+        for (int k = 0; k < 3; ++k) {
+          float a = (lo[k] - o[k]) / d[k], b = (hi[k] - o[k]) / d[k];
+          if (a > b) std::swap(a, b);
+          entry = a > entry ? a : entry;  // NaN (ray in a slab's plane) leaves it unchanged
+          exit = b < exit ? b : exit;
+        }
+        if (entry > exit) continue;  // misses the scene's bounds: background
+        o += std::max(0.0f, entry - margin) * d;
+        rays.push_back(makeRayHit(o, d));
         pixels.push_back(row * textures.width() + column);
       }
     }

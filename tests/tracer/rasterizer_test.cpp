@@ -71,7 +71,7 @@ TEST(Rasterizer, XyzTriangleErrorFallsWithTessellationWhileTheTracerIsExact) {
       RasterCounters counters;
       const PositionError e = c.rasterError(level, mode, &counters);
       SCOPED_TRACE(std::string(interpolationName(mode)) + " level " + std::to_string(level));
-      EXPECT_GT(e.compared, tracer.compared * 9 / 10);
+      EXPECT_GT(e.compared, tracer.compared * 8 / 10);  // level 0: straight edges miss a rim
       EXPECT_EQ(counters.drawnTriangles + counters.droppedTriangles, 1L << (2 * level));
       EXPECT_TRUE(std::isfinite(e.rmsMm) && std::isfinite(e.rmsPx));
       if (level == 0) {

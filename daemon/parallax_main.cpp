@@ -1,4 +1,4 @@
-// `parallax`: the offline command-line tool (DESIGN.md, "Processes and interfaces").
+// `parallax`: the offline command-line tool and the daemon's control client (DESIGN.md, "Processes and interfaces").
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   parallax::cli::addSimulateCommand(app);
   parallax::cli::addCalibrateCommand(app);
   parallax::cli::addSceneApiCommand(app);
+  parallax::cli::addCtlCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -16,5 +16,7 @@ void addViewCommand(CLI::App& app);
 void addSimulateCommand(CLI::App& app);
 void addCalibrateCommand(CLI::App& app);
 void addSceneApiCommand(CLI::App& app);
+void addCtlCommand(CLI::App& app);
+void addBenchDaemonSubcommand(CLI::App* bench);  // under `bench`
 
 }  // namespace parallax::cli

@@ -50,8 +50,10 @@ int run(const std::string& configPath) {
   if (linkSpec.empty()) {
     const std::string folder = std::filesystem::path(config.controlSocketPath()).parent_path().string();
     std::filesystem::create_directories(folder);
-    simulator = std::make_unique<SimhwChild>(nominal, config.hardware, folder + "/simhw.sock");
+    simulator = std::make_unique<SimhwChild>(nominal, config.hardware, folder + "/simhw.sock", config.cacheDirPath());
     linkSpec = simulator->linkSpec();
+    // What a real installation measures once; the daemon never sees the simulator's truth.
+    if (config.calibration.camera.empty()) config.calibration.camera = simulator->cameraMetadataPath();
   }
 
   SystemdNotifier notifier;

@@ -17,6 +17,12 @@
 #include <stdexcept>
 #include <thread>
 
+#include "calibration/calibration_captures.h"
+#include "calibration/camera_truth.h"
+#include "calibration/display_model_json.h"
+#include "calibration/ground_truth.h"
+#include "calibration/simulated_session.h"
+
 extern char** environ;
 
 namespace parallax::daemon {
@@ -33,11 +39,34 @@ std::string SimhwChild::findBinary() {
   throw std::runtime_error(fmt::format("parallax-simhw not found next to {}: build it or configure [hardware]", self.string()));
 }
 
-SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardware, const std::string& socketPath)
-    : socketPath_(socketPath) {
-  const OpticalModule& first = nominal.modules.front();
-  arguments_ = {findBinary(), "--socket", socketPath_, "--modules", std::to_string(nominal.modules.size()),
-                "--resolution", fmt::format("{}x{}", first.width, first.height)};
+std::string SimhwChild::folderFor(const std::string& cacheDir, int seed) {
+  return fmt::format("{}/simulated-display/seed-{}", cacheDir, seed);
+}
+
+SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardware, const std::string& socketPath,
+                       const std::string& cacheDir)
+    : socketPath_(socketPath), folder_(folderFor(cacheDir, hardware.seed)) {
+  // The seeded truth and camera rig, as `parallax simulate` makes them (a 640×360 camera with
+  // the default's field of view, five stations across 3.2 m of the observer line).
+  GroundTruthOptions truthOptions;
+  truthOptions.seed = static_cast<std::uint64_t>(hardware.seed);
+  const DisplayModel truth = makeGroundTruth(nominal, truthOptions);
+  CameraRigOptions rig;
+  rig.stations = 5;
+  rig.spanM = 3.2;
+  rig.intrinsics.width = 640;
+  rig.intrinsics.height = 360;
+  rig.intrinsics.fx = rig.intrinsics.fy = 2100.0 * 640.0 / 1920.0;
+  rig.intrinsics.cx = 320.0;
+  rig.intrinsics.cy = 180.0;
+  rig.intrinsics.k1 = -0.04;
+  const SimulatedRig camera = makeSimulatedRig(truth, rig, static_cast<std::uint64_t>(hardware.seed) * 7919 + 1);
+  std::filesystem::create_directories(folder_);
+  saveDisplayModel(truth, groundTruthPath());
+  saveCameraTruth(camera.truth, folder_ + "/camera_truth.json");
+  saveCameraMetadata(camera.metadata, cameraMetadataPath());
+
+  arguments_ = {findBinary(), "--socket", socketPath_, "--truth", groundTruthPath(), "--camera", folder_ + "/camera_truth.json"};
   for (const std::string& fault : hardware.faults) {
     arguments_.push_back("--fault");
     arguments_.push_back(fault);

@@ -60,8 +60,8 @@ done
 ctl status | tee "$out/status.json"
 ctl status | grep -q '"state": "playing"' || { echo "demo: the daemon is not playing"; exit 1; }
 # The calibration report: what the fit found, or why there is no calibration.
-if [ -f "$out/calibration.json" ]; then
-  grep -A200 "calibration installed\|fit" "$out/parallaxd.log" >"$out/calibration_report.txt" || true
+if [ -f "$out/calibration.json.report.txt" ]; then
+  mv "$out/calibration.json.report.txt" "$out/calibration_report.txt"
 else
   { echo "No calibration installed; the daemon plays on the nominal model. From the daemon's status:";
     grep -A3 '"last_error"' "$out/status.json" || echo "(no error recorded)"; } >"$out/calibration_report.txt"

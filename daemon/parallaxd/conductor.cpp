@@ -8,6 +8,7 @@
 
 #include "calibration/display_model_json.h"
 #include "calibration/display_presets.h"
+#include "common/atomic_file.h"
 #include "common/input_error.h"
 #include "daemon/parallaxd/calibration_stage.h"
 #include "daemon/parallaxd/installer_patterns.h"
@@ -170,7 +171,9 @@ void Conductor::calibrate(std::optional<int> onlyModule) {
       store_.install(run.model);
       calibration_ = run.model;
       calibrationSource_ = store_.path();
-      spdlog::info("calibration installed: {}", store_.path());
+      // The fit's report beside the calibration it describes, for the installer.
+      writeFileAtomically(store_.path() + ".report.txt", run.summary + "\n" + run.report);
+      spdlog::info("calibration installed: {} (report: {}.report.txt)\n{}", store_.path(), store_.path(), run.summary);
     }
     // Whatever the modules showed during the patterns is gone: show the scene again.
     needsPush_ = true;

@@ -129,6 +129,8 @@ class DisplayFitter {
       : nominal_(nominal), obs_(obs), options_(options), transfer_(transfer) {
     observed_.assign(nominal.modules.size(), false);
     for (const Correspondence& c : obs.correspondences) observed_[static_cast<size_t>(c.module)] = true;
+    held_.assign(nominal.modules.size(), false);
+    for (int m : options.heldModules) held_[static_cast<size_t>(m)] = true;
     for (const Correspondence& c : obs.correspondences) prepared_.corrN.push_back(obs.intrinsics.normalized(c.cameraPx));
     for (const StripeCentre& s : obs.stripes) prepared_.stripeN.push_back(obs.intrinsics.normalized(s.cameraPx));
     // Start: nominal modules, cameras at the tape marks aimed at the screen centre.
@@ -199,6 +201,7 @@ class DisplayFitter {
       problem->AddParameterBlock(state_.modules[m].data(), kModuleBlockSize,
                                  new ceres::ProductManifold<ceres::EigenQuaternionManifold,
                                                             ceres::EuclideanManifold<9>>());
+      if (held_[m]) problem->SetParameterBlockConstant(state_.modules[m].data());
     }
     for (size_t i = 0; i < obs_.correspondences.size(); ++i) {
       const Correspondence& c = obs_.correspondences[i];
@@ -414,6 +417,9 @@ class DisplayFitter {
             "module {} was not seen by any camera: kept at its nominal pose and intrinsics", m));
       }
     }
+    int held = 0;
+    for (size_t m = 0; m < held_.size(); ++m) held += held_[m] ? 1 : 0;
+    if (held > 0) result->notes.push_back(fmt::format("{} module(s) held at their starting calibration", held));
   }
 
   // Largest σ (module px, RMS of u and v) of the pixel that the fitted module uses to light a
@@ -466,7 +472,7 @@ class DisplayFitter {
     std::vector<double*> blocks;
     std::vector<size_t> moduleOf;
     for (size_t m = 0; m < state_.modules.size(); ++m) {
-      if (observed_[m]) {
+      if (observed_[m] && !held_[m]) {  // held modules are not estimated: no covariance
         blocks.push_back(state_.modules[m].data());
         moduleOf.push_back(m);
       }
@@ -552,6 +558,7 @@ class DisplayFitter {
   const FitOptions& options_;
   ScreenTransfer transfer_;
   std::vector<bool> observed_;
+  std::vector<bool> held_;
   Prepared prepared_;
   State state_;
   Sigmas sigmas_;
@@ -640,6 +647,11 @@ FitResult fitDisplay(const DisplayModel& nominal, const CalibrationObservations&
   options.validate();
   nominal.validate();
   validateObservations(nominal, observations);
+  for (int m : options.heldModules) {
+    if (m < 0 || m >= static_cast<int>(nominal.modules.size())) {
+      throw InputError({"", "held_modules", 0}, fmt::format("no module {} (the display has {})", m, nominal.modules.size()));
+    }
+  }
   const ScreenTransfer transfer = options.transfer.value_or(nominal.screen.transfer);
   FitResult result = DisplayFitter(nominal, observations, options, transfer).run();
   if (result.transferMismatch && options.tryOtherTransfer) {

@@ -54,6 +54,11 @@ struct FitOptions {
   // conditioning. Catches well-conditioned but data-starved setups (two stations: each module
   // seen in two stripes, its image corners extrapolated by tens of pixels).
   double maxPixelStdDevPx = 1.5;
+  // Modules held at their starting values (the `nominal` argument, which for a refit is the
+  // current calibration): constant in the solve, their correspondences still placing the
+  // cameras. Refitting one replaced module holds all the others (`calibrate --module N`);
+  // hold the curvature too (fitCurvature = false) when the screen did not change.
+  std::vector<int> heldModules;
   std::function<void(int iteration, double cost)> onIteration;  // progress, optional
 
   void validate() const;

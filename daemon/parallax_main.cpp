@@ -1,4 +1,4 @@
-// `parallax`: the offline command-line tool (DESIGN.md, "Processes and interfaces").
+// `parallax`: the offline command-line tool and the daemon's control client (DESIGN.md, "Processes and interfaces").
 
 #include <CLI/CLI.hpp>
 #include <cstdio>
@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
   std::string commandLine = "parallax";
   for (int i = 1; i < argc; ++i) commandLine += std::string(" ") + argv[i];
   parallax::cli::addReportCommand(app, commandLine);
+  parallax::cli::addCtlCommand(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -95,6 +95,9 @@ bool LinkClient::helloOk() {
   submittedHash_.resize(modules_.size());
   hashValid_.resize(modules_.size(), false);
   latestTicket_.resize(modules_.size(), 0);
+  // A new session: what the modules show is unknown again (see sessions()).
+  std::fill(hashValid_.begin(), hashValid_.end(), false);
+  ++sessions_;
   lastHeard_ = Clock::now();
   return true;
 }

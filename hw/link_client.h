@@ -101,6 +101,12 @@ class LinkClient {
 
   const LinkStats& stats() const { return stats_; }
   const LinkOptions& options() const { return options_; }
+  // Counts the link's sessions: 1 after construction, +1 for every reconnect that got a Hello
+  // back. A device that answered Hello again may have restarted and lost what it showed, so a
+  // new session also forgets which content each module holds (the next submit of the same
+  // bytes is sent, not skipped); a caller that keeps frames up compares this number and
+  // submits them again when it changes.
+  uint64_t sessions() const { return sessions_; }
   std::string transportName() const { return transport_->name(); }
 
  private:
@@ -157,6 +163,7 @@ class LinkClient {
   LinkStats stats_;
   uint32_t sequence_ = 0;
   uint64_t ticket_ = 0;
+  uint64_t sessions_ = 0;
   bool reconnecting_ = false;
   Clock::time_point downUntil_;  // no reconnect attempts before this
   std::string downReason_;

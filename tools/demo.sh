@@ -1,48 +1,94 @@
 #!/usr/bin/env bash
-# The main job (until the daemon lands): installs and builds what is missing, then on the
-# simulated display
-#   1. makes the `default` display (72 modules) and writes its constant ray textures,
-#   2. ray traces the paper's Cornell box from its Lua scene script on every module of `demo`,
-#   3. assembles what three viewers on the observer line see from those frames, beside the
-#      same views traced directly (with the PSNR between them),
-# and says where everything is. Pass an output folder as the first argument.
+# The main job: installs and builds what is missing, then runs the daemon end to end on the
+# simulated `demo` display (16 modules of 512×384):
+#   1. starts parallaxd, which starts its own simulated display (parallax-simhw with a seeded
+#      ground truth) and knows only the nominal model;
+#   2. lets it calibrate through the link and the camera (when this build can: see the
+#      calibration report), regenerate the ray textures and play scripts/scenes/cornell.lua;
+#   3. asks it, over its control socket (`parallax ctl`), for every module's frame, for what
+#      viewers at x = -0.5, 0 and 0.5 m see, and for its status and timings;
+#   4. shuts it down; the simulator saves what its modules actually received.
+# Pass an output folder as the first argument (default: out/demo).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-out=$(realpath -m "${1:-$root/parallax-output}")
-parallax=$root/build/daemon/parallax
+out=$(realpath -m "${1:-$root/out/demo}")
+build=$root/build
+parallax=$build/daemon/parallax
+parallaxd=$build/daemon/parallaxd
 
 "$root/tools/setup.sh"
-mkdir -p "$out"
+rm -rf "$out"
+mkdir -p "$out/frames" "$out/shown"
+run=$(mktemp -d /tmp/parallax-demo.XXXXXX)
+socket=$run/parallaxd.sock
+ctl() { "$parallax" ctl --socket "$socket" "$@"; }
 
-echo "== 1. the default display and its ray textures"
-"$parallax" display --preset default --out "$out/default_display.json"
-"$parallax" raytex --display "$out/default_display.json" --out "$out/raytex"
-if command -v oiiotool >/dev/null; then
-  tex=$out/raytex
-  oiiotool "$tex/module_000_mask.exr" --ch R=0,G=0,B=0 -o "$out/.mask.png" &&
-    oiiotool "$tex/module_000_origins.exr" --addc 1.5,0,0 --mulc 0.33,1,0.3 -o "$out/.origins.png" &&
-    oiiotool "$tex/module_000_directions.exr" --addc 1 --mulc 0.5 -o "$out/.directions.png" &&
-    oiiotool "$out/.mask.png" "$out/.origins.png" "$out/.directions.png" --mosaic 3x1 \
-      -o "$out/raytex_module_000_preview.png"
-  rm -f "$out"/.mask.png "$out"/.origins.png "$out"/.directions.png
+cat >"$out/parallax.toml" <<EOC
+# The configuration this demo ran parallaxd with.
+[display]
+preset = "demo"
+[hardware]
+kind = "sim"
+seed = 7
+dump = "$out/shown"
+[calibration]
+file = "$out/calibration.json"
+auto = true
+[scene]
+script = "cornell"
+[daemon]
+socket = "$socket"
+cache_dir = "${XDG_CACHE_HOME:-$HOME/.cache}/parallax"
+EOC
+
+echo "== 1. parallaxd on the simulated demo display (log: $out/parallaxd.log)"
+"$parallaxd" --config "$out/parallax.toml" 2>"$out/parallaxd.log" &
+daemon=$!
+cleanup() {
+  kill "$daemon" 2>/dev/null || true
+  wait "$daemon" 2>/dev/null || true
+  rm -rf "$run"
+}
+trap cleanup EXIT
+
+echo "== 2. calibrate, regenerate, load cornell.lua, play"
+for _ in $(seq 1 1800); do
+  if ctl stats 2>/dev/null | grep -qE '"display_frames": [1-9]'; then break; fi
+  kill -0 "$daemon" 2>/dev/null || { cat "$out/parallaxd.log"; exit 1; }
+  sleep 0.5
+done
+ctl status | tee "$out/status.json"
+ctl status | grep -q '"state": "playing"' || { echo "demo: the daemon is not playing"; exit 1; }
+# The calibration report: what the fit found, or why there is no calibration.
+if [ -f "$out/calibration.json.report.txt" ]; then
+  mv "$out/calibration.json.report.txt" "$out/calibration_report.txt"
+else
+  { echo "No calibration installed; the daemon plays on the nominal model. From the daemon's status:";
+    grep -A3 '"last_error"' "$out/status.json" || echo "(no error recorded)"; } >"$out/calibration_report.txt"
 fi
 
-echo "== 2. the Cornell box (scripts/scenes/cornell.lua) on the 16 modules of the demo display"
-"$parallax" render --display demo --scene "$root/scripts/scenes/cornell.lua" --module all \
-  --out "$out/frames" --explain
-
-echo "== 3. what viewers on the observer line see"
-for x in -0.5 0 0.5; do
-  "$parallax" view --display demo --frames "$out/frames" --x "$x" --out "$out/view_x$x.png" \
-    --traced-scene "$root/scripts/scenes/cornell.lua"
+echo "== 3. the module frames and three observer views, from the daemon"
+for m in $(seq 0 15); do
+  ctl frame "$m" --path "$out/frames/$(printf 'module_%03d.png' "$m")" >/dev/null
 done
+for x in -0.5 0 0.5; do
+  ctl view "$x" --path "$out/view_x$x.png" | grep '"path"'
+done
+ctl stats | tee "$out/timings.json" | grep '"summary"'
+
+echo "== 4. shut down"
+ctl shutdown >/dev/null
+wait "$daemon"
+trap - EXIT
+rm -rf "$run"
 
 cat <<EON
 
 Everything is in $out:
-  default_display.json              the nominal 72-module display model
-  raytex/module_NNN_*.exr           its ray textures (origins, directions, mask; open in any EXR viewer)
-  raytex_module_000_preview.png     module 0's mask | origins | directions
-  frames/module_NNN.png             the Cornell box as each demo module shows it
-  view_x*.png, view_x*_traced.png   three observer views from the frames, and traced directly
+  frames/module_NNN.png        what parallaxd pushed to each of the 16 modules (cornell.lua)
+  shown/module_NNN.png         what the simulated modules actually showed when it stopped
+  view_x-0.5.png view_x0.png view_x0.5.png   what viewers on the observer line see
+  calibration_report.txt       the calibration (or why the nominal model was used)
+  timings.json                 render / encode / push / end-to-end timings and frame counts
+  status.json, parallaxd.log, parallax.toml   the daemon's state, its log and its configuration
 EON

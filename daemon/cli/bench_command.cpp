@@ -176,6 +176,7 @@ void addBenchCommand(CLI::App& app) {
   tracer->add_option("--scenes", args->scenes, "comma-separated scene names or model files");
   tracer->callback([args] { runBenchTracer(*args); });
   addBenchTextureSubcommand(bench);
+  addBenchDaemonSubcommand(bench);
 }
 
 }  // namespace parallax::cli

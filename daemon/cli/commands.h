@@ -19,5 +19,7 @@ void addCalibrateCommand(CLI::App& app);
 void addSceneApiCommand(CLI::App& app);
 // `commandLine`: how parallax was invoked, recorded in the report.
 void addReportCommand(CLI::App& app, const std::string& commandLine);
+void addCtlCommand(CLI::App& app);
+void addBenchDaemonSubcommand(CLI::App* bench);  // under `bench`
 
 }  // namespace parallax::cli

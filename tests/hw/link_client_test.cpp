@@ -116,6 +116,30 @@ TEST(LinkClient, UnchangedFramesAreNotResent) {
   EXPECT_EQ(sim.hardware().counters(1).framesShown, 1u);
 }
 
+TEST(LinkClient, ANewSessionSendsTheSameBytesAgain) {
+  // A device that says Hello again may have restarted with a blank image: after a reconnect
+  // the same content is delivered, not skipped, and sessions() tells the caller to resubmit.
+  InProcessSimhw sim(smallDisplay(1));
+  auto link = connect(sim);
+  EXPECT_EQ(link->sessions(), 1u);
+  auto a = makeFrame(7);
+  link->submit(0, a);
+  link->flush();
+  sim.stop();
+  sim.start();
+  EXPECT_TRUE(link->ping());
+  EXPECT_EQ(link->sessions(), 2u);
+  link->takeOutcomes();
+  link->submit(0, a);
+  link->flush();
+  const auto outcomes = link->takeOutcomes();
+  ASSERT_EQ(outcomes.size(), 1u);
+  EXPECT_EQ(outcomes[0].status, FrameStatus::kDelivered) << outcomes[0].reason;
+  link.reset();
+  sim.stop();
+  EXPECT_EQ(sim.hardware().counters(0).framesShown, 2u);
+}
+
 TEST(LinkClient, RejectsFramesTheModuleCannotTake) {
   InProcessSimhw sim(smallDisplay(1));
   auto link = connect(sim);

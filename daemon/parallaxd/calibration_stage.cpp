@@ -1,0 +1,52 @@
+#include "daemon/parallaxd/calibration_stage.h"
+
+#include <fmt/format.h>
+
+#include <stdexcept>
+
+#include "calibration/calibration_captures.h"
+#include "calibration/display_fit.h"
+#include "calibration/fit_report.h"
+#include "hw/calibration_capture.h"
+#include "hw/camera.h"
+
+namespace parallax::daemon {
+
+CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& nominal, const DisplayModel& start,
+                                    const CalibrationConfig& config, std::optional<int> onlyModule,
+                                    const std::function<void(const std::string&)>& progress,
+                                    const std::atomic<bool>* cancel) {
+  if (config.camera.empty()) {
+    throw InputError({"", "calibration.camera", 0}, "calibrating needs the camera's metadata (camera.json)");
+  }
+  const CameraMetadata camera = loadCameraMetadata(config.camera);
+  // The camera behind the link: parallax-simhw's, or a real one answering capture requests.
+  hw::SimulatedCamera device(link);
+  hw::CalibrationCaptureOptions capture;
+  const CalibrationCaptures captures = hw::captureCalibration(
+      link, device, nominal, camera, capture,
+      [&progress](int done, int total) { progress(fmt::format("pictures: {} of {}", done, total)); }, cancel);
+  progress("decoding the pictures");
+  CaptureDecoderOptions decoder;
+  decoder.patterns = capture.patterns;
+  decoder.pixelStep = 6;  // every 6th camera pixel each way: plenty of correspondences, seconds not minutes
+  const CalibrationObservations observations = decodeCaptures(captures, nominal, decoder);
+  progress(fmt::format("fitting ({} correspondences)", observations.correspondences.size()));
+  FitOptions fit;
+  fit.threads = 2;
+  if (onlyModule) {
+    // One replaced module: the others and the screen stay as calibrated.
+    for (int m = 0; m < static_cast<int>(start.modules.size()); ++m) {
+      if (m != *onlyModule) fit.heldModules.push_back(m);
+    }
+    fit.fitCurvature = false;
+  }
+  const FitResult result = fitDisplay(start, observations, fit);
+  CalibrationRun run{result.model, formatFitSummary(result), formatFitReport(result)};
+  if (!result.passesQualityChecks()) {
+    throw std::runtime_error("the fit failed its quality checks, nothing installed: " + run.summary);
+  }
+  return run;
+}
+
+}  // namespace parallax::daemon

@@ -1,0 +1,150 @@
+#pragma once
+// The conductor: owns what the display shows — the calibration, its ray textures, the scene,
+// the frames on the modules, the link — and runs the stages of the state machine
+// (daemon_state.h) and the render loop on one thread, the only one that touches the link
+// (LinkClient is single-threaded). Requests from the control socket arrive from other threads
+// and are queued to that thread between frames; `status` and `stats` are answered at once
+// from a snapshot the loop publishes, so they work even while a long stage runs.
+//
+// It has no geometry, shading or protocol of its own: it calls calibration/, tracer/,
+// scripts/ and hw/.
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <future>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calibration/display_model.h"
+#include "calibration/ray_textures.h"
+#include "daemon/parallaxd/calibration_store.h"
+#include "daemon/parallaxd/daemon_config.h"
+#include "daemon/parallaxd/daemon_state.h"
+#include "daemon/parallaxd/loop_stats.h"
+#include "daemon/parallaxd/ray_texture_cache.h"
+#include "hw/image.h"
+#include "hw/link_client.h"
+#include "scripts/scripted_scene.h"
+#include "tracer/frame.h"
+#include "tracer/physical_scene.h"
+#include "tracer/whitted_integrator.h"
+
+namespace parallax::daemon {
+
+struct ConductorOptions {
+  DaemonConfig config;
+  std::string linkSpec;  // "simhw:/path" or "usb:VID:PID[:SERIALS]"
+  hw::LinkOptions link;
+  RenderOptions render;
+  int connectTimeoutMs = 10000;  // at start (a simulator we started may take a moment)
+  int keepAliveMs = 1000;        // idle link probe: how soon a reconnect is noticed
+  // Called from the conductor thread: once when the first stage sequence has finished (with
+  // or without error: the daemon is serving), and on every loop turn (the watchdog).
+  std::function<void()> onReady;
+  std::function<void()> onHeartbeat;
+};
+
+class Conductor {
+ public:
+  explicit Conductor(ConductorOptions options);
+  ~Conductor();
+
+  // The conductor thread: start-up stages, then the loop until `stop` or a `shutdown`
+  // request; finishes the frames in flight before it returns.
+  void run(const std::atomic<bool>& stop);
+
+  // Any thread: one request (a JSON object with "request"), its reply ({"ok": ...}).
+  nlohmann::json handle(const nlohmann::json& request);
+
+  // Any thread (SIGHUP): applies what can change while running; says what needs a restart.
+  void reloadConfig(DaemonConfig config);
+
+  bool shutdownRequested() const { return shutdown_.load(); }
+  StateSnapshot state() const { return state_.snapshot(); }
+
+ private:
+  struct Job {
+    nlohmann::json request;
+    std::promise<nlohmann::json> reply;
+  };
+  using Clock = std::chrono::steady_clock;
+
+  // Stages (conductor thread).
+  void startUp();
+  bool connectLink(int timeoutMs);
+  void calibrate(std::optional<int> onlyModule);
+  void regenerate(const DisplayModel& model);
+  void loadScene(const std::string& script, const std::map<std::string, double>& parameters);
+  // Render loop.
+  std::chrono::milliseconds timeToNextTurn() const;
+  void turn();
+  void renderAndPush();
+  void push(const std::vector<std::shared_ptr<const hw::Image>>& images);
+  void keepLinkAlive();
+  void showOverlay(const std::string& kind, std::optional<int> module);
+  void finishInFlight();
+
+  // Requests (conductor thread), each returns the reply.
+  nlohmann::json dispatch(const nlohmann::json& request);
+  nlohmann::json statusJson() const;
+  nlohmann::json statsJson() const;
+  nlohmann::json writeModuleFrame(const nlohmann::json& request);
+  nlohmann::json writeObserverView(const nlohmann::json& request);
+  void drainJobs(Clock::time_point until);
+  void publish();
+  void applyConfig(const DaemonConfig& config);
+  DaemonState showingState() const;  // playing or paused, whichever we were in
+
+  ConductorOptions options_;
+  StateMachine state_;
+  DisplayModel nominal_;
+  DisplayModel calibration_;  // the installed calibration, or the nominal when there is none
+  std::string calibrationSource_;
+  CalibrationStore store_;
+  RayTextureCache cache_;
+  RayTextureCacheStats cacheStats_;
+  std::vector<RayTextures> textures_;
+  uint64_t texturesVersion_ = 0;
+  uint64_t texturesHash_ = 0;
+
+  std::unique_ptr<ScriptedScene> script_;
+  std::string sceneArgument_;
+  std::string sceneError_;  // the last failed reload/load/update, kept for `status`
+  uint64_t renderedSceneVersion_ = 0, renderedTexturesVersion_ = 0;
+  double sceneTime_ = 0.0;
+  Clock::time_point nextFrameDue_;
+  bool paused_ = false;
+  std::string overlay_;  // "", "identify", "testcard"
+
+  std::unique_ptr<hw::LinkClient> link_;
+  uint64_t linkSessions_ = 0;
+  Clock::time_point lastLinkTry_, lastLinkActivity_;
+  std::string linkError_;
+  std::vector<Frame> currentFrames_;  // what the modules show (linear, for views)
+  std::vector<std::shared_ptr<const hw::Image>> currentImages_;
+  bool needsPush_ = false;
+
+  LoopStats stats_;
+  RenderCounters lastCounters_;
+  std::string lastCalibrationSummary_;
+
+  std::mutex jobsMutex_;
+  std::condition_variable jobsChanged_;
+  std::deque<std::shared_ptr<Job>> jobs_;
+  bool acceptingJobs_ = true;  // false once run() has ended
+  std::atomic<bool> shutdown_{false};
+  std::atomic<bool> cancel_{false};
+
+  mutable std::mutex publishedMutex_;
+  nlohmann::json publishedStatus_, publishedStats_;
+  std::optional<DaemonConfig> pendingConfig_;  // guarded by jobsMutex_
+};
+
+}  // namespace parallax::daemon

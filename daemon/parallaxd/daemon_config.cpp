@@ -1,0 +1,305 @@
+#include "daemon/parallaxd/daemon_config.h"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <set>
+#include <vector>
+#include <span>
+#include <toml++/toml.h>
+
+#include "calibration/display_model_json.h"
+#include "calibration/display_presets.h"
+
+namespace parallax::daemon {
+namespace {
+
+// Reads one table's keys, each checked for type, and refuses keys it does not know (a typo
+// must not silently fall back to a default). Every error names file, key and line.
+class TableReader {
+ public:
+  TableReader(const toml::table& table, std::string file, std::string prefix)
+      : table_(table), file_(std::move(file)), prefix_(std::move(prefix)) {}
+
+  [[noreturn]] void fail(const toml::node& node, const std::string& key, const std::string& why) const {
+    throw InputError({file_, prefix_ + key, static_cast<int>(node.source().begin.line)}, why);
+  }
+  const toml::node* find(const std::string& key) {
+    known_.insert(key);
+    return table_.get(key);
+  }
+  void readString(const std::string& key, std::string* out) {
+    if (const toml::node* n = find(key)) {
+      if (!n->is_string()) fail(*n, key, "must be a string");
+      *out = n->as_string()->get();
+    }
+  }
+  void readBool(const std::string& key, bool* out) {
+    if (const toml::node* n = find(key)) {
+      if (!n->is_boolean()) fail(*n, key, "must be true or false");
+      *out = n->as_boolean()->get();
+    }
+  }
+  template <typename Int>
+  void readInt(const std::string& key, Int* out, long long lo, long long hi) {
+    if (const toml::node* n = find(key)) {
+      if (!n->is_integer()) fail(*n, key, "must be an integer");
+      const long long v = n->as_integer()->get();
+      if (v < lo || v > hi) fail(*n, key, fmt::format("must be in {}..{}, got {}", lo, hi, v));
+      *out = static_cast<Int>(v);
+    }
+  }
+  void readNumber(const std::string& key, double* out, double lo, double hi) {
+    if (const toml::node* n = find(key)) {
+      double v = 0.0;
+      if (n->is_integer()) {
+        v = static_cast<double>(n->as_integer()->get());
+      } else if (n->is_floating_point()) {
+        v = n->as_floating_point()->get();
+      } else {
+        fail(*n, key, "must be a number");
+      }
+      if (!std::isfinite(v) || v < lo || v > hi) fail(*n, key, fmt::format("must be in {}..{}, got {}", lo, hi, v));
+      *out = v;
+    }
+  }
+  const toml::table* subTable(const std::string& key) {
+    const toml::node* n = find(key);
+    if (n && !n->is_table()) fail(*n, key, "must be a table");
+    return n ? n->as_table() : nullptr;
+  }
+  void refuseUnknownKeys() const {
+    for (const auto& [key, node] : table_) {
+      const std::string name(key.str());
+      if (!known_.count(name)) fail(node, name, "unknown key");
+    }
+  }
+  const std::string& file() const { return file_; }
+
+ private:
+  const toml::table& table_;
+  std::string file_;
+  std::string prefix_;
+  std::set<std::string> known_;
+};
+
+void readDisplay(TableReader& r, DisplayConfig* d) {
+  const bool hasPreset = r.find("preset") != nullptr;
+  r.readString("preset", &d->preset);
+  r.readString("file", &d->file);
+  if (const toml::node* n = r.find("file"); n && hasPreset) r.fail(*n, "file", "give either preset or file, not both");
+  if (d->file.empty() && !isBuiltInDisplay(d->preset)) {
+    r.fail(*r.find("preset"), "preset", fmt::format("no built-in display \"{}\" (default, demo)", d->preset));
+  }
+  int modules = 0;
+  if (const toml::node* n = r.find("modules")) {
+    r.readInt("modules", &modules, 1, 1024);
+    if (!d->file.empty()) r.fail(*n, "modules", "overrides a preset only, not a display file");
+    d->modules = modules;
+  }
+  if (const toml::node* n = r.find("resolution")) {
+    const toml::array* a = n->as_array();
+    if (!a || a->size() != 2 || !(*a)[0].is_integer() || !(*a)[1].is_integer()) {
+      r.fail(*n, "resolution", "must be [width, height] in pixels");
+    }
+    const long long w = (*a)[0].as_integer()->get(), h = (*a)[1].as_integer()->get();
+    if (w < 8 || h < 8 || w > 8192 || h > 8192) r.fail(*n, "resolution", "each side must be in 8..8192");
+    if (!d->file.empty()) r.fail(*n, "resolution", "overrides a preset only, not a display file");
+    d->width = static_cast<int>(w);
+    d->height = static_cast<int>(h);
+  }
+  r.refuseUnknownKeys();
+}
+
+void readHardware(TableReader& r, HardwareConfig* h) {
+  r.readString("kind", &h->kind);
+  if (h->kind != "sim" && h->kind != "usb") r.fail(*r.find("kind"), "kind", "must be \"sim\" or \"usb\"");
+  r.readString("socket", &h->socket);
+  r.readInt("seed", &h->seed, 0, 2147483647);
+  r.readString("dump", &h->dump);
+  if (const toml::node* n = r.find("faults")) {
+    const toml::array* a = n->as_array();
+    if (!a) r.fail(*n, "faults", "must be an array of strings such as \"2:disconnect\"");
+    for (const toml::node& f : *a) {
+      if (!f.is_string()) r.fail(f, "faults", "must be an array of strings such as \"2:disconnect\"");
+      h->faults.push_back(f.as_string()->get());
+    }
+  }
+  r.readInt("vid", &h->vid, 0, 0xffff);
+  r.readInt("pid", &h->pid, 0, 0xffff);
+  if (const toml::table* modules = r.subTable("modules")) {
+    for (const auto& [key, node] : *modules) {
+      if (!node.is_integer() || node.as_integer()->get() < 0 || node.as_integer()->get() > 1023) {
+        r.fail(node, fmt::format("modules.\"{}\"", key.str()), "must be a module index in 0..1023");
+      }
+      h->serialToModule[std::string(key.str())] = static_cast<int>(node.as_integer()->get());
+    }
+  }
+  const char* usbOnly[] = {"vid", "pid", "modules"};
+  const char* simOnly[] = {"socket", "seed", "faults", "dump"};
+  for (const char* key : h->kind == "sim" ? std::span<const char* const>(usbOnly) : std::span<const char* const>(simOnly)) {
+    if (const toml::node* n = r.find(key)) r.fail(*n, key, fmt::format("does not apply to kind = \"{}\"", h->kind));
+  }
+  if (h->kind == "usb") {
+    for (const char* key : {"vid", "pid"}) {
+      if (!r.find(key)) r.fail(*r.find("kind"), key, "is required for kind = \"usb\"");
+    }
+  }
+  r.refuseUnknownKeys();
+}
+
+void readCalibration(TableReader& r, CalibrationConfig* c) {
+  r.readString("file", &c->file);
+  r.readString("camera", &c->camera);
+  r.readBool("auto", &c->autoCalibrate);
+  r.refuseUnknownKeys();
+}
+
+void readScene(TableReader& r, SceneConfig* s) {
+  r.readString("script", &s->script);
+  if (const toml::node* n = r.find("script"); n && s->script.empty()) r.fail(*n, "script", "must not be empty");
+  r.readNumber("fps", &s->fps, 0.1, 240.0);
+  if (const toml::table* p = r.subTable("parameters")) {
+    TableReader params(*p, r.file(), "scene.parameters.");
+    for (const auto& [key, node] : *p) {
+      double v = 0.0;
+      params.readNumber(std::string(key.str()), &v, -1e9, 1e9);
+      s->parameters[std::string(key.str())] = v;
+    }
+  }
+  r.refuseUnknownKeys();
+}
+
+void readDaemon(TableReader& r, DaemonConfig* c) {
+  r.readString("socket", &c->controlSocket);
+  r.readString("cache_dir", &c->cacheDir);
+  r.readString("log_level", &c->logLevel);
+  static const std::set<std::string> kLevels = {"trace", "debug", "info", "warn", "error", "critical", "off"};
+  if (!kLevels.count(c->logLevel)) {
+    r.fail(*r.find("log_level"), "log_level", "must be trace, debug, info, warn, error, critical or off");
+  }
+  if (c->controlSocket.size() > 100) {
+    r.fail(*r.find("socket"), "socket", "a Unix socket path must be shorter than 100 bytes");
+  }
+  r.refuseUnknownKeys();
+}
+
+}  // namespace
+
+void DaemonConfig::validate() const {
+  auto require = [](bool ok, const char* key, const std::string& why) {
+    if (!ok) throw InputError({"", key, 0}, why);
+  };
+  require(!display.file.empty() || isBuiltInDisplay(display.preset), "display.preset", "must be default or demo");
+  require(hardware.kind == "sim" || hardware.kind == "usb", "hardware.kind", "must be sim or usb");
+  require(hardware.kind != "usb" || (hardware.vid > 0 && hardware.pid > 0), "hardware.vid", "usb needs vid and pid");
+  require(scene.fps > 0.0 && scene.fps <= 240.0, "scene.fps", "must be in (0, 240]");
+  require(!scene.script.empty(), "scene.script", "must not be empty");
+  require(controlSocketPath().size() < 100, "daemon.socket", "a Unix socket path must be shorter than 100 bytes");
+}
+
+std::string DaemonConfig::controlSocketPath() const {
+  return controlSocket.empty() ? defaultControlSocketPath() : controlSocket;
+}
+std::string DaemonConfig::cacheDirPath() const { return cacheDir.empty() ? defaultCacheDir() : cacheDir; }
+std::string DaemonConfig::calibrationFilePath() const {
+  return calibration.file.empty() ? cacheDirPath() + "/calibration.json" : calibration.file;
+}
+
+DaemonConfig parseDaemonConfig(const std::string& text, const std::string& name) {
+  toml::table root;
+  try {
+    root = toml::parse(text, name);
+  } catch (const toml::parse_error& e) {
+    throw InputError({name, "", static_cast<int>(e.source().begin.line)}, std::string(e.description()));
+  }
+  DaemonConfig config;
+  config.sourceFile = name;
+  TableReader top(root, name, "");
+  using Section = void (*)(TableReader&, DaemonConfig*);
+  const std::pair<const char*, Section> sections[] = {
+      {"display", [](TableReader& r, DaemonConfig* c) { readDisplay(r, &c->display); }},
+      {"hardware", [](TableReader& r, DaemonConfig* c) { readHardware(r, &c->hardware); }},
+      {"calibration", [](TableReader& r, DaemonConfig* c) { readCalibration(r, &c->calibration); }},
+      {"scene", [](TableReader& r, DaemonConfig* c) { readScene(r, &c->scene); }},
+      {"daemon", [](TableReader& r, DaemonConfig* c) { readDaemon(r, c); }},
+  };
+  for (const auto& [section, read] : sections) {
+    if (const toml::table* t = top.subTable(section)) {
+      TableReader reader(*t, name, std::string(section) + ".");
+      read(reader, &config);
+    }
+  }
+  top.refuseUnknownKeys();
+  config.validate();
+  return config;
+}
+
+DaemonConfig loadDaemonConfig(const std::string& path) {
+  std::string text;
+  {
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) throw InputError({path, "", 0}, "cannot open the config file");
+    char buffer[4096];
+    size_t n = 0;
+    while ((n = std::fread(buffer, 1, sizeof buffer, f)) > 0) {
+      text.append(buffer, n);
+      if (text.size() > (1u << 20)) {
+        std::fclose(f);
+        throw InputError({path, "", 0}, "larger than 1 MiB: not a parallaxd config");
+      }
+    }
+    std::fclose(f);
+  }
+  return parseDaemonConfig(text, path);
+}
+
+DisplayModel nominalDisplayOf(const DisplayConfig& d) {
+  if (!d.file.empty()) return loadDisplayModel(d.file);
+  NominalDisplayOptions o;
+  o.preset = d.preset;
+  o.modules = d.modules;
+  o.width = d.width;
+  o.height = d.height;
+  return makeNominalDisplay(o);
+}
+
+std::string linkSpecOf(const HardwareConfig& hardware, int modules) {
+  if (hardware.kind == "sim") return hardware.socket.empty() ? "" : "simhw:" + hardware.socket;
+  std::string spec = fmt::format("usb:{:04x}:{:04x}", hardware.vid, hardware.pid);
+  if (hardware.serialToModule.empty()) return spec;  // every matching device, in bus order
+  std::vector<std::string> serials(static_cast<size_t>(modules));
+  for (const auto& [serial, module] : hardware.serialToModule) {
+    if (module >= modules) {
+      throw InputError({"", "hardware.modules." + serial, 0}, fmt::format("module {} does not exist (0..{})", module, modules - 1));
+    }
+    if (!serials[static_cast<size_t>(module)].empty()) {
+      throw InputError({"", "hardware.modules." + serial, 0}, fmt::format("module {} is also {}", module, serials[static_cast<size_t>(module)]));
+    }
+    serials[static_cast<size_t>(module)] = serial;
+  }
+  for (int m = 0; m < modules; ++m) {
+    if (serials[static_cast<size_t>(m)].empty()) {
+      throw InputError({"", "hardware.modules", 0}, fmt::format("no serial for module {}", m));
+    }
+    spec += (m == 0 ? ":" : ",") + serials[static_cast<size_t>(m)];
+  }
+  return spec;
+}
+
+std::string defaultControlSocketPath() {
+  if (const char* runtime = std::getenv("XDG_RUNTIME_DIR"); runtime && *runtime) {
+    return std::string(runtime) + "/parallax/parallaxd.sock";
+  }
+  return fmt::format("/tmp/parallax-{}/parallaxd.sock", ::getuid());
+}
+
+std::string defaultCacheDir() {
+  if (const char* cache = std::getenv("XDG_CACHE_HOME"); cache && *cache) return std::string(cache) + "/parallax";
+  if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/parallax";
+  return fmt::format("/tmp/parallax-{}/cache", ::getuid());
+}
+
+}  // namespace parallax::daemon

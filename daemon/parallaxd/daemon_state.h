@@ -1,0 +1,48 @@
+#pragma once
+// The daemon's state machine (issue 8): start → calibrate (no valid calibration, or asked) →
+// regenerate the ray textures → load the scene → play ⇄ pause. A stage that fails keeps the
+// last good calibration, textures and scene and puts the machine in `error` with the reason,
+// or back in the state it came from when there is still something good to show (a bad scene
+// pushed over the control socket leaves the old one playing). Thread-safe: the control thread
+// reads it for `status` while the conductor thread runs the stages.
+
+#include <chrono>
+#include <mutex>
+#include <string>
+#include <string_view>
+
+namespace parallax::daemon {
+
+enum class DaemonState { kStarting, kCalibrating, kRegenerating, kLoading, kPlaying, kPaused, kError, kStopping };
+
+std::string_view daemonStateName(DaemonState state);
+
+struct StateSnapshot {
+  DaemonState state = DaemonState::kStarting;
+  std::string stage;      // what the current state is doing ("module 3 of 16")
+  std::string lastError;  // the most recent failure, kept until the next one
+  std::string lastErrorStage;
+  double secondsInState = 0.0;
+};
+
+class StateMachine {
+ public:
+  // Moves to `next` if the transition is legal; a bug otherwise (PARALLAX_CHECK).
+  void enter(DaemonState next, std::string stage = {});
+  void setStage(std::string stage);
+  // Records a stage failure; the state goes to `fallback` (the last good one, or kError).
+  void fail(const std::string& stage, const std::string& error, DaemonState fallback);
+  DaemonState state() const;
+  StateSnapshot snapshot() const;
+
+  static bool legal(DaemonState from, DaemonState to);
+
+ private:
+  mutable std::mutex mutex_;
+  DaemonState state_ = DaemonState::kStarting;
+  std::string stage_;
+  std::string lastError_, lastErrorStage_;
+  std::chrono::steady_clock::time_point since_ = std::chrono::steady_clock::now();
+};
+
+}  // namespace parallax::daemon

@@ -1,0 +1,144 @@
+#include "daemon/parallaxd/simhw_child.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <stdexcept>
+#include <thread>
+
+#include "calibration/calibration_captures.h"
+#include "calibration/camera_truth.h"
+#include "calibration/display_model_json.h"
+#include "calibration/ground_truth.h"
+#include "calibration/simulated_session.h"
+
+extern char** environ;
+
+namespace parallax::daemon {
+
+std::string SimhwChild::findBinary() {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (ec) throw std::runtime_error("cannot find parallaxd's own path: " + ec.message());
+  // Installed side by side, or in the build tree: daemon/parallaxd and hw/parallax-simhw.
+  for (const std::filesystem::path& candidate :
+       {self.parent_path() / "parallax-simhw", self.parent_path().parent_path() / "hw" / "parallax-simhw"}) {
+    if (::access(candidate.c_str(), X_OK) == 0) return candidate.string();
+  }
+  throw std::runtime_error(fmt::format("parallax-simhw not found next to {}: build it or configure [hardware]", self.string()));
+}
+
+std::string SimhwChild::folderFor(const std::string& cacheDir, int seed) {
+  return fmt::format("{}/simulated-display/seed-{}", cacheDir, seed);
+}
+
+SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardware, const std::string& socketPath,
+                       const std::string& cacheDir)
+    : socketPath_(socketPath), folder_(folderFor(cacheDir, hardware.seed)) {
+  // The seeded truth and camera rig, as `parallax simulate` makes them (a 640×360 camera with
+  // the default's field of view, five stations across 3.2 m of the observer line).
+  GroundTruthOptions truthOptions;
+  truthOptions.seed = static_cast<std::uint64_t>(hardware.seed);
+  const DisplayModel truth = makeGroundTruth(nominal, truthOptions);
+  CameraRigOptions rig;
+  rig.stations = 5;
+  rig.spanM = 3.2;
+  rig.intrinsics.width = 640;
+  rig.intrinsics.height = 360;
+  rig.intrinsics.fx = rig.intrinsics.fy = 2100.0 * 640.0 / 1920.0;
+  rig.intrinsics.cx = 320.0;
+  rig.intrinsics.cy = 180.0;
+  rig.intrinsics.k1 = -0.04;
+  const SimulatedRig camera = makeSimulatedRig(truth, rig, static_cast<std::uint64_t>(hardware.seed) * 7919 + 1);
+  std::filesystem::create_directories(folder_);
+  saveDisplayModel(truth, groundTruthPath());
+  saveCameraTruth(camera.truth, folder_ + "/camera_truth.json");
+  saveCameraMetadata(camera.metadata, cameraMetadataPath());
+
+  arguments_ = {findBinary(), "--socket", socketPath_, "--truth", groundTruthPath(), "--camera", folder_ + "/camera_truth.json"};
+  for (const std::string& fault : hardware.faults) {
+    arguments_.push_back("--fault");
+    arguments_.push_back(fault);
+  }
+  if (!hardware.dump.empty()) {
+    arguments_.push_back("--dump");
+    arguments_.push_back(hardware.dump);
+  }
+  start();
+}
+
+SimhwChild::~SimhwChild() { stop(); }
+
+void SimhwChild::start() {
+  std::vector<char*> argv;
+  for (std::string& a : arguments_) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  std::error_code ec;
+  std::filesystem::remove(socketPath_, ec);
+  // parallaxd blocks SIGTERM & co. for its sigwait thread and ignores SIGPIPE; the child must
+  // start with neither, or it could not be stopped with SIGTERM.
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init(&attributes);
+  sigset_t none, defaults;
+  sigemptyset(&none);
+  sigemptyset(&defaults);
+  sigaddset(&defaults, SIGPIPE);
+  posix_spawnattr_setsigmask(&attributes, &none);
+  posix_spawnattr_setsigdefault(&attributes, &defaults);
+  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
+  const int rc = ::posix_spawn(&pid_, argv[0], nullptr, &attributes, argv.data(), environ);
+  posix_spawnattr_destroy(&attributes);
+  if (rc != 0) throw std::runtime_error(fmt::format("cannot start {}: {}", argv[0], std::strerror(rc)));
+  spdlog::info("simulated display: {} (pid {}) on {}", arguments_[0], pid_, socketPath_);
+  // Faults armed at start fire once: a restarted simulator comes back healthy.
+  for (size_t i = 0; i + 1 < arguments_.size();) {
+    if (arguments_[i] == "--fault") {
+      arguments_.erase(arguments_.begin() + static_cast<long>(i), arguments_.begin() + static_cast<long>(i) + 2);
+    } else {
+      ++i;
+    }
+  }
+}
+
+bool SimhwChild::superviseOnce() {
+  if (pid_ <= 0) return false;
+  int status = 0;
+  if (::waitpid(pid_, &status, WNOHANG) != pid_) return false;
+  spdlog::warn("simulated display (pid {}) {} {}; starting it again", pid_,
+               WIFSIGNALED(status) ? "died of signal" : "exited with", WIFSIGNALED(status) ? WTERMSIG(status) : WEXITSTATUS(status));
+  pid_ = -1;
+  ++restarts_;
+  start();
+  return true;
+}
+
+void SimhwChild::stop() {
+  if (pid_ <= 0) return;
+  ::kill(pid_, SIGTERM);
+  int status = 0;
+  // Up to 5 s: it writes its --dump on the way out.
+  for (int i = 0; i < 500; ++i) {
+    if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+      pid_ = -1;
+      return;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  spdlog::warn("simulated display (pid {}) did not stop; killing it", pid_);
+  ::kill(pid_, SIGKILL);
+  ::waitpid(pid_, &status, 0);
+  pid_ = -1;
+}
+
+}  // namespace parallax::daemon

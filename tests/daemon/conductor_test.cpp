@@ -1,0 +1,243 @@
+// The conductor against the simulated hardware, in process (a small demo display: 4 modules of
+// 64×48): a static scene is rendered and pushed once; frames whose bytes did not change are not
+// re-sent; a module whose link drops and returns gets its frame back; bad scenes, bad reloads
+// and bad requests leave the old scene on the modules and are reported.
+
+#include "daemon/parallaxd/conductor.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "../hw/sim_fixture.h"
+#include "tracer/frame.h"
+
+namespace parallax::daemon {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+constexpr int kModules = 4, kWidth = 64, kHeight = 48;
+
+const char* kScene = R"(
+px.name("box")
+px.param{name = "unused", default = 1, min = 0, max = 10, description = "changes nothing"}
+local red = px.diffuse{name = "red", color = {0.8, 0.2, 0.1}}
+local floor = px.diffuse{name = "floor", color = {0.6, 0.6, 0.6}}
+px.box{size = {1, 1, 1}, material = red, name = "box", transform = px.translate(0, 0.5, 0) * px.rotate_y(0.4)}
+px.plane{width = 4, height = 3, material = floor, transform = px.rotate_x(-math.pi / 2)}
+px.directional{direction = {0.3, -0.5, -1}, color = {0.9, 0.9, 0.9}}
+px.background({0.1, 0.1, 0.2})
+px.world_box{min = {-2, 0, -1.25}, max = {2, 2.25, 1.25}}
+)";
+
+class ConductorTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    folder_ = fs::temp_directory_path() / ("plx-conductor-" + std::to_string(::getpid()) + "-" +
+                                           ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(folder_);
+    fs::create_directories(folder_);
+    script_ = (folder_ / "box.lua").string();
+    writeScript(kScene);
+    hw::SimulatedHardwareOptions o;
+    o.modules = kModules;
+    o.width = kWidth;
+    o.height = kHeight;
+    sim_ = std::make_unique<hw::InProcessSimhw>(o);
+  }
+  void TearDown() override {
+    stopConductor();
+    fs::remove_all(folder_);
+  }
+
+  void writeScript(const std::string& text) {
+    std::ofstream(script_) << text;
+  }
+
+  void startConductor() {
+    ConductorOptions o;
+    o.config.display.modules = kModules;
+    o.config.display.width = kWidth;
+    o.config.display.height = kHeight;
+    o.config.scene.script = script_;
+    o.config.cacheDir = (folder_ / "cache").string();
+    o.config.calibration.autoCalibrate = false;
+    o.linkSpec = sim_->spec();
+    o.link.ackTimeoutMs = 1000;
+    o.link.reconnectAttempts = 20;
+    o.link.reconnectDelayMs = 10;
+    o.link.linkDownRetryMs = 0;
+    o.keepAliveMs = 100;
+    o.onReady = [this] { ready_ = true; };
+    conductor_ = std::make_unique<Conductor>(o);
+    thread_ = std::thread([this] { conductor_->run(stop_); });
+    for (int i = 0; i < 3000 && !ready_; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    ASSERT_TRUE(ready_.load());
+  }
+  void stopConductor() {
+    stop_ = true;
+    if (thread_.joinable()) thread_.join();
+  }
+  json ask(const json& request) { return conductor_->handle(request); }
+  json stats() { return ask({{"request", "stats"}}); }
+  // Waits until `done(stats)` holds (the loop publishes after every turn).
+  json waitFor(const std::function<bool(const json&)>& done, int ms = 10000) {
+    json s;
+    for (int i = 0; i < ms / 10; ++i) {
+      s = stats();
+      if (done(s)) return s;
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    ADD_FAILURE() << "timed out; stats: " << s.dump();
+    return s;
+  }
+  // What module m currently shows according to the daemon (its `frame` request).
+  std::vector<uint8_t> daemonFrame(int m) {
+    const json r = ask({{"request", "frame"}, {"module", m}, {"path", (folder_ / ("f" + std::to_string(m) + ".png")).string()}});
+    EXPECT_EQ(r["ok"], true) << r.dump();
+    return readFrame(r["path"].get<std::string>()).toSrgb8();
+  }
+
+  fs::path folder_;
+  std::string script_;
+  std::unique_ptr<hw::InProcessSimhw> sim_;
+  std::unique_ptr<Conductor> conductor_;
+  std::thread thread_;
+  std::atomic<bool> stop_{false};
+  std::atomic<bool> ready_{false};
+};
+
+TEST_F(ConductorTest, StaticScenePushedOnceAndShownAsRendered) {
+  startConductor();
+  EXPECT_EQ(ask({{"request", "status"}})["state"], "playing");
+  waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // several loop turns
+  const json s = stats();
+  EXPECT_EQ(s["display_frames"], 1);
+  EXPECT_EQ(s["module_frames_sent"], kModules);
+  std::vector<std::vector<uint8_t>> frames;
+  for (int m = 0; m < kModules; ++m) frames.push_back(daemonFrame(m));
+  stopConductor();
+  sim_->stop();
+  for (int m = 0; m < kModules; ++m) {
+    EXPECT_EQ(sim_->hardware().counters(m).framesShown, 1u) << m;
+    EXPECT_EQ(sim_->hardware().shownFrame(m).pixels, frames[static_cast<size_t>(m)]) << m;
+  }
+  // The scene is really there: a frame of one colour would be an empty render.
+  const auto& px = frames[1];
+  EXPECT_NE(std::count(px.begin(), px.end(), px[0]), static_cast<long>(px.size()));
+}
+
+TEST_F(ConductorTest, UnchangedFramesAreNotResent) {
+  startConductor();
+  waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });
+  // A parameter the scene does not use: rebuilt and rendered again, same bytes, not sent.
+  EXPECT_EQ(ask({{"request", "set"}, {"name", "unused"}, {"value", 3}})["ok"], true);
+  json s = waitFor([](const json& st) { return st["display_frames"] == 2; });
+  s = waitFor([](const json& st) { return st["module_frames_unchanged_not_sent"] == kModules; });
+  EXPECT_EQ(s["module_frames_sent"], kModules);
+  // The same for a hot reload that changes nothing visible.
+  writeScript(std::string(kScene) + "\n-- a comment\n");
+  s = waitFor([](const json& st) { return st["display_frames"] == 3 && st["module_frames_unchanged_not_sent"] == 2 * kModules; });
+  EXPECT_EQ(s["module_frames_sent"], kModules);
+  stopConductor();
+  sim_->stop();
+  for (int m = 0; m < kModules; ++m) EXPECT_EQ(sim_->hardware().counters(m).framesShown, 1u);
+}
+
+TEST_F(ConductorTest, AReconnectingModuleGetsItsFrameBack) {
+  startConductor();
+  waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });
+  const std::vector<uint8_t> shown = daemonFrame(2);
+  // The link drops (the simulator goes away) and comes back: the idle keep-alive notices, the
+  // link reconnects, and the current frames go out again — without a new render.
+  sim_->stop();
+  sim_->start();
+  const json s = waitFor([](const json& st) { return st["module_frames_sent"] == 2 * kModules; });
+  EXPECT_GE(s["resends_after_reconnect"].get<int>(), 1);
+  EXPECT_EQ(s["display_frames"], 1);
+  stopConductor();
+  sim_->stop();
+  EXPECT_EQ(sim_->hardware().counters(2).framesShown, 2u);
+  EXPECT_EQ(sim_->hardware().shownFrame(2).pixels, shown);
+}
+
+TEST_F(ConductorTest, BadScenesAndReloadsKeepTheOldSceneUp) {
+  startConductor();
+  waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });
+  const std::vector<uint8_t> before = daemonFrame(0);
+
+  json r = ask({{"request", "load"}, {"scene", (folder_ / "missing.lua").string()}});
+  EXPECT_EQ(r["ok"], false);
+  json status = ask({{"request", "status"}});
+  EXPECT_EQ(status["state"], "playing");
+  EXPECT_EQ(status["scene"]["name"], script_);
+  EXPECT_EQ(status["last_error"]["stage"], "loading the scene");
+
+  // A broken edit of the playing script: reported with its line, the old version plays on.
+  writeScript("px.name(\"box\")\nlocal x = = 1\n");
+  for (int i = 0; i < 300; ++i) {
+    status = ask({{"request", "status"}});
+    if (status.contains("scene_error")) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(status.contains("scene_error")) << status.dump();
+  EXPECT_NE(status["scene_error"].get<std::string>().find(":2"), std::string::npos) << status["scene_error"];
+  EXPECT_EQ(status["state"], "playing");
+  EXPECT_EQ(daemonFrame(0), before);
+
+  // Requests that make no sense get an error, not a crash.
+  for (const json& bad : {json{{"request", "frame"}, {"module", 99}}, json{{"request", "view"}},
+                          json{{"request", "set"}, {"name", "nope"}, {"value", 1}}, json{{"request", "dance"}},
+                          json{{"request", "rollback"}}, json{{"request", "identify"}, {"module", -1}}}) {
+    r = ask(bad);
+    EXPECT_EQ(r["ok"], false) << bad.dump();
+    EXPECT_TRUE(r.contains("error")) << bad.dump();
+  }
+  EXPECT_EQ(ask({{"request", "status"}})["state"], "playing");
+}
+
+TEST_F(ConductorTest, InstallerPatternsPauseAndViews) {
+  startConductor();
+  waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });
+  const std::vector<uint8_t> scene0 = daemonFrame(0), scene1 = daemonFrame(1);
+  // identify 1: module 1 shows its number, the others keep the scene.
+  EXPECT_EQ(ask({{"request", "identify"}, {"module", 1}})["ok"], true);
+  EXPECT_EQ(ask({{"request", "status"}})["state"], "paused");
+  EXPECT_EQ(daemonFrame(0), scene0);
+  EXPECT_NE(daemonFrame(1), scene1);
+  EXPECT_EQ(ask({{"request", "testcard"}})["ok"], true);
+  EXPECT_NE(daemonFrame(0), scene0);
+  // play: back to the scene, the same bytes as before.
+  EXPECT_EQ(ask({{"request", "play"}})["ok"], true);
+  waitFor([](const json& s) { return s["display_frames"] == 2; });
+  EXPECT_EQ(daemonFrame(0), scene0);
+  EXPECT_EQ(ask({{"request", "pause"}})["ok"], true);
+  EXPECT_EQ(ask({{"request", "status"}})["state"], "paused");
+
+  const json v = ask({{"request", "view"}, {"x", 0.25}, {"width", 80}, {"height", 45}, {"path", (folder_ / "v.png").string()}});
+  ASSERT_EQ(v["ok"], true) << v.dump();
+  const Frame view = readFrame(v["path"].get<std::string>());
+  EXPECT_EQ(view.width, 80);
+  EXPECT_EQ(view.height, 45);
+}
+
+TEST_F(ConductorTest, RaytexturesComeFromTheCacheTheSecondTime) {
+  startConductor();
+  EXPECT_EQ(ask({{"request", "status"}})["ray_textures"]["generated"], kModules);
+  stopConductor();
+  conductor_.reset();
+  stop_ = false;
+  ready_ = false;
+  startConductor();
+  const json status = ask({{"request", "status"}});
+  EXPECT_EQ(status["ray_textures"]["from_cache"], kModules);
+  EXPECT_EQ(status["ray_textures"]["generated"], 0);
+}
+
+}  // namespace
+}  // namespace parallax::daemon

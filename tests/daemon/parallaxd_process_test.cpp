@@ -1,0 +1,263 @@
+// parallaxd as a process, the way systemd and installers run it: it tells systemd it is ready,
+// `parallax ctl` finds it with no socket argument, SIGHUP reloads the config, SIGTERM stops it
+// cleanly (socket removed, the simulator it started stopped after writing what its modules
+// showed), and a run with injected faults (a module that disconnects, a corrupt chunk, a bad
+// scene over the control socket) ends with every module showing the daemon's frame.
+
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "tracer/frame.h"
+
+extern char** environ;
+
+namespace parallax::daemon {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+class Daemon {
+ public:
+  Daemon(const fs::path& folder, const std::string& config, std::vector<std::string> extraEnv = {}) : folder_(folder) {
+    std::ofstream(folder / "parallax.toml") << config;
+    std::vector<std::string> env;
+    for (char** e = environ; *e; ++e) env.emplace_back(*e);
+    for (std::string& e : extraEnv) env.push_back(std::move(e));
+    std::vector<char*> envp;
+    for (std::string& e : env) envp.push_back(e.data());
+    envp.push_back(nullptr);
+    const std::string configPath = (folder / "parallax.toml").string();
+    const std::string log = (folder / "parallaxd.log").string();
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    std::vector<char*> argv = {const_cast<char*>(PARALLAXD_PATH), const_cast<char*>("--config"),
+                               const_cast<char*>(configPath.c_str()), nullptr};
+    EXPECT_EQ(posix_spawn(&pid_, PARALLAXD_PATH, &actions, nullptr, argv.data(), envp.data()), 0);
+    posix_spawn_file_actions_destroy(&actions);
+  }
+  ~Daemon() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+  }
+  pid_t pid() const { return pid_; }
+  // Exit status, waiting up to `ms`; -1 if it is still running.
+  int waitExit(int ms) {
+    for (int i = 0; i < ms / 10; ++i) {
+      int status = 0;
+      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        return status;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    return -1;
+  }
+  std::string log() const {
+    std::ifstream in(folder_ / "parallaxd.log");
+    return std::string((std::istreambuf_iterator<char>(in)), {});
+  }
+
+ private:
+  fs::path folder_;
+  pid_t pid_ = -1;
+};
+
+json ask(const std::string& socket, const json& request) {
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, socket.c_str(), sizeof addr.sun_path - 1);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    ::close(fd);
+    return nullptr;
+  }
+  const std::string line = request.dump() + "\n";
+  ::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
+  std::string reply;
+  char buffer[4096];
+  while (reply.find('\n') == std::string::npos) {
+    const ssize_t n = ::recv(fd, buffer, sizeof buffer, 0);
+    if (n <= 0) break;
+    reply.append(buffer, static_cast<size_t>(n));
+  }
+  ::close(fd);
+  return json::parse(reply.substr(0, reply.find('\n')), nullptr, false);
+}
+
+json waitForStats(const std::string& socket, const std::function<bool(const json&)>& done, int ms = 30000) {
+  json s;
+  for (int i = 0; i < ms / 20; ++i) {
+    s = ask(socket, {{"request", "stats"}});
+    if (s.is_object() && done(s)) return s;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ADD_FAILURE() << "timed out; last stats: " << s.dump();
+  return s;
+}
+
+// Runs `parallax ctl ARGS` with the environment `env` added; returns exit status and output.
+std::pair<int, std::string> ctl(const std::vector<std::string>& args, const std::string& env) {
+  std::string command = env + " " + PARALLAX_PATH + " ctl";
+  for (const std::string& a : args) command += " '" + a + "'";
+  std::string out;
+  FILE* p = ::popen((command + " 2>&1").c_str(), "r");
+  char buffer[4096];
+  size_t n = 0;
+  while ((n = std::fread(buffer, 1, sizeof buffer, p)) > 0) out.append(buffer, n);
+  const int status = ::pclose(p);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+class ParallaxdProcess : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    folder_ = fs::temp_directory_path() / ("plxd-" + std::to_string(::getpid()) + "-" +
+                                           ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(folder_);
+    fs::create_directories(folder_ / "run");
+    socket_ = (folder_ / "run" / "parallax" / "parallaxd.sock").string();
+  }
+  void TearDown() override { fs::remove_all(folder_); }
+  // A small demo display (4 modules of 64×48) on the simulator parallaxd starts itself.
+  std::string config(const std::string& hardwareExtra = "", const std::string& scene = "cornell") const {
+    return "[display]\npreset = \"demo\"\nmodules = 4\nresolution = [64, 48]\n"
+           "[hardware]\nkind = \"sim\"\ndump = \"" + (folder_ / "shown").string() + "\"\n" + hardwareExtra +
+           "[scene]\nscript = \"" + scene + "\"\n"
+           "[calibration]\nauto = false\nfile = \"" + (folder_ / "calibration.json").string() + "\"\n"
+           "[daemon]\ncache_dir = \"" + (folder_ / "cache").string() + "\"\n";
+  }
+  std::string runtimeEnv() const { return "XDG_RUNTIME_DIR=" + (folder_ / "run").string(); }
+
+  fs::path folder_;
+  std::string socket_;
+};
+
+TEST_F(ParallaxdProcess, TellsSystemdItIsReadyAndStopsCleanlyOnSigterm) {
+  // The systemd side of sd_notify: a datagram socket the daemon is pointed at.
+  const std::string notifyPath = (folder_ / "notify.sock").string();
+  const int notify = ::socket(AF_UNIX, SOCK_DGRAM, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, notifyPath.c_str(), sizeof addr.sun_path - 1);
+  ASSERT_EQ(::bind(notify, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+  timeval timeout{30, 0};
+  ::setsockopt(notify, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+
+  Daemon daemon(folder_, config(), {runtimeEnv(), "NOTIFY_SOCKET=" + notifyPath, "WATCHDOG_USEC=2000000"});
+  // READY=1 (a long start-up stage may feed the watchdog before it).
+  char message[256] = {};
+  bool ready = false;
+  for (int i = 0; i < 100 && !ready; ++i) {
+    std::memset(message, 0, sizeof message);
+    ASSERT_GT(::recv(notify, message, sizeof message - 1, 0), 0) << daemon.log();
+    ready = std::string(message) == "READY=1";
+    if (!ready) EXPECT_STREQ(message, "WATCHDOG=1");
+  }
+  ASSERT_TRUE(ready);
+  // `parallax ctl` with no socket argument finds it (same $XDG_RUNTIME_DIR).
+  auto [code, out] = ctl({"status"}, runtimeEnv());
+  EXPECT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("\"state\": \"playing\""), std::string::npos) << out;
+  waitForStats(socket_, [](const json& s) { return s["module_frames_sent"] == 4; });
+  // The watchdog keeps being fed while it idles (half of WATCHDOG_USEC).
+  bool fed = false;
+  for (int i = 0; i < 5 && !fed; ++i) {
+    std::memset(message, 0, sizeof message);
+    fed = ::recv(notify, message, sizeof message - 1, 0) > 0 && std::string(message) == "WATCHDOG=1";
+  }
+  EXPECT_TRUE(fed);
+
+  ASSERT_EQ(::kill(daemon.pid(), SIGTERM), 0);
+  const int status = daemon.waitExit(20000);
+  ASSERT_NE(status, -1) << "did not stop on SIGTERM\n" << daemon.log();
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status << "\n" << daemon.log();
+  EXPECT_FALSE(fs::exists(socket_));
+  bool stopping = false;
+  for (int i = 0; i < 10 && !stopping; ++i) {
+    std::memset(message, 0, sizeof message);
+    if (::recv(notify, message, sizeof message - 1, MSG_DONTWAIT) <= 0) break;
+    stopping = std::string(message) == "STOPPING=1";
+  }
+  EXPECT_TRUE(stopping);
+  // The simulator was stopped, not killed: it wrote what its 4 modules showed.
+  for (int m = 0; m < 4; ++m) EXPECT_TRUE(fs::exists(moduleFrameStem((folder_ / "shown").string(), m) + ".png")) << m;
+  ::close(notify);
+}
+
+TEST_F(ParallaxdProcess, RefusesABadConfigNamingTheKeyAndLine) {
+  Daemon daemon(folder_, "[scene]\nfps = -3\n");
+  const int status = daemon.waitExit(10000);
+  ASSERT_TRUE(WIFEXITED(status)) << status;
+  EXPECT_EQ(WEXITSTATUS(status), 2);
+  EXPECT_NE(daemon.log().find("parallax.toml:2: scene.fps"), std::string::npos) << daemon.log();
+}
+
+TEST_F(ParallaxdProcess, SurvivesFaultsAndEveryModuleEndsWithItsFrame) {
+  // Module 1 drops the link at its first frame, module 2 gets a corrupted chunk.
+  Daemon daemon(folder_, config("faults = [\"1:disconnect\", \"2:flip:1\"]\n"), {runtimeEnv()});
+  waitForStats(socket_, [](const json& s) { return s["module_frames_sent"].get<int>() >= 4 && s["module_frames_failed"] == 0; });
+  // A bad scene over the control socket: refused, the old one stays up.
+  const json r = ask(socket_, {{"request", "load"}, {"scene", "no_such_scene.lua"}});
+  EXPECT_EQ(r["ok"], false);
+  // A malformed request: an error reply, and the daemon goes on.
+  const auto [code, out] = ctl({"--json", "{\"request\": 7}"}, runtimeEnv());
+  EXPECT_EQ(code, 1) << out;
+  const json status = ask(socket_, {{"request", "status"}});
+  EXPECT_EQ(status["state"], "playing") << status.dump();
+  EXPECT_EQ(status["scene"]["name"], "cornell");
+  std::vector<std::vector<uint8_t>> frames;
+  for (int m = 0; m < 4; ++m) {
+    const std::string path = (folder_ / ("daemon_" + std::to_string(m) + ".png")).string();
+    const json f = ask(socket_, {{"request", "frame"}, {"module", m}, {"path", path}});
+    ASSERT_EQ(f["ok"], true) << f.dump();
+    frames.push_back(readFrame(path).toSrgb8());
+  }
+  EXPECT_EQ(ask(socket_, {{"request", "shutdown"}})["ok"], true);
+  const int exit = daemon.waitExit(20000);
+  ASSERT_TRUE(WIFEXITED(exit) && WEXITSTATUS(exit) == 0) << daemon.log();
+  for (int m = 0; m < 4; ++m) {
+    const Frame shown = readFrame(moduleFrameStem((folder_ / "shown").string(), m) + ".png");
+    EXPECT_EQ(shown.toSrgb8(), frames[static_cast<size_t>(m)]) << "module " << m;
+  }
+  EXPECT_NE(daemon.log().find("reconnecting"), std::string::npos) << daemon.log();
+}
+
+TEST_F(ParallaxdProcess, SighupReloadsTheConfig) {
+  Daemon daemon(folder_, config(), {runtimeEnv()});
+  waitForStats(socket_, [](const json& s) { return s["module_frames_sent"] == 4; });
+  std::ofstream(folder_ / "parallax.toml") << config("", "shapes");
+  ASSERT_EQ(::kill(daemon.pid(), SIGHUP), 0);
+  json status;
+  for (int i = 0; i < 1000; ++i) {
+    status = ask(socket_, {{"request", "status"}});
+    if (status.is_object() && status.contains("scene") && status["scene"]["name"] == "shapes") break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_EQ(status["scene"]["name"], "shapes") << status.dump();
+  waitForStats(socket_, [](const json& s) { return s["display_frames"] == 2; });
+  ::kill(daemon.pid(), SIGINT);
+  const int exit = daemon.waitExit(20000);
+  EXPECT_TRUE(WIFEXITED(exit) && WEXITSTATUS(exit) == 0) << daemon.log();
+}
+
+}  // namespace
+}  // namespace parallax::daemon

@@ -64,7 +64,12 @@ struct RayLog {
   std::vector<Batch> batches;
 };
 
-// Renders one module frame. `textures` must come from the display the scene was mapped into.
+// Renders one module frame into `frame`, reusing its memory when it already has the textures'
+// size (a daemon renders every frame into the same buffers). `textures` must come from the
+// display the scene was mapped into.
+void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options,
+                     Frame* frame, RenderCounters* counters = nullptr, RayLog* log = nullptr);
+// The same into a new frame.
 Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options,
                   RenderCounters* counters = nullptr, RayLog* log = nullptr);
 

@@ -10,6 +10,10 @@ void validLanes(size_t packet, size_t size, int* valid) {
 
 }  // namespace
 
+void RayHitPackets::grow() { packets_.emplace_back(); }
+
+void OcclusionPackets::grow() { packets_.emplace_back(); }
+
 RTCRayHit RayHitPackets::get(size_t i) const {
   const RTCRayHit16& p = packets_[i / 16];
   const size_t l = i % 16;

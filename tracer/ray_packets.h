@@ -25,8 +25,8 @@ class RayHitPackets {
 
   void push(const Eigen::Vector3f& origin, const Eigen::Vector3f& direction,
             float tfar = std::numeric_limits<float>::infinity()) {
+    if (size_ == 16 * packets_.size()) grow();
     const size_t lane = size_ % 16;
-    if (lane == 0 && size_ / 16 == packets_.size()) packets_.emplace_back();
     RTCRayHit16& p = packets_[size_ / 16];
     p.ray.org_x[lane] = origin.x();
     p.ray.org_y[lane] = origin.y();
@@ -65,6 +65,7 @@ class RayHitPackets {
   RTCRayHit16* packets() { return packets_.data(); }
 
  private:
+  void grow();  // one more packet (out of line: push stays small enough to inline)
   std::vector<RTCRayHit16> packets_;
   size_t size_ = 0;
 };
@@ -77,8 +78,8 @@ class OcclusionPackets {
   bool empty() const { return size_ == 0; }
 
   void push(const Eigen::Vector3f& origin, const Eigen::Vector3f& direction, float tfar) {
+    if (size_ == 16 * packets_.size()) grow();
     const size_t lane = size_ % 16;
-    if (lane == 0 && size_ / 16 == packets_.size()) packets_.emplace_back();
     RTCRay16& p = packets_[size_ / 16];
     p.org_x[lane] = origin.x();
     p.org_y[lane] = origin.y();
@@ -104,6 +105,7 @@ class OcclusionPackets {
   RTCRay16* packets() { return packets_.data(); }
 
  private:
+  void grow();
   std::vector<RTCRay16> packets_;
   size_t size_ = 0;
 };

@@ -76,8 +76,9 @@ Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures, const
 enum class RayKind { kAll, kPrimary, kShadow, kSecondary };
 
 // Traces the logged batches of `kind` again (in parallel, no shading) with `traversal`; returns
-// wall-clock ms. `rays` (optional) receives how many rays that was, `cpuMs` (optional) the
-// process CPU time the tracing took (all threads).
+// the wall-clock ms of the Embree calls (a pass that only copies each batch into packets is
+// timed too and subtracted). `rays` (optional) receives how many rays that was, `cpuMs`
+// (optional) the process CPU time of those calls (all threads).
 double replayRayLog(const PhysicalScene& scene, const RayLog& log, Traversal traversal, RayKind kind = RayKind::kAll,
                     long* rays = nullptr, double* cpuMs = nullptr);
 

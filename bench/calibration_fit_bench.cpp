@@ -3,7 +3,9 @@
 // sampling density of the decoded patterns, and the camera noise. Prints markdown tables;
 // never passes or fails on time (timings on a shared machine are noisy).
 //
-//   calibration_fit_bench [default|demo] [--quick]
+//   calibration_fit_bench [default|demo] [--quick] [--experiment]
+// --experiment: only the errors-in-variables comparison (where the correspondences' noise sits:
+// on the camera pixel, as a camera gives it, or on the module pixel), at two sampling densities.
 
 #include <chrono>
 #include <ctime>
@@ -63,9 +65,10 @@ void print(const std::string& value, const Row& r) {
 
 int main(int argc, char** argv) {
   std::string preset = "default";
-  bool quick = false;
+  bool quick = false, experiment = false;
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--quick") == 0) quick = true;
+    else if (std::strcmp(argv[i], "--experiment") == 0) experiment = true;
     else preset = argv[i];
   }
   NominalDisplayOptions nominalOptions;
@@ -85,6 +88,23 @@ int main(int argc, char** argv) {
   std::printf("fit wall time includes waiting for the CPU on a shared machine; CPU time is the process's (2 solver threads)\n");
   std::printf("base: 5 stations over 3.2 m, 0.3 px camera noise, rows every 16 px, 5 samples across each stripe\n");
 
+  if (experiment) {
+    header("noise (px) on / sampling");
+    for (auto [noise, onModule] : std::vector<std::pair<double, bool>>{{0.0, false}, {0.3, false}, {0.3, true}}) {
+      for (auto [rows, across] : std::vector<std::pair<double, int>>{{16, 5}, {8, 9}}) {
+        SyntheticOptions s = base;
+        s.noisePx = noise;
+        s.noiseOnModulePx = onModule;
+        s.rowStepPx = rows;
+        s.samplesAcrossStripe = across;
+        char label[96];
+        std::snprintf(label, sizeof label, "%.1f on %s / rows %d, %d across", noise, onModule ? "module px" : "camera px",
+                      static_cast<int>(rows), across);
+        print(label, runOnce(nominal, truth, s, fit));
+      }
+    }
+    return 0;
+  }
   header("max iterations per solve");
   for (int iterations : quick ? std::vector<int>{2, 100} : std::vector<int>{1, 2, 3, 5, 10, 100}) {
     FitOptions f = fit;

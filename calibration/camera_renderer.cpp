@@ -29,6 +29,43 @@ float sampleBilinear(const cv::Mat& image, float u, float v) {
          fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
 }
 
+// The markers: each a disc of radius r on the screen frame, facing the observer line, drawn
+// with 4×4 supersampling (its centroid is then the projected centre to well under 0.1 px).
+cv::Mat renderMarkers(const Screen& screen, const CameraIntrinsics& intrinsics, const CameraPose& pose,
+                      const CameraRenderOptions& options) {
+  cv::Mat markers(intrinsics.height, intrinsics.width, CV_32F, cv::Scalar(0));
+  if (options.fiducialRadiusM <= 0.0) return markers;
+  const double r = options.fiducialRadiusM;
+  for (const Eigen::Vector2d& f : screenFiducials(screen)) {
+    const Eigen::Vector3d centre = screen.pointAt(f.x(), f.y());
+    Eigen::Vector2d c, edgeX, edgeY;
+    if (!projectPhysical(intrinsics, pose, centre, &c) ||
+        !projectPhysical(intrinsics, pose, centre + Eigen::Vector3d(r, 0, 0), &edgeX) ||
+        !projectPhysical(intrinsics, pose, centre + Eigen::Vector3d(0, r, 0), &edgeY)) {
+      continue;
+    }
+    // The disc's image is (nearly) an ellipse with these semi-axes.
+    const double ax = std::max((edgeX - c).norm(), 0.5), ay = std::max((edgeY - c).norm(), 0.5);
+    const int x0 = std::max(0, static_cast<int>(std::floor(c.x() - ax - 1)));
+    const int x1 = std::min(intrinsics.width - 1, static_cast<int>(std::ceil(c.x() + ax + 1)));
+    const int y0 = std::max(0, static_cast<int>(std::floor(c.y() - ay - 1)));
+    const int y1 = std::min(intrinsics.height - 1, static_cast<int>(std::ceil(c.y() + ay + 1)));
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        int inside = 0;
+        for (int sy = 0; sy < 4; ++sy) {
+          for (int sx = 0; sx < 4; ++sx) {
+            const double dx = (x + (sx + 0.5) / 4.0 - c.x()) / ax, dy = (y + (sy + 0.5) / 4.0 - c.y()) / ay;
+            inside += dx * dx + dy * dy <= 1.0 ? 1 : 0;
+          }
+        }
+        markers.at<float>(y, x) += static_cast<float>(options.fiducialBrightness * inside / 16.0);
+      }
+    }
+  }
+  return markers;
+}
+
 }  // namespace
 
 void CameraRenderOptions::validate() const {
@@ -40,6 +77,8 @@ void CameraRenderOptions::validate() const {
   check(noiseSigma >= 0.0 && noiseSigma < 0.5, "noise_sigma", "must be 0..0.5");
   check(blurSigmaPx >= 0.0 && blurSigmaPx < 20.0, "blur_sigma_px", "must be 0..20");
   check(minLobeWeight > 0.0 && minLobeWeight < 0.5, "min_lobe_weight", "must be in (0, 0.5)");
+  check(fiducialRadiusM >= 0.0 && fiducialRadiusM < 0.1, "fiducial_radius_m", "must be 0..0.1");
+  check(fiducialBrightness >= 0.0 && fiducialBrightness <= 1.0, "fiducial_brightness", "must be 0..1");
 }
 
 StationView viewFromStation(const DisplayModel& truth, const CameraIntrinsics& intrinsics,
@@ -78,6 +117,7 @@ StationView viewFromStation(const DisplayModel& truth, const CameraIntrinsics& i
       }
     }
   });
+  view.markers = renderMarkers(truth.screen, intrinsics, pose, options);
   return view;
 }
 
@@ -97,6 +137,7 @@ cv::Mat renderFrame(const StationView& view, const std::vector<cv::Mat>& moduleI
       row[x] = value;
     }
   });
+  if (!view.markers.empty()) linear += view.markers;
   if (options.blurSigmaPx > 0.0) cv::GaussianBlur(linear, linear, cv::Size(0, 0), options.blurSigmaPx);
   // Sensor: response curve, then noise (drawn serially from the seeded stream: deterministic).
   cv::Mat recorded(view.height, view.width, CV_32F);

@@ -8,6 +8,10 @@
 // width at half maximum is the display's diffusion width; vertically the lobe is wide (taken
 // as flat). So from one station each module appears as a vertical stripe. Then ambient
 // light, the lens blur, the sensor's gamma and noise.
+// The fiducial markers (calibration_camera.h's screenFiducials) are bright discs on the screen
+// frame, lit in every picture: an additive constant per pixel, which the structured-light
+// decoding cancels (it works on differences and ratios) and the fiducial detector finds in
+// the black reference frame.
 //
 // A StationView caches, per camera pixel, the modules that reach it (the geometry is the same
 // for every frame of a station), so rendering a frame is a weighted lookup.
@@ -28,6 +32,8 @@ struct CameraRenderOptions {
   double noiseSigma = 0.004;  // sensor noise in recorded units (full scale 1)
   double blurSigmaPx = 0.6;   // lens blur (Gaussian σ, camera px); 0 = none
   double minLobeWeight = 1e-3;  // contributions below this are dropped
+  double fiducialRadiusM = 0.012;   // marker disc radius on the screen frame; 0 = no markers
+  double fiducialBrightness = 0.8;  // linear light of a marker
 
   void validate() const;
 };
@@ -43,6 +49,7 @@ constexpr int kMaxContributions = 4;
 struct StationView {
   int width = 0, height = 0;
   std::vector<std::array<LobeContribution, kMaxContributions>> pixels;  // row-major, strongest first
+  cv::Mat markers;  // CV_32F: the fiducial markers' light, added to every frame
   const std::array<LobeContribution, kMaxContributions>& at(int x, int y) const {
     return pixels[static_cast<size_t>(y) * static_cast<size_t>(width) + static_cast<size_t>(x)];
   }

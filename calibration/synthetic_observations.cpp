@@ -126,9 +126,14 @@ SyntheticCalibration simulateObservations(const DisplayModel& truth,
     auto addCorrespondence = [&](int camera, double u, double v, const Eigen::Vector3d& s) {
       Eigen::Vector2d px;
       if (!projectPhysical(obs.intrinsics, out.truePoses[static_cast<size_t>(camera)], s, &px)) return;
-      px += Eigen::Vector2d(r.normal(options.noisePx), r.normal(options.noisePx));
-      if (!obs.intrinsics.contains(px)) return;
+      const Eigen::Vector2d noise(r.normal(options.noisePx), r.normal(options.noisePx));
       Eigen::Vector2d modulePx(u, v);
+      if (options.noiseOnModulePx) {
+        modulePx += noise;
+      } else {
+        px += noise;
+      }
+      if (!obs.intrinsics.contains(px)) return;
       if (r.uniform() < options.outlierFraction) {
         // A gross decoding error: some other pixel of the module entirely.
         modulePx = {r.uniform(0.0, module.width), r.uniform(0.0, module.height)};

@@ -32,6 +32,9 @@ struct SyntheticOptions {
   std::uint64_t seed = 1;
   CameraRigOptions rig;
   double noisePx = 0.3;          // camera noise on correspondences and stripe centres (σ, px)
+  // Experiment (bench): the correspondences' noise on the module pixel (σ = noisePx module
+  // px) and none on the camera pixel — the errors-in-variables comparison.
+  bool noiseOnModulePx = false;
   double fiducialNoisePx = 0.1;  // fiducial corners are located more precisely
   double rowStepPx = 16.0;       // module rows sampled every rowStepPx
   int samplesAcrossStripe = 5;   // correspondences across a stripe per sampled row

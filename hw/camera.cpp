@@ -48,12 +48,13 @@ Image SimulatedCamera::capture(std::string* error) {
     request.whiteBalanceRedCenti = centi(settings_.whiteBalanceRed);
     request.whiteBalanceBlueCenti = centi(settings_.whiteBalanceBlue);
   }
+  request.station = static_cast<uint16_t>(std::clamp(station_, 0, 65535));
   Image image = link_.capture(viewModule_, request);
   if (image.empty()) {
     *error = fmt::format(
-        "the simulated camera returned no image of module {} (nothing shown "
-        "yet, or no answer)",
-        viewModule_);
+        "the simulated camera returned no image of module {} from station {} (nothing shown "
+        "yet, no such station, or no answer)",
+        viewModule_, station_);
   }
   return image;
 }

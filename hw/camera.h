@@ -35,14 +35,21 @@ class Camera {
   const CameraSettings& settings() const { return settings_; }
   // One image; empty with `error` set when the camera gives none.
   virtual Image capture(std::string* error) = 0;
+  // The calibration station the next pictures are taken from. The simulated camera moves
+  // there itself (the station travels in the capture request); a real camera is moved by the
+  // operator or a rig (captureCalibration's beforeStation hook), so it only records it.
+  void setStation(int station) { station_ = station; }
+  int station() const { return station_; }
 
  protected:
   bool locked_ = false;
+  int station_ = 0;
   CameraSettings settings_;
 };
 
-// The simulated calibration camera behind the link. Until the calibration physics is plugged
-// into parallax-simhw it returns the raw pattern of `viewModule`.
+// The simulated calibration camera behind the link: with parallax-simhw's calibration physics
+// (--truth, --camera) it photographs the screen from its station; otherwise it returns the
+// raw pattern of `viewModule`.
 class SimulatedCamera : public Camera {
  public:
   explicit SimulatedCamera(LinkClient& link, int viewModule = 0)

@@ -1,8 +1,8 @@
 #pragma once
-// What the simulated calibration camera sees, given what every module currently shows. The
-// calibration engineer supplies the real physics (rendering the screen from a ground-truth
-// DisplayModel, in calibration/, which hw/ may call); until then RawPatternPhysics returns
-// the pattern of the module being looked at, unchanged.
+// What the simulated calibration camera sees, given what every module currently shows.
+// CalibrationPhysics (hw/calibration_physics.h) renders the screen of a ground-truth display
+// from the camera's station; RawPatternPhysics, the stand-in for link tests, returns the
+// pattern of the module being looked at, unchanged.
 
 #include <memory>
 #include <span>
@@ -20,14 +20,15 @@ struct CameraSettings {
 class CameraPhysics {
  public:
   virtual ~CameraPhysics() = default;
-  // `frames[i]` is module i's last verified frame (empty when it has none yet).
-  virtual Image render(std::span<const Image* const> frames, int viewModule,
+  // `frames[i]` is module i's last verified frame (empty when it has none yet). An empty
+  // image means "cannot take this picture" (answered unsupported).
+  virtual Image render(std::span<const Image* const> frames, int viewModule, int station,
                        const CameraSettings& settings) const = 0;
 };
 
 class RawPatternPhysics : public CameraPhysics {
  public:
-  Image render(std::span<const Image* const> frames, int viewModule,
+  Image render(std::span<const Image* const> frames, int viewModule, int station,
                const CameraSettings& settings) const override;
 };
 

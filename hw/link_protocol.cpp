@@ -274,7 +274,8 @@ std::vector<uint8_t> encodeCaptureRequest(const CaptureRequest& r) {
   put16(&b[0], r.viewModule);
   put16(&b[2], r.gainCenti);
   put32(&b[4], r.exposureUs);
-  put32(&b[8], r.flags);
+  put16(&b[8], r.station);
+  put16(&b[10], r.flags);
   put16(&b[12], r.whiteBalanceRedCenti);
   put16(&b[14], r.whiteBalanceBlueCenti);
   return b;
@@ -288,7 +289,8 @@ ProtocolError decodeCaptureRequest(std::span<const uint8_t> body, CaptureRequest
   r->whiteBalanceBlueCenti = get16(b + 14);
   r->gainCenti = get16(b + 2);
   r->exposureUs = get32(b + 4);
-  r->flags = get32(b + 8);
+  r->station = get16(b + 8);
+  r->flags = get16(b + 10);
   if (r->flags != 0) return ProtocolError::kBadBody;  // no flags defined in version 1
   return ProtocolError::kOk;
 }

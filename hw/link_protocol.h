@@ -129,7 +129,8 @@ struct CaptureRequest {     // 16 bytes
   uint16_t viewModule = 0;  // which module's light the simulated camera looks at
   uint32_t exposureUs = 0;  // 0 = keep the locked value
   uint16_t gainCenti = 0;   // gain × 100, 0 = keep
-  uint32_t flags = 0;
+  uint16_t station = 0;  // where the camera stands (the simulator moves it; a rig may ignore it)
+  uint16_t flags = 0;
   uint16_t whiteBalanceRedCenti = 0;   // red / green × 100, 0 = keep
   uint16_t whiteBalanceBlueCenti = 0;  // blue / green × 100, 0 = keep
 };

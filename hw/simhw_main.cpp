@@ -3,6 +3,10 @@
 //
 //   parallax-simhw --socket /tmp/simhw.sock [--display demo|default|file.json]
 //                  [--modules N --resolution WxH] [--fault 3:drop:2 ...] [--dump DIR]
+//                  [--truth ground_truth.json --camera camera_truth.json]
+// With --truth and --camera (the files `parallax simulate` writes) the camera photographs the
+// ground-truth display from its true pose at the requested station (hw/calibration_physics.h);
+// the modules are then the truth's.
 
 #include <fmt/format.h>
 
@@ -11,10 +15,15 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
+#include <optional>
 #include <regex>
 
+#include "calibration/camera_truth.h"
+#include "calibration/display_model_json.h"
 #include "calibration/display_presets.h"
 #include "common/input_error.h"
+#include "hw/calibration_physics.h"
 #include "hw/fault_spec.h"
 #include "hw/simhw_server.h"
 #include "hw/simulated_hardware.h"
@@ -31,6 +40,7 @@ struct Args {
   std::string resolution;
   std::vector<std::string> faults;
   std::string dump;
+  std::string truth, camera;
   uint32_t maxChunk = 4u << 20;
 };
 
@@ -38,14 +48,26 @@ int run(const Args& args) {
   using namespace parallax;
   hw::SimulatedHardwareOptions options;
   options.maxChunkSize = args.maxChunk;
-  if (!args.display.empty()) {
-    const DisplayModel model = resolveDisplay(args.display);
+  if (args.truth.empty() != args.camera.empty()) {
+    throw InputError({"", args.truth.empty() ? "--truth" : "--camera", 0},
+                     "the calibration physics needs both --truth and --camera");
+  }
+  std::unique_ptr<hw::CameraPhysics> physics;
+  std::string displaySource = args.display;
+  std::optional<DisplayModel> truth;
+  if (!args.truth.empty()) {
+    if (!args.display.empty()) throw InputError({"", "--display", 0}, "not with --truth: the modules are the truth's");
+    truth = loadDisplayModel(args.truth);
+    displaySource = args.truth;
+  }
+  if (!displaySource.empty()) {
+    const DisplayModel model = truth ? *truth : resolveDisplay(displaySource);
     options.modules = static_cast<int>(model.modules.size());
     options.width = model.modules.front().width;
     options.height = model.modules.front().height;
     for (size_t i = 0; i < model.modules.size(); ++i) {
       if (model.modules[i].width != options.width || model.modules[i].height != options.height) {
-        throw InputError({args.display, fmt::format("modules[{}].width", i), 0},
+        throw InputError({displaySource, fmt::format("modules[{}].width", i), 0},
                          "parallax-simhw needs every module at the same resolution");
       }
     }
@@ -60,7 +82,13 @@ int run(const Args& args) {
     options.width = std::stoi(m[1]);
     options.height = std::stoi(m[2]);
   }
-  hw::SimulatedHardware hardware(options);
+  if (truth) {
+    if (args.modules > 0 || !args.resolution.empty()) {
+      throw InputError({"", "--modules", 0}, "not with --truth: the modules are the truth's");
+    }
+    physics = std::make_unique<hw::CalibrationPhysics>(*truth, loadCameraTruth(args.camera));
+  }
+  hw::SimulatedHardware hardware(options, std::move(physics));
   for (const std::string& text : args.faults) {
     const hw::FaultSpec spec = hw::parseFaultSpec(text);
     if (spec.module >= hardware.moduleCount()) {
@@ -73,8 +101,9 @@ int run(const Args& args) {
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   std::signal(SIGPIPE, SIG_IGN);
-  std::fprintf(stderr, "parallax-simhw: %d modules of %dx%d on %s\n", hardware.moduleCount(),
-               options.width, options.height, args.socket.c_str());
+  std::fprintf(stderr, "parallax-simhw: %d modules of %dx%d on %s%s\n", hardware.moduleCount(),
+               options.width, options.height, args.socket.c_str(),
+               truth ? " (camera: calibration physics of the ground truth)" : "");
   hw::SimhwServer server(hardware);
   const hw::ConnectionEnd end = server.listenAndServe(args.socket, gStop);
   if (end == hw::ConnectionEnd::kCrashRequested) std::abort();
@@ -116,6 +145,8 @@ int main(int argc, char** argv) {
   app.add_option("--resolution", args.resolution, "module resolution WIDTHxHEIGHT");
   app.add_option("--fault", args.faults, "inject MODULE:KIND[:COUNT[:PARAM]] (repeatable)");
   app.add_option("--dump", args.dump, "on exit, save each module's last frame as PNG here");
+  app.add_option("--truth", args.truth, "ground-truth display for the camera's calibration physics (with --camera)");
+  app.add_option("--camera", args.camera, "camera truth (camera_truth.json: intrinsics, true station poses, sensor)");
   app.add_option("--max-chunk", args.maxChunk, "largest chunk the modules accept (bytes)");
   try {
     app.parse(argc, argv);

@@ -30,7 +30,7 @@ void SimulatedHardwareOptions::validate() const {
   if (serialPrefix.size() > 24) throw InputError({"", "serial_prefix", 0}, "at most 24 characters");
 }
 
-Image RawPatternPhysics::render(std::span<const Image* const> frames, int viewModule,
+Image RawPatternPhysics::render(std::span<const Image* const> frames, int viewModule, int /*station*/,
                                 const CameraSettings& settings) const {
   // The raw pattern: what the module shows, as it shows it (no optics, no exposure model).
   if (viewModule < 0 || viewModule >= static_cast<int>(frames.size()) || !frames[viewModule]) {
@@ -389,7 +389,7 @@ ProtocolError SimulatedHardware::capture(const PacketHeader& header,
   for (size_t i = 0; i < modules_.size(); ++i) {
     frames[i] = modules_[i].shown.empty() ? nullptr : &modules_[i].shown;
   }
-  const Image image = physics_->render(frames, request.viewModule, camera_);
+  const Image image = physics_->render(frames, request.viewModule, request.station, camera_);
   if (image.empty()) {
     ack(kCameraModule, header.sequence, AckStatus::kUnsupported, 0, replies);
     return ProtocolError::kOk;

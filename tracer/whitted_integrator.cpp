@@ -39,9 +39,9 @@ struct PendingShadow {
   Rgb contribution;
 };
 
-// Slab test: does o + t d (t > 0) meet the box?
+// Slab test: does o + t d (t > 0) meet the box? If so, *entry is the t where it comes in.
 bool hitsBox(const Eigen::Vector3f& o, const Eigen::Vector3f& d, const Eigen::Vector3f& lo,
-             const Eigen::Vector3f& hi) {
+             const Eigen::Vector3f& hi, float* entry) {
   float t0 = 0.0f, t1 = kInf;
   for (int i = 0; i < 3; ++i) {
     const float inv = 1.0f / d[i];
@@ -52,6 +52,7 @@ bool hitsBox(const Eigen::Vector3f& o, const Eigen::Vector3f& d, const Eigen::Ve
     t1 = b < t1 ? b : t1;
     if (t0 > t1) return false;
   }
+  *entry = t0;
   return true;
 }
 
@@ -134,6 +135,7 @@ class TileRenderer {
                Frame* frame, RayLog* log, TileBuffers* buffers)
       : scene_(scene), textures_(textures), options_(options), depth_(depth), frame_(frame), log_(log),
         texturesUsed_(scene.features().texturePass()),
+        boxMargin_(0.01f * (scene.boundsMax() - scene.boundsMin()).norm()),
         paths_(buffers->paths), nextPaths_(buffers->nextPaths), rays_(buffers->rays), nextRays_(buffers->nextRays),
         shadowRaysByLight_(buffers->shadowRaysByLight), shadowsByLight_(buffers->shadowsByLight) {}
 
@@ -158,6 +160,7 @@ class TileRenderer {
   Frame* frame_;
   RayLog* log_;
   const bool texturesUsed_;  // the scene samples a texture (ray footprints are needed)
+  const float boxMargin_;    // primary rays start this far (metres) before the scene's box
 
   std::vector<Path>& paths_;
   std::vector<Path>& nextPaths_;
@@ -194,7 +197,7 @@ void TileRenderer::cone(int pixel, Path* path) const {
     width = std::max(width, std::abs(n->originX - self.originX));
     spread = std::max(spread, (t - toScreen).norm() * inverseLength);
   }
-  path->coneWidth = width;
+  path->coneWidth = width + path->coneWidth * spread;  // coneWidth: the distance the origin was advanced
   path->coneSpread = spread;
 }
 
@@ -230,7 +233,8 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
       expand(f, r, &o, &toScreen);
       // The box test needs no unit direction; most pixels of a small scene stop here, so the
       // square root of the normalisation is paid only by the rays that are traced.
-      if (!hitsBox(o, toScreen, lo, hi)) {
+      float entry;
+      if (!hitsBox(o, toScreen, lo, hi, &entry)) {
         ++c->missedBounds;
         out[column] = background;
         continue;
@@ -238,7 +242,17 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
       out[column] = Rgb::Zero();
       Path path;
       path.pixel = row * textures_.width() + column;
-      path.coneSpread = kConeUnknown;  // computed when a texture or a branch needs it
+      // Start the ray just before the scene's box rather than on the observer line, metres
+      // away: Embree intersects in float relative to the origin, so a near origin keeps the hit
+      // (and the attributes interpolated there) exact to float precision of the scene's size,
+      // where a far one loses digits in proportion to the distance (the outer modules' rays
+      // start up to several metres to the side).
+      const float advance = std::max(0.0f, entry - boxMargin_ / toScreen.norm());
+      o += advance * toScreen;
+      // The footprint is computed when a texture or a branch needs it (cone()); until then
+      // coneWidth holds the distance skipped, which it grows over.
+      path.coneWidth = advance * toScreen.norm();
+      path.coneSpread = kConeUnknown;
       paths_.push_back(path);
       rays_.push(o, toScreen.normalized());
     }

@@ -1,7 +1,13 @@
 // parallax calibrate --captures DIR --nominal FILE|default|demo --out calib.json
-//                    [--report] [--truth gt.json] [--transfer conical|linear] [--threads N]
-// Fits the display to what DIR holds of a calibration session (camera.json, decoded.json) —
-// never its ground truth — starting from the nominal display. The result is written
+// parallax calibrate --link auto|simhw:SOCKET --camera camera.json --nominal ... --out calib.json
+//                    [--stations 0,2,4] [--save-captures DIR]
+//        common:     [--report] [--truth gt.json] [--transfer conical|linear] [--threads N] [--pixel-step N]
+// Fits the display to a calibration session — never its ground truth —, starting from the
+// nominal display. The session is either a captures folder (calibration_captures.h: the
+// pictures, patterns.json and camera.json, decoded here; or decoded.json from `parallax
+// simulate --synthetic`) or taken now through the link: the modules show the patterns, the
+// camera (described by camera.json: intrinsics, response, tape-measured stations) photographs
+// them at every station (hw/calibration_capture.h). The result is written
 // atomically (temporary file, then rename) and the previous calibration is kept as
 // calib.json.previous; a calibration that fails its own quality checks is not installed.
 // --truth adds error-against-truth columns to the report; the fit never sees that file.
@@ -12,20 +18,31 @@
 
 #include <fmt/format.h>
 
+#include "calibration/calibration_captures.h"
 #include "calibration/display_fit.h"
 #include "calibration/display_model_json.h"
 #include "calibration/display_presets.h"
 #include "calibration/fit_report.h"
 #include "calibration/observations_json.h"
+#include "calibration/ray_error.h"
 #include "common/input_error.h"
 #include "common/progress_bar.h"
 #include "daemon/cli/commands.h"
+#include "hw/calibration_capture.h"
+#include "hw/camera.h"
+#include "hw/link_client.h"
+#include "hw/link_factory.h"
 
 namespace parallax::cli {
 namespace {
 
 struct CalibrateArgs {
   std::string captures;
+  std::string link;
+  std::string camera;
+  std::vector<int> stations;
+  std::string saveCaptures;
+  int pixelStep = 2;
   std::string nominal = "demo";
   std::string out;
   bool report = false;
@@ -34,9 +51,65 @@ struct CalibrateArgs {
   int threads = 2;
 };
 
+// The observations of the session and the file to blame for bad data in them.
+CalibrationObservations sessionObservations(const CalibrateArgs& args, const DisplayModel& nominal,
+                                            std::string* source) {
+  CaptureDecoderOptions decoder;
+  decoder.pixelStep = args.pixelStep;
+  namespace fs = std::filesystem;
+  if (!args.captures.empty()) {
+    if (!fs::exists(args.captures + "/patterns.json") && fs::exists(args.captures + "/decoded.json")) {
+      *source = args.captures + "/decoded.json";
+      std::cout << "decoded correspondences from " << *source << " (no pictures)\n";
+      return loadObservations(args.captures);
+    }
+    *source = args.captures + "/patterns.json";
+    const CalibrationCaptures captures = loadCaptures(args.captures);
+    std::cout << fmt::format("decoding {} picture sets from {}\n", captures.stations.size(), args.captures);
+    try {
+      return decodeCaptures(captures, nominal, decoder);
+    } catch (const InputError& e) {
+      throw e.location().file.empty() ? e.inFile(*source) : e;
+    }
+  }
+  *source = args.camera;
+  const CameraMetadata camera = loadCameraMetadata(args.camera);
+  hw::LinkSelection selection;
+  selection.spec = args.link;
+  hw::SelectedLink chosen = hw::selectLink(selection);
+  std::cout << chosen.note << "\n";
+  hw::LinkClient link(std::move(chosen.transport));
+  hw::SimulatedCamera cameraDevice(link);
+  hw::CalibrationCaptureOptions capture;
+  capture.patterns = decoder.patterns;
+  capture.stations = args.stations;
+  std::optional<ProgressBar> bar;
+  const CalibrationCaptures captures = hw::captureCalibration(
+      link, cameraDevice, nominal, camera, capture, [&bar](int done, int total) {
+        if (!bar) bar.emplace("capture", total);
+        if (done > 0) bar->advance();
+      });
+  if (bar) bar->finish();
+  if (!args.saveCaptures.empty()) {
+    saveCaptures(captures, args.saveCaptures);
+    std::cout << "pictures saved to " << args.saveCaptures << "\n";
+  }
+  return decodeCaptures(captures, nominal, decoder);
+}
+
 void runCalibrate(const CalibrateArgs& args) {
+  if (args.captures.empty() == args.link.empty()) {
+    throw InputError({"", "--captures", 0}, "give either --captures DIR or --link SPEC (with --camera camera.json)");
+  }
+  if (!args.link.empty() && args.camera.empty()) {
+    throw InputError({"", "--camera", 0}, "--link needs the camera's metadata (camera.json: intrinsics, stations)");
+  }
   const DisplayModel nominal = resolveDisplay(args.nominal);
-  const CalibrationObservations observations = loadObservations(args.captures);
+  std::string source;
+  const CalibrationObservations observations = sessionObservations(args, nominal, &source);
+  std::cout << fmt::format("{} correspondences, {} stripe centres, {} fiducial sightings\n",
+                           observations.correspondences.size(), observations.stripes.size(),
+                           observations.fiducialSightings.size());
   FitOptions options;
   options.threads = args.threads;
   if (!args.transfer.empty()) {
@@ -51,18 +124,21 @@ void runCalibrate(const CalibrateArgs& args) {
   try {
     result = fitDisplay(nominal, observations, options);
   } catch (const InputError& e) {
-    throw e.location().file.empty() ? e.inFile(args.captures + "/decoded.json") : e;
+    throw e.location().file.empty() ? e.inFile(source) : e;
   }
   progress.finish();
 
   std::cout << formatFitSummary(result);
-  if (args.report) {
-    std::optional<DisplayModel> truth;
-    if (!args.truth.empty()) truth = loadDisplayModel(args.truth);
-    if (truth && truth->modules.size() != result.model.modules.size()) {
-      throw InputError({args.truth, "modules", 0}, "the ground truth has a different number of modules");
-    }
-    std::cout << formatFitReport(result, truth ? &*truth : nullptr);
+  std::optional<DisplayModel> truth;
+  if (!args.truth.empty()) truth = loadDisplayModel(args.truth);
+  if (truth && truth->modules.size() != result.model.modules.size()) {
+    throw InputError({args.truth, "modules", 0}, "the ground truth has a different number of modules");
+  }
+  if (args.report) std::cout << formatFitReport(result, truth ? &*truth : nullptr);
+  if (truth) {
+    const RayErrorStats rays = totalRayError(compareRays(*truth, result.model));
+    std::cout << fmt::format("against the ground truth: ray error rms {:.4f} max {:.3f} module px (nominal: rms {:.3f})\n",
+                             rays.rmsPx, rays.maxPx, totalRayError(compareRays(*truth, nominal)).rmsPx);
   }
   if (!result.passesQualityChecks()) {
     throw std::runtime_error(fmt::format("the calibration failed its quality checks; {} was left untouched", args.out));
@@ -83,7 +159,12 @@ void runCalibrate(const CalibrateArgs& args) {
 void addCalibrateCommand(CLI::App& app) {
   auto args = std::make_shared<CalibrateArgs>();
   CLI::App* command = app.add_subcommand("calibrate", "fit the display model to a calibration session's captures");
-  command->add_option("--captures", args->captures, "capture folder (camera.json, decoded.json)")->required();
+  command->add_option("--captures", args->captures, "captures folder (camera.json, patterns.json and pictures, or decoded.json)");
+  command->add_option("--link", args->link, "calibrate through the link: auto, simhw:SOCKET or usb[...]");
+  command->add_option("--camera", args->camera, "with --link: the camera's metadata (camera.json)");
+  command->add_option("--stations", args->stations, "with --link: the stations to photograph from (default: all)")->delimiter(',');
+  command->add_option("--save-captures", args->saveCaptures, "with --link: also save the pictures as a captures folder");
+  command->add_option("--pixel-step", args->pixelStep, "decode every n-th camera pixel each way");
   command->add_option("--nominal", args->nominal, "nominal display: JSON file or built-in name");
   command->add_option("--out", args->out, "calibrated display JSON to write")->required();
   command->add_flag("--report", args->report, "print the per-module table");

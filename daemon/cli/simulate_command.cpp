@@ -1,17 +1,22 @@
 // parallax simulate [--display FILE|default|demo] --seed S --out DIR
-//                   [--stations N] [--span M] [--noise-px P] [--truth-transfer T] [--truth-curvature K]
+//                   [--stations N] [--span M] [--camera-resolution WxH] [--noise-px P]
+//                   [--truth-transfer T] [--truth-curvature K] [--synthetic]
 // Makes a seeded ground truth from the nominal display and what a calibration session would
-// capture of it, into DIR:
-//   ground_truth.json  the perturbed display (only tests and reports open it)
-//   nominal.json       the nominal display the session starts from
-//   camera.json        camera intrinsics, tape-measured station centres, fiducial places
-//   decoded.json       the decoded correspondences, stripe centres and fiducial sightings
-// The captures are produced by the synthetic decoder (calibration/synthetic_observations.h):
-// the image renderer and OpenCV decoding are not part of this command yet.
+// record of it, into DIR:
+//   nominal.json        the nominal display the session starts from
+//   camera.json         camera intrinsics and response, tape-measured stations, fiducial places
+//   patterns.json, set*.png   the pictures of every station and module group (calibration_captures.h)
+// and, for the simulator and tests only (a calibration never opens them):
+//   ground_truth.json   the perturbed display
+//   camera_truth.json   the camera's true station poses and sensor (parallax-simhw --camera)
+// --synthetic writes decoded.json instead of pictures: correspondences straight from the
+// truth with --noise-px of camera noise (synthetic_observations.h), for fast experiments on
+// large displays. --noise-px only applies there; the pictures carry sensor noise instead.
 
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <regex>
 
 #include <fmt/format.h>
 
@@ -19,6 +24,7 @@
 #include "calibration/display_presets.h"
 #include "calibration/ground_truth.h"
 #include "calibration/observations_json.h"
+#include "calibration/simulated_session.h"
 #include "calibration/synthetic_observations.h"
 #include "common/input_error.h"
 #include "daemon/cli/commands.h"
@@ -32,10 +38,32 @@ struct SimulateArgs {
   std::string out;
   int stations = 5;
   double spanM = 3.2;
+  std::string cameraResolution = "1280x720";
   double noisePx = 0.3;
   std::string truthTransfer;
   std::optional<double> truthCurvature;
+  bool synthetic = false;
 };
+
+// A camera of the given size with the default's field of view (fx = 2100 at 1920 px wide).
+CameraIntrinsics cameraOfSize(const std::string& resolution) {
+  std::smatch m;
+  static const std::regex kPattern(R"((\d{2,5})x(\d{2,5}))");
+  if (!std::regex_match(resolution, m, kPattern)) {
+    throw InputError({"", "--camera-resolution", 0}, "expected WIDTHxHEIGHT such as 1280x720");
+  }
+  CameraIntrinsics in;
+  in.width = std::stoi(m[1]);
+  in.height = std::stoi(m[2]);
+  if (in.width < 64 || in.height < 64 || in.width > 8192 || in.height > 8192) {
+    throw InputError({"", "--camera-resolution", 0}, "sides must be 64..8192");
+  }
+  in.fx = in.fy = 2100.0 * in.width / 1920.0;
+  in.cx = 0.5 * in.width;
+  in.cy = 0.5 * in.height;
+  in.k1 = -0.04;
+  return in;
+}
 
 void runSimulate(const SimulateArgs& args) {
   const DisplayModel nominal = resolveDisplay(args.display);
@@ -51,27 +79,46 @@ void runSimulate(const SimulateArgs& args) {
   truthOptions.curvature = args.truthCurvature;
   const DisplayModel truth = makeGroundTruth(nominal, truthOptions);
 
-  SyntheticOptions sim;
-  sim.seed = args.seed * 7919 + 1;  // independent of the truth's stream
-  sim.rig.stations = args.stations;
-  sim.rig.spanM = args.spanM;
-  sim.noisePx = args.noisePx;
-  const SyntheticCalibration data = simulateObservations(truth, sim);
+  CameraRigOptions rig;
+  rig.stations = args.stations;
+  rig.spanM = args.spanM;
+  rig.intrinsics = cameraOfSize(args.cameraResolution);
+  const std::uint64_t rigSeed = args.seed * 7919 + 1;  // independent of the truth's stream
+  const SimulatedRig camera = makeSimulatedRig(truth, rig, rigSeed);
 
   std::error_code ec;
   std::filesystem::create_directories(args.out, ec);
   if (ec) throw InputError({args.out, "", 0}, "cannot create the output folder: " + ec.message());
   saveDisplayModel(truth, args.out + "/ground_truth.json");
   saveDisplayModel(nominal, args.out + "/nominal.json");
-  saveObservations(data.observations, args.out);
-  std::cout << fmt::format(
-      "simulated display \"{}\" (seed {}): {} modules, truth k = {:.5f} 1/m, {} transfer\n"
-      "  {} camera stations, noise {} px: {} correspondences, {} stripe centres, {} fiducial sightings\n"
-      "  written to {}: ground_truth.json (for tests and reports only), nominal.json, camera.json, decoded.json\n",
-      nominal.name, args.seed, truth.modules.size(), truth.screen.curvature,
-      transferName(truth.screen.transfer), args.stations, args.noisePx,
-      data.observations.correspondences.size(), data.observations.stripes.size(),
-      data.observations.fiducialSightings.size(), std::filesystem::absolute(args.out).string());
+  saveCameraTruth(camera.truth, args.out + "/camera_truth.json");
+  const std::string header = fmt::format(
+      "simulated display \"{}\" (seed {}): {} modules, truth k = {:.5f} 1/m, {} transfer; {} camera stations, camera {}x{}\n",
+      nominal.name, args.seed, truth.modules.size(), truth.screen.curvature, transferName(truth.screen.transfer),
+      args.stations, rig.intrinsics.width, rig.intrinsics.height);
+  const std::string where = std::filesystem::absolute(args.out).string();
+  if (args.synthetic) {
+    SyntheticOptions sim;
+    sim.seed = rigSeed;
+    sim.rig = rig;
+    sim.noisePx = args.noisePx;
+    const SyntheticCalibration data = simulateObservations(truth, sim);
+    saveObservations(data.observations, args.out);
+    std::cout << header
+              << fmt::format("  synthetic decode (no pictures), noise {} px: {} correspondences, {} stripe centres, {} fiducial sightings\n"
+                             "  written to {}: nominal.json, camera.json, decoded.json; ground_truth.json, camera_truth.json (simulator and tests only)\n",
+                             args.noisePx, data.observations.correspondences.size(), data.observations.stripes.size(),
+                             data.observations.fiducialSightings.size(), where);
+    return;
+  }
+  const CalibrationCaptures captures = renderSession(truth, camera.truth, camera.metadata, {});
+  saveCaptures(captures, args.out);
+  size_t pictures = 0;
+  for (const StationCaptures& s : captures.stations) pictures += s.columnFrames.size() + s.rowFrames.size();
+  std::cout << header
+            << fmt::format("  {} pictures ({} station × group sets)\n"
+                           "  written to {}: nominal.json, camera.json, patterns.json, set*.png; ground_truth.json, camera_truth.json (simulator and tests only)\n",
+                           pictures, captures.stations.size(), where);
 }
 
 }  // namespace
@@ -79,15 +126,17 @@ void runSimulate(const SimulateArgs& args) {
 void addSimulateCommand(CLI::App& app) {
   auto args = std::make_shared<SimulateArgs>();
   CLI::App* command = app.add_subcommand(
-      "simulate", "make a seeded ground-truth display and the calibration captures of it");
+      "simulate", "make a seeded ground-truth display and the calibration pictures of it");
   command->add_option("--display", args->display, "nominal display: JSON file or built-in name (default, demo)");
   command->add_option("--seed", args->seed, "seed: the same seed gives the same files");
   command->add_option("--out", args->out, "output folder")->required();
   command->add_option("--stations", args->stations, "camera stations along the observer line");
   command->add_option("--span", args->spanM, "distance from the first to the last station (m)");
-  command->add_option("--noise-px", args->noisePx, "camera noise (σ, px)");
+  command->add_option("--camera-resolution", args->cameraResolution, "calibration camera WIDTHxHEIGHT (field of view fixed)");
+  command->add_option("--noise-px", args->noisePx, "camera noise (σ, px) of --synthetic correspondences");
   command->add_option("--truth-transfer", args->truthTransfer, "screen transfer of the ground truth (conical, linear)");
   command->add_option("--truth-curvature", args->truthCurvature, "curvature k of the ground truth's screen (1/m)");
+  command->add_flag("--synthetic", args->synthetic, "write decoded.json (synthetic correspondences) instead of pictures");
   command->callback([args] { runSimulate(*args); });
 }
 

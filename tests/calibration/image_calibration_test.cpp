@@ -1,21 +1,20 @@
 // End to end from images on the demo display: the simulated camera photographs the modules'
-// Gray code + phase shift patterns from five stations, the decoder turns the pictures into
-// correspondences and stripe centres, and the fit recovers the ground truth.
+// Gray code + phase shift patterns and the fiducial markers from five stations
+// (renderSession), the decoder turns the pictures into correspondences, stripe centres and
+// fiducial sightings (decodeCaptures), and the fit recovers the ground truth.
 // Not from images here (stated): the camera intrinsics are taken as known (the checkerboard
-// step is not built yet) and the fiducial sightings are projected with noise rather than
-// detected in pictures.
+// step is separate).
 
 #include <gtest/gtest.h>
 
 #include <chrono>
 
-#include "calibration/camera_renderer.h"
-#include "calibration/capture_decoder.h"
+#include "calibration/calibration_captures.h"
 #include "calibration/display_fit.h"
 #include "calibration/display_presets.h"
 #include "calibration/ground_truth.h"
 #include "calibration/ray_error.h"
-#include "calibration/synthetic_observations.h"
+#include "calibration/simulated_session.h"
 
 namespace parallax {
 namespace {
@@ -27,46 +26,35 @@ TEST(ImageCalibration, DemoDisplayFromRenderedPatterns) {
   gt.seed = 31;
   const DisplayModel truth = makeGroundTruth(nominal, gt);
 
-  SyntheticOptions rig;
-  rig.seed = 32;
-  rig.rig.spanM = 3.2;
-  rig.rig.intrinsics.width = 640;
-  rig.rig.intrinsics.height = 360;
-  rig.rig.intrinsics.fx = rig.rig.intrinsics.fy = 700.0;
-  rig.rig.intrinsics.cx = 320.0;
-  rig.rig.intrinsics.cy = 180.0;
-  rig.rig.intrinsics.k1 = -0.04;
-  SyntheticCalibration session = simulateObservations(truth, rig);
-  CalibrationObservations& obs = session.observations;
-  obs.correspondences.clear();  // these come from the pictures below
-  obs.stripes.clear();
-
-  CameraRenderOptions render;
+  CameraRigOptions rig;
+  rig.spanM = 3.2;
+  rig.intrinsics.width = 640;
+  rig.intrinsics.height = 360;
+  rig.intrinsics.fx = rig.intrinsics.fy = 700.0;
+  rig.intrinsics.cx = 320.0;
+  rig.intrinsics.cy = 180.0;
+  rig.intrinsics.k1 = -0.04;
+  const SimulatedRig camera = makeSimulatedRig(truth, rig, 32);
+  const CalibrationCaptures captures = renderSession(truth, camera.truth, camera.metadata, {});
   CaptureDecoderOptions decoder;
   decoder.pixelStep = 6;  // every 6th camera pixel each way: ~25k correspondences keep the fit fast
-  SeededRandom random(33);
-  const int mw = nominal.modules[0].width, mh = nominal.modules[0].height;
-  const auto columnPatterns = makePatternFrames(mw, mh, PatternAxis::kColumns, decoder.patterns);
-  const auto rowPatterns = makePatternFrames(mw, mh, PatternAxis::kRows, decoder.patterns);
+  const CalibrationObservations obs = decodeCaptures(captures, nominal, decoder);
   int frames = 0;
-  for (size_t station = 0; station < session.truePoses.size(); ++station) {
-    const StationView view = viewFromStation(truth, obs.intrinsics, session.truePoses[station], render);
-    for (int g = 0; g < 3; ++g) {  // every third module at once: their lobes do not overlap
-      std::vector<int> group;
-      for (int m = g; m < static_cast<int>(nominal.modules.size()); m += 3) group.push_back(m);
-      auto shoot = [&](const std::vector<cv::Mat>& patterns) {
-        std::vector<cv::Mat> out;
-        for (const cv::Mat& pattern : patterns) {
-          std::vector<cv::Mat> images(nominal.modules.size());
-          for (int m : group) images[static_cast<size_t>(m)] = pattern;
-          out.push_back(linearFromRecorded(renderFrame(view, images, render, random), render.gamma));
-          ++frames;
-        }
-        return out;
-      };
-      decodeStation(shoot(columnPatterns), shoot(rowPatterns), group, nominal, static_cast<int>(station), decoder, &obs);
-    }
+  for (const StationCaptures& s : captures.stations) frames += static_cast<int>(s.columnFrames.size() + s.rowFrames.size());
+  // Nearly every station sees all eight fiducials of the demo screen (a few fall on or beyond
+  // the picture's edge); the detected ones are where the true camera sees them.
+  EXPECT_GE(obs.fiducialSightings.size(), 5u * obs.fiducials.size() - 3);
+  double worstFiducialPx = 0.0;
+  for (const FiducialSighting& f : obs.fiducialSightings) {
+    Eigen::Vector2d truePx;
+    ASSERT_TRUE(projectPhysical(camera.truth.intrinsics, camera.truth.poses[static_cast<size_t>(f.camera)],
+                                truth.screen.pointAt(obs.fiducials[static_cast<size_t>(f.fiducial)].x(),
+                                                     obs.fiducials[static_cast<size_t>(f.fiducial)].y()),
+                                &truePx));
+    worstFiducialPx = std::max(worstFiducialPx, (f.cameraPx - truePx).norm());
   }
+  std::printf("    fiducials: %zu sightings, worst %.3f px from the truth\n", obs.fiducialSightings.size(), worstFiducialPx);
+  EXPECT_LT(worstFiducialPx, 0.3);
   const double captureSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   FitOptions fit;

@@ -129,6 +129,24 @@ TEST(LinkProtocol, BodiesRejectOutOfRangeFields) {
   EXPECT_EQ(decodeFault(fb, &fault), ProtocolError::kBadBody);
 }
 
+TEST(LinkProtocol, CaptureRequestCarriesTheStation) {
+  CaptureRequest r;
+  r.viewModule = 2;
+  r.station = 4;
+  r.exposureUs = 12000;
+  r.gainCenti = 150;
+  std::vector<uint8_t> body = encodeCaptureRequest(r);
+  ASSERT_EQ(body.size(), kCaptureRequestSize);
+  CaptureRequest back;
+  ASSERT_EQ(decodeCaptureRequest(body, &back), ProtocolError::kOk);
+  EXPECT_EQ(back.station, 4);
+  EXPECT_EQ(back.viewModule, 2);
+  EXPECT_EQ(back.exposureUs, 12000u);
+  EXPECT_EQ(back.gainCenti, 150);
+  body[10] = 1;  // a flag version 1 does not define
+  EXPECT_EQ(decodeCaptureRequest(body, &back), ProtocolError::kBadBody);
+}
+
 TEST(PacketReader, ReassemblesPacketsFedOneByteAtATime) {
   std::vector<uint8_t> stream = ackPacket();
   const std::vector<uint8_t> keepAlive = encodePacket({PacketType::kKeepAlive, 0, 0, 9, 0, 0}, {});

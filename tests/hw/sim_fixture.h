@@ -20,8 +20,8 @@ namespace parallax::hw {
 
 class InProcessSimhw {
  public:
-  explicit InProcessSimhw(SimulatedHardwareOptions options)
-      : hardware_(std::move(options)),
+  explicit InProcessSimhw(SimulatedHardwareOptions options, std::unique_ptr<CameraPhysics> physics = nullptr)
+      : hardware_(std::move(options), std::move(physics)),
         path_(
             (std::filesystem::temp_directory_path() / ("plx-simhw-" + std::to_string(::getpid()) +
                                                        "-" + std::to_string(counter_++) + ".sock"))

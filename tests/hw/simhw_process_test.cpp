@@ -2,78 +2,23 @@
 // that kills the process, and recovery when it is started again. Plus --dump.
 
 #include <gtest/gtest.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <filesystem>
 #include <random>
 #include <thread>
 
-#include "hw/link_client.h"
-#include "hw/socket_transport.h"
-
-extern char** environ;
+#include "simhw_process.h"
 
 namespace parallax::hw {
 namespace {
 
 namespace fs = std::filesystem;
 
-class SimhwProcess {
- public:
-  explicit SimhwProcess(std::vector<std::string> extra, std::string path = "") : path_(path) {
-    static int counter = 0;
-    if (path_.empty()) {
-      path_ = (fs::temp_directory_path() / ("plx-simhw-proc-" + std::to_string(getpid()) + "-" +
-                                            std::to_string(counter++) + ".sock"))
-                  .string();
-    }
-    std::vector<std::string> args = {
-        PARALLAX_SIMHW_PATH, "--socket", path_,         "--modules", "3",
-        "--resolution",      "32x16",    "--max-chunk", "4096"};
-    args.insert(args.end(), extra.begin(), extra.end());
-    std::vector<char*> argv;
-    for (std::string& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    EXPECT_EQ(posix_spawn(&pid_, PARALLAX_SIMHW_PATH, nullptr, nullptr, argv.data(), environ), 0);
-  }
-  ~SimhwProcess() { stop(); }
-
-  int stop() {
-    if (pid_ <= 0) return status_;
-    kill(pid_, SIGTERM);
-    waitpid(pid_, &status_, 0);
-    pid_ = 0;
-    return status_;
-  }
-  // Waits for the process to exit by itself; returns its wait status.
-  int waitExit() {
-    waitpid(pid_, &status_, 0);
-    pid_ = 0;
-    return status_;
-  }
-  const std::string& path() const { return path_; }
-
- private:
-  std::string path_;
-  pid_t pid_ = 0;
-  int status_ = 0;
-};
-
-// The executable loads ~260 shared libraries (OpenImageIO's plugins among them): more than a
-// second to start on a loaded two-core machine, so wait generously.
-std::unique_ptr<LinkClient> connectWhenUp(const std::string& path, LinkOptions options) {
-  for (int i = 0; i < 3000; ++i) {
-    try {
-      return std::make_unique<LinkClient>(std::make_unique<SocketTransport>(path), options);
-    } catch (const std::runtime_error&) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-  }
-  ADD_FAILURE() << "parallax-simhw did not come up on " << path;
-  return nullptr;
+// The small simulator these tests run: three 32x16 modules, 4 KiB chunks.
+std::vector<std::string> small(std::vector<std::string> extra) {
+  std::vector<std::string> args = {"--modules", "3", "--resolution", "32x16", "--max-chunk", "4096"};
+  args.insert(args.end(), extra.begin(), extra.end());
+  return args;
 }
 
 std::shared_ptr<const Image> frame(uint32_t seed) {
@@ -99,8 +44,8 @@ LinkOptions options() {
 TEST(SimhwProcess, FlagFaultsAreSurvivedAndDumpWritesPngs) {
   const fs::path dump = fs::temp_directory_path() / ("plx-dump-" + std::to_string(getpid()));
   fs::remove_all(dump);
-  SimhwProcess sim({"--fault", "0:drop:1", "--fault", "1:flip:1", "--fault", "2:stall:1", "--dump",
-                    dump.string()});
+  SimhwProcess sim(small({"--fault", "0:drop:1", "--fault", "1:flip:1", "--fault", "2:stall:1", "--dump",
+                          dump.string()}));
   auto link = connectWhenUp(sim.path(), options());
   ASSERT_TRUE(link);
   for (int m = 0; m < 3; ++m) link->submit(m, frame(m));
@@ -121,7 +66,7 @@ TEST(SimhwProcess, FlagFaultsAreSurvivedAndDumpWritesPngs) {
 }
 
 TEST(SimhwProcess, CrashIsReportedAndTheLinkRecoversWhenRestarted) {
-  auto sim = std::make_unique<SimhwProcess>(std::vector<std::string>{"--fault", "1:crash"});
+  auto sim = std::make_unique<SimhwProcess>(small({"--fault", "1:crash"}));
   auto link = connectWhenUp(sim->path(), options());
   ASSERT_TRUE(link);
   link->submit(0, frame(10));
@@ -140,7 +85,7 @@ TEST(SimhwProcess, CrashIsReportedAndTheLinkRecoversWhenRestarted) {
   EXPECT_TRUE(reported);
 
   // A new simulator on the same socket path; the same client reconnects on its next frame.
-  SimhwProcess again({}, sim->path());
+  SimhwProcess again(small({}), sim->path());
   bool up = false;
   for (int i = 0; i < 3000 && !up; ++i) {
     SocketTransport probe(again.path());

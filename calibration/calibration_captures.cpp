@@ -1,0 +1,291 @@
+#include "calibration/calibration_captures.h"
+
+#include <cmath>
+#include <filesystem>
+
+#include <fmt/format.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "calibration/fiducial_detector.h"
+#include "calibration/json_file.h"
+#include "calibration/observations_json.h"
+#include "common/atomic_file.h"
+#include "common/input_error.h"
+
+namespace parallax {
+namespace {
+
+using nlohmann::json;
+
+constexpr const char* kPatternsFormatName = "parallax-patterns";
+constexpr int kPatternsFormatVersion = 1;
+constexpr size_t kMaxCaptureSets = 4096;
+
+[[noreturn]] void fail(const std::string& field, const std::string& reason) {
+  throw InputError(InputLocation{"", field, 0}, reason);
+}
+
+const json& member(const json& object, const std::string& key, const std::string& path) {
+  if (!object.is_object()) fail(path, fmt::format("must be an object, got {}", object.type_name()));
+  const auto it = object.find(key);
+  if (it == object.end()) fail(path.empty() ? key : path + "." + key, "missing");
+  return *it;
+}
+
+long long integer(const json& j, const std::string& field, long long lo, long long hi) {
+  if (!j.is_number_integer()) fail(field, fmt::format("must be an integer, got {}", j.type_name()));
+  const long long v = j.get<long long>();
+  if (v < lo || v > hi) fail(field, fmt::format("must be {}..{}, got {}", lo, hi, v));
+  return v;
+}
+
+double number(const json& j, const std::string& field) {
+  if (!j.is_number()) fail(field, fmt::format("must be a number, got {}", j.type_name()));
+  const double v = j.get<double>();
+  if (!std::isfinite(v)) fail(field, "must be finite");
+  return v;
+}
+
+const json& array(const json& j, const std::string& field, size_t maxSize) {
+  if (!j.is_array()) fail(field, fmt::format("must be an array, got {}", j.type_name()));
+  if (j.size() > maxSize) fail(field, fmt::format("at most {} entries", maxSize));
+  return j;
+}
+
+int framesPerAxis(int extent, const StructuredLightOptions& patterns) {
+  return 2 + grayBitCount(extent, patterns.periodPx) + patterns.phaseSteps;
+}
+
+std::string frameName(size_t set, char axis, size_t frame) {
+  return fmt::format("set{:03d}_{}{:02d}.png", set, axis, frame);
+}
+
+cv::Mat loadPicture(const std::string& path, const CameraMetadata& camera) {
+  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (image.empty()) throw InputError({path, "", 0}, "cannot read the picture (missing or not an image)");
+  if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
+    throw InputError({path, "", 0}, "must be an 8-bit grey or colour picture, as the camera recorded it");
+  }
+  if (image.cols != camera.intrinsics.width || image.rows != camera.intrinsics.height) {
+    throw InputError({path, "", 0}, fmt::format("is {}x{}, the camera's pictures are {}x{}", image.cols,
+                                                image.rows, camera.intrinsics.width, camera.intrinsics.height));
+  }
+  if (image.channels() == 3) cv::cvtColor(image, image, cv::COLOR_BGR2GRAY);
+  return linearFromRecorded8(image, camera.responseGamma);
+}
+
+}  // namespace
+
+void CalibrationCaptures::validate(const DisplayModel& nominal) const {
+  patterns.validate();
+  const int modules = static_cast<int>(nominal.modules.size());
+  if (moduleWidth != nominal.modules.front().width || moduleHeight != nominal.modules.front().height) {
+    fail("module_width", fmt::format("the patterns are {}x{}, the nominal display's modules {}x{}", moduleWidth,
+                                     moduleHeight, nominal.modules.front().width, nominal.modules.front().height));
+  }
+  const size_t columns = static_cast<size_t>(framesPerAxis(moduleWidth, patterns));
+  const size_t rows = static_cast<size_t>(framesPerAxis(moduleHeight, patterns));
+  for (size_t i = 0; i < stations.size(); ++i) {
+    const StationCaptures& s = stations[i];
+    const std::string field = fmt::format("stations[{}]", i);
+    if (s.station < 0 || s.station >= static_cast<int>(camera.stations.size())) {
+      fail(field + ".station", fmt::format("must be 0..{}", static_cast<int>(camera.stations.size()) - 1));
+    }
+    if (s.group.empty()) fail(field + ".group", "must name at least one module");
+    for (int m : s.group) {
+      if (m < 0 || m >= modules) fail(field + ".group", fmt::format("module {} is not 0..{}", m, modules - 1));
+    }
+    if (s.columnFrames.size() != columns || s.rowFrames.size() != rows) {
+      fail(field, fmt::format("needs {} column and {} row pictures, has {} and {}", columns, rows,
+                              s.columnFrames.size(), s.rowFrames.size()));
+    }
+    for (const auto* frames : {&s.columnFrames, &s.rowFrames}) {
+      for (const cv::Mat& f : *frames) {
+        if (f.type() != CV_32F || f.cols != camera.intrinsics.width || f.rows != camera.intrinsics.height) {
+          fail(field, fmt::format("every picture must be linear (CV_32F) and {}x{}", camera.intrinsics.width,
+                                  camera.intrinsics.height));
+        }
+      }
+    }
+  }
+}
+
+std::vector<std::vector<int>> moduleGroups(int modules, int stride) {
+  std::vector<std::vector<int>> groups;
+  stride = std::max(1, std::min(stride, modules));
+  for (int g = 0; g < stride; ++g) {
+    std::vector<int> group;
+    for (int m = g; m < modules; m += stride) group.push_back(m);
+    groups.push_back(group);
+  }
+  return groups;
+}
+
+CalibrationObservations observationsFrame(const CameraMetadata& camera) {
+  CalibrationObservations obs;
+  obs.intrinsics = camera.intrinsics;
+  obs.stations = camera.stations;
+  obs.fiducials = camera.fiducials;
+  return obs;
+}
+
+CalibrationObservations decodeCaptures(const CalibrationCaptures& captures, const DisplayModel& nominal,
+                                       const CaptureDecoderOptions& options) {
+  captures.validate(nominal);
+  CaptureDecoderOptions decoder = options;
+  decoder.patterns = captures.patterns;
+  CalibrationObservations obs = observationsFrame(captures.camera);
+  std::vector<bool> fiducialsDone(captures.camera.stations.size(), false);
+  for (const StationCaptures& s : captures.stations) {
+    decodeStation(s.columnFrames, s.rowFrames, s.group, nominal, s.station, decoder, &obs);
+    if (!fiducialsDone[static_cast<size_t>(s.station)]) {
+      fiducialsDone[static_cast<size_t>(s.station)] = true;
+      detectFiducials(s.columnFrames[1], nominal.screen, s.station, FiducialDetectorOptions{}, &obs);
+    }
+  }
+  return obs;
+}
+
+cv::Mat linearFromRecorded8(const cv::Mat& recorded8, double gamma) {
+  // A lookup table: 256 values, exact.
+  float table[256];
+  for (int i = 0; i < 256; ++i) table[i] = static_cast<float>(std::pow(i / 255.0, gamma));
+  cv::Mat linear(recorded8.size(), CV_32F);
+  for (int y = 0; y < recorded8.rows; ++y) {
+    const uint8_t* in = recorded8.ptr<uint8_t>(y);
+    float* out = linear.ptr<float>(y);
+    for (int x = 0; x < recorded8.cols; ++x) out[x] = table[in[x]];
+  }
+  return linear;
+}
+
+cv::Mat recorded8FromLinear(const cv::Mat& linear, double gamma) {
+  cv::Mat out(linear.size(), CV_8U);
+  for (int y = 0; y < linear.rows; ++y) {
+    const float* in = linear.ptr<float>(y);
+    uint8_t* o = out.ptr<uint8_t>(y);
+    for (int x = 0; x < linear.cols; ++x) {
+      const double v = std::pow(std::clamp(static_cast<double>(in[x]), 0.0, 1.0), 1.0 / gamma);
+      o[x] = static_cast<uint8_t>(std::lround(255.0 * v));
+    }
+  }
+  return out;
+}
+
+void saveCameraMetadata(const CameraMetadata& camera, const std::string& path) {
+  json j = cameraMetadataToJson(observationsFrame(camera));
+  j["response_gamma"] = camera.responseGamma;
+  writeFileAtomically(path, j.dump(2) + "\n");
+}
+
+CameraMetadata loadCameraMetadata(const std::string& path) {
+  try {
+    const json j = readJsonFile(path);
+    CalibrationObservations obs;
+    cameraMetadataFromJson(j, &obs);
+    CameraMetadata camera;
+    camera.intrinsics = obs.intrinsics;
+    camera.stations = obs.stations;
+    camera.fiducials = obs.fiducials;
+    if (j.contains("response_gamma")) {
+      camera.responseGamma = number(j["response_gamma"], "response_gamma");
+      if (!(camera.responseGamma >= 0.2 && camera.responseGamma <= 5.0)) fail("response_gamma", "must be 0.2..5");
+    }
+    return camera;
+  } catch (const InputError& e) {
+    throw e.location().file.empty() ? e.inFile(path) : e;
+  }
+}
+
+void saveCaptures(const CalibrationCaptures& captures, const std::string& directory) {
+  std::error_code ec;
+  std::filesystem::create_directories(directory, ec);
+  if (ec) throw InputError({directory, "", 0}, "cannot create the captures folder: " + ec.message());
+  json j;
+  j["format"] = kPatternsFormatName;
+  j["version"] = kPatternsFormatVersion;
+  j["period_px"] = captures.patterns.periodPx;
+  j["phase_steps"] = captures.patterns.phaseSteps;
+  j["min_contrast"] = captures.patterns.minContrast;
+  j["module_width"] = captures.moduleWidth;
+  j["module_height"] = captures.moduleHeight;
+  j["stations"] = json::array();
+  for (size_t i = 0; i < captures.stations.size(); ++i) {
+    const StationCaptures& s = captures.stations[i];
+    json entry{{"station", s.station}, {"group", s.group}, {"columns", json::array()}, {"rows", json::array()}};
+    for (auto [frames, axis, key] : {std::tuple{&s.columnFrames, 'c', "columns"}, std::tuple{&s.rowFrames, 'r', "rows"}}) {
+      for (size_t f = 0; f < frames->size(); ++f) {
+        const std::string name = frameName(i, axis, f);
+        const std::string path = directory + "/" + name;
+        if (!cv::imwrite(path, recorded8FromLinear((*frames)[f], captures.camera.responseGamma))) {
+          throw InputError({path, "", 0}, "cannot write the picture");
+        }
+        entry[key].push_back(name);
+      }
+    }
+    j["stations"].push_back(entry);
+  }
+  saveCameraMetadata(captures.camera, directory + "/camera.json");
+  writeFileAtomically(directory + "/patterns.json", j.dump(2) + "\n");
+}
+
+CalibrationCaptures loadCaptures(const std::string& directory) {
+  CalibrationCaptures captures;
+  captures.camera = loadCameraMetadata(directory + "/camera.json");
+  const std::string path = directory + "/patterns.json";
+  try {
+    const json j = readJsonFile(path);
+    const json& format = member(j, "format", "");
+    if (!format.is_string() || format.get<std::string>() != kPatternsFormatName) {
+      fail("format", fmt::format("must be \"{}\", got {}", kPatternsFormatName, format.dump()));
+    }
+    if (integer(member(j, "version", ""), "version", 0, 1 << 20) != kPatternsFormatVersion) {
+      fail("version", fmt::format("must be {}", kPatternsFormatVersion));
+    }
+    captures.patterns.periodPx = static_cast<int>(integer(member(j, "period_px", ""), "period_px", 2, 4096));
+    captures.patterns.phaseSteps = static_cast<int>(integer(member(j, "phase_steps", ""), "phase_steps", 3, 64));
+    captures.patterns.minContrast = number(member(j, "min_contrast", ""), "min_contrast");
+    captures.moduleWidth = static_cast<int>(integer(member(j, "module_width", ""), "module_width", 2, 1 << 15));
+    captures.moduleHeight = static_cast<int>(integer(member(j, "module_height", ""), "module_height", 2, 1 << 15));
+    try {
+      captures.patterns.validate();
+    } catch (const InputError& e) {
+      fail(e.location().field, e.reason());
+    }
+    const json& stations = array(member(j, "stations", ""), "stations", kMaxCaptureSets);
+    const size_t columns = static_cast<size_t>(framesPerAxis(captures.moduleWidth, captures.patterns));
+    const size_t rows = static_cast<size_t>(framesPerAxis(captures.moduleHeight, captures.patterns));
+    for (size_t i = 0; i < stations.size(); ++i) {
+      const std::string field = fmt::format("stations[{}]", i);
+      StationCaptures s;
+      s.station = static_cast<int>(integer(member(stations[i], "station", field), field + ".station", 0,
+                                           static_cast<long long>(captures.camera.stations.size()) - 1));
+      const json& group = array(member(stations[i], "group", field), field + ".group", 1 << 16);
+      for (size_t g = 0; g < group.size(); ++g) {
+        s.group.push_back(static_cast<int>(integer(group[g], fmt::format("{}.group[{}]", field, g), 0, 1 << 16)));
+      }
+      for (auto [frames, key, expected] : {std::tuple{&s.columnFrames, "columns", columns}, std::tuple{&s.rowFrames, "rows", rows}}) {
+        const json& names = array(member(stations[i], key, field), field + "." + key, 1024);
+        if (names.size() != expected) {
+          fail(field + "." + key, fmt::format("needs {} pictures for these patterns, lists {}", expected, names.size()));
+        }
+        for (size_t f = 0; f < names.size(); ++f) {
+          const std::string nameField = fmt::format("{}.{}[{}]", field, key, f);
+          if (!names[f].is_string()) fail(nameField, "must be a file name");
+          const std::string name = names[f].get<std::string>();
+          if (name.empty() || name.find('/') != std::string::npos || name.find("..") != std::string::npos) {
+            fail(nameField, "must be a plain file name inside the captures folder");
+          }
+          frames->push_back(loadPicture(directory + "/" + name, captures.camera));
+        }
+      }
+      captures.stations.push_back(std::move(s));
+    }
+  } catch (const InputError& e) {
+    throw e.location().file.empty() ? e.inFile(path) : e;
+  }
+  return captures;
+}
+
+}  // namespace parallax

@@ -1,0 +1,38 @@
+#pragma once
+// A whole calibration session rendered offline from a ground truth: what the camera would
+// record at every station while each module group shows the structured-light patterns — the
+// same pictures a session over the link records from parallax-simhw, without the link.
+
+#include <cstdint>
+
+#include "calibration/calibration_captures.h"
+#include "calibration/camera_truth.h"
+#include "calibration/synthetic_observations.h"
+
+namespace parallax {
+
+struct SimulatedSessionOptions {
+  StructuredLightOptions patterns;
+  int groupStride = 3;  // every n-th module shows its patterns at once (moduleGroups)
+};
+
+// Pictures of every station (truth poses) and group, in linear light after the sensor's
+// response and 8-bit quantisation (what a camera gives). `camera` is what the session knows
+// (tape-measured stations, the intrinsics), stored in the result unchanged.
+CalibrationCaptures renderSession(const DisplayModel& truth, const CameraTruth& cameraTruth,
+                                  const CameraMetadata& camera, const SimulatedSessionOptions& options);
+
+// A camera rig for a simulation: the tape-measured metadata and the camera's truth (true
+// poses from simulateObservations' rig model, sensor defaults, gamma known to the metadata).
+struct SimulatedRig {
+  CameraMetadata metadata;
+  CameraTruth truth;
+};
+SimulatedRig makeSimulatedRig(const DisplayModel& truth, const CameraRigOptions& rig, std::uint64_t seed,
+                              const CameraRenderOptions& sensor = {});
+
+// The module pattern frames as a module shows them: 8-bit (quantised) values read back as linear.
+std::vector<cv::Mat> quantisedPatternFrames(int width, int height, PatternAxis axis,
+                                            const StructuredLightOptions& patterns);
+
+}  // namespace parallax

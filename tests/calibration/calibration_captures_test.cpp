@@ -1,0 +1,141 @@
+// A captures folder on disk: what `parallax simulate` writes and `parallax calibrate
+// --captures` reads. The pictures survive the round trip as the camera recorded them (8-bit),
+// and bad folders are refused with the file and field named.
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "calibration/calibration_captures.h"
+#include "calibration/display_presets.h"
+#include "calibration/ground_truth.h"
+#include "calibration/simulated_session.h"
+#include "common/input_error.h"
+
+namespace parallax {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Small {
+  DisplayModel nominal, truth;
+  SimulatedRig rig;
+  CalibrationCaptures captures;
+};
+
+Small small() {
+  NominalDisplayOptions options;
+  options.modules = 4;
+  options.width = 96;
+  options.height = 64;
+  Small s;
+  s.nominal = makeNominalDisplay(options);
+  s.truth = makeGroundTruth(s.nominal, GroundTruthOptions{});
+  CameraRigOptions rig;
+  rig.stations = 2;
+  rig.spanM = 1.0;
+  rig.intrinsics.width = 200;
+  rig.intrinsics.height = 112;
+  rig.intrinsics.fx = rig.intrinsics.fy = 220.0;
+  rig.intrinsics.cx = 100.0;
+  rig.intrinsics.cy = 56.0;
+  s.rig = makeSimulatedRig(s.truth, rig, 3);
+  SimulatedSessionOptions session;
+  session.groupStride = 2;
+  s.captures = renderSession(s.truth, s.rig.truth, s.rig.metadata, session);
+  return s;
+}
+
+fs::path freshDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / (name + "-" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+TEST(CalibrationCaptures, FolderRoundTripKeepsPicturesAndDecodesTheSame) {
+  const Small s = small();
+  const fs::path dir = freshDir("plx-captures");
+  saveCaptures(s.captures, dir.string());
+  const CalibrationCaptures loaded = loadCaptures(dir.string());
+  EXPECT_EQ(loaded.camera.responseGamma, s.captures.camera.responseGamma);
+  EXPECT_EQ(loaded.camera.stations.size(), 2u);
+  ASSERT_EQ(loaded.stations.size(), s.captures.stations.size());
+  for (size_t i = 0; i < loaded.stations.size(); ++i) {
+    EXPECT_EQ(loaded.stations[i].group, s.captures.stations[i].group);
+    ASSERT_EQ(loaded.stations[i].columnFrames.size(), s.captures.stations[i].columnFrames.size());
+    for (size_t f = 0; f < loaded.stations[i].columnFrames.size(); ++f) {
+      // Both already hold 8-bit recorded values: the round trip is exact up to float rounding.
+      EXPECT_LT(cv::norm(loaded.stations[i].columnFrames[f], s.captures.stations[i].columnFrames[f], cv::NORM_INF), 1e-5);
+    }
+  }
+  CaptureDecoderOptions decoder;
+  const CalibrationObservations a = decodeCaptures(s.captures, s.nominal, decoder);
+  const CalibrationObservations b = decodeCaptures(loaded, s.nominal, decoder);
+  EXPECT_GT(a.correspondences.size(), 100u);
+  ASSERT_EQ(a.correspondences.size(), b.correspondences.size());
+  for (size_t i = 0; i < a.correspondences.size(); ++i) {
+    EXPECT_NEAR((a.correspondences[i].modulePx - b.correspondences[i].modulePx).norm(), 0.0, 1e-4);
+  }
+  fs::remove_all(dir);
+}
+
+std::string errorOf(const std::string& dir) {
+  try {
+    loadCaptures(dir);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(CalibrationCaptures, BadFoldersNameTheFileAndField) {
+  const Small s = small();
+  const fs::path dir = freshDir("plx-captures-bad");
+  saveCaptures(s.captures, dir.string());
+
+  // A missing picture.
+  fs::rename(dir / "set000_c03.png", dir / "moved.png");
+  std::string error = errorOf(dir.string());
+  EXPECT_NE(error.find("set000_c03.png"), std::string::npos) << error;
+  // A picture of the wrong size.
+  cv::imwrite((dir / "set000_c03.png").string(), cv::Mat(10, 10, CV_8U, cv::Scalar(3)));
+  error = errorOf(dir.string());
+  EXPECT_NE(error.find("10x10"), std::string::npos) << error;
+  fs::rename(dir / "moved.png", dir / "set000_c03.png");
+  EXPECT_EQ(errorOf(dir.string()), "");
+
+  // patterns.json listing too few pictures, a file outside the folder, a station not in camera.json.
+  std::ifstream in(dir / "patterns.json");
+  const std::string original((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto withPatterns = [&](const std::string& from, const std::string& to) {
+    std::string text = original;
+    const size_t at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+    std::ofstream(dir / "patterns.json") << text;
+    return errorOf(dir.string());
+  };
+  error = withPatterns("\"set000_c03.png\",", "");
+  EXPECT_NE(error.find("patterns.json: stations[0].columns"), std::string::npos) << error;
+  error = withPatterns("\"set000_c03.png\"", "\"../set000_c03.png\"");
+  EXPECT_NE(error.find("stations[0].columns[3]"), std::string::npos) << error;
+  error = withPatterns("\"station\": 0", "\"station\": 7");
+  EXPECT_NE(error.find("stations[0].station"), std::string::npos) << error;
+  error = withPatterns("\"period_px\": 16", "\"period_px\": \"x\"");
+  EXPECT_NE(error.find("period_px"), std::string::npos) << error;
+  fs::remove_all(dir);
+}
+
+TEST(CalibrationCaptures, ModuleGroupsCoverEveryModuleOnce) {
+  const auto groups = moduleGroups(10, 3);
+  ASSERT_EQ(groups.size(), 3u);
+  EXPECT_EQ(groups[0], (std::vector<int>{0, 3, 6, 9}));
+  EXPECT_EQ(groups[2], (std::vector<int>{2, 5, 8}));
+  EXPECT_EQ(moduleGroups(2, 5).size(), 2u);  // never an empty group
+}
+
+}  // namespace
+}  // namespace parallax

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# `parallax calibrate --link` against a running parallax-simhw that photographs a seeded ground
+# truth (demo display, 640x360 camera, every 6th camera pixel decoded): the calibration is
+# installed and its rays are within 0.4 module px RMS of the truth's.
+#   calibrate_link_test.sh PARALLAX PARALLAX_SIMHW
+set -euo pipefail
+parallax=$1
+simhw=$2
+dir=$(mktemp -d)
+sock=$dir/simhw.sock
+pid=
+cleanup() {
+  if [ -n "$pid" ]; then kill "$pid" 2>/dev/null || true; wait "$pid" 2>/dev/null || true; fi
+  rm -rf "$dir"
+}
+trap cleanup EXIT
+
+# Only the truth files and camera.json are needed: --synthetic skips rendering pictures here.
+"$parallax" simulate --display demo --seed 7 --out "$dir" --camera-resolution 640x360 --synthetic > /dev/null
+"$simhw" --socket "$sock" --truth "$dir/ground_truth.json" --camera "$dir/camera_truth.json" &
+pid=$!
+for _ in $(seq 1 600); do
+  [ -S "$sock" ] && break
+  sleep 0.1
+done
+sleep 0.5  # bound → listening
+
+out=$("$parallax" calibrate --link "simhw:$sock" --camera "$dir/camera.json" --nominal "$dir/nominal.json" \
+        --out "$dir/calib.json" --truth "$dir/ground_truth.json" --pixel-step 6 2>&1)
+echo "$out"
+[ -f "$dir/calib.json" ] || { echo "FAIL: no calibration installed"; exit 1; }
+rms=$(echo "$out" | sed -n 's/.*ray error rms \([0-9.]*\) .*/\1/p')
+[ -n "$rms" ] || { echo "FAIL: no ray error line"; exit 1; }
+awk -v r="$rms" 'BEGIN { exit !(r < 0.4) }' || { echo "FAIL: ray error rms $rms >= 0.4 px"; exit 1; }
+echo "ok: ray error rms $rms px"

@@ -1,0 +1,154 @@
+// A calibration session through the link: parallax-simhw's camera with the calibration physics
+// of a seeded ground truth, captureCalibration showing the patterns on the modules and taking
+// the pictures, decodeCaptures and the fit.
+//  - in process, a small display: the link session records the pictures the offline renderer
+//    makes of the same truth (nothing lost or reordered on the way), leaves the modules in
+//    playback mode, and stops cleanly when cancelled;
+// The real process on the demo display (`parallax-simhw --truth --camera`, then `parallax
+// calibrate --link`) is the CTest calibrate_through_link (calibrate_link_test.sh).
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+
+#include "calibration/display_fit.h"
+#include "calibration/display_model_json.h"
+#include "calibration/display_presets.h"
+#include "calibration/ground_truth.h"
+#include "calibration/ray_error.h"
+#include "calibration/simulated_session.h"
+#include "hw/calibration_capture.h"
+#include "hw/calibration_physics.h"
+#include "hw/camera.h"
+#include "hw/socket_transport.h"
+#include "sim_fixture.h"
+
+namespace parallax::hw {
+namespace {
+
+struct SmallSession {
+  DisplayModel nominal, truth;
+  SimulatedRig rig;
+};
+
+// Six 128x96 modules, a 240x136 camera at two stations.
+SmallSession smallSession() {
+  NominalDisplayOptions options;
+  options.preset = "demo";
+  options.modules = 6;
+  options.width = 128;
+  options.height = 96;
+  SmallSession s;
+  s.nominal = makeNominalDisplay(options);
+  GroundTruthOptions gt;
+  gt.seed = 5;
+  s.truth = makeGroundTruth(s.nominal, gt);
+  CameraRigOptions rig;
+  rig.stations = 2;
+  rig.spanM = 1.0;
+  rig.intrinsics.width = 240;
+  rig.intrinsics.height = 136;
+  rig.intrinsics.fx = rig.intrinsics.fy = 262.0;
+  rig.intrinsics.cx = 120.0;
+  rig.intrinsics.cy = 68.0;
+  s.rig = makeSimulatedRig(s.truth, rig, 6);
+  return s;
+}
+
+SimulatedHardwareOptions modulesOf(const DisplayModel& display) {
+  SimulatedHardwareOptions o;
+  o.modules = static_cast<int>(display.modules.size());
+  o.width = display.modules.front().width;
+  o.height = display.modules.front().height;
+  return o;
+}
+
+TEST(CalibrationSession, LinkSessionRecordsWhatTheOfflineRendererMakes) {
+  const SmallSession s = smallSession();
+  InProcessSimhw sim(modulesOf(s.truth), std::make_unique<CalibrationPhysics>(s.truth, s.rig.truth));
+  int calls = 0, lastDone = -1, lastTotal = -1;
+  CalibrationCaptures viaLink;
+  {
+    LinkClient link(std::make_unique<SocketTransport>(sim.path()));
+    SimulatedCamera camera(link);
+    CalibrationCaptureOptions options;
+    viaLink = captureCalibration(link, camera, s.nominal, s.rig.metadata, options, [&](int done, int total) {
+      ++calls;
+      EXPECT_GE(done, lastDone);
+      lastDone = done;
+      lastTotal = total;
+    });
+  }
+  sim.stop();
+  const CalibrationCaptures offline = renderSession(s.truth, s.rig.truth, s.rig.metadata, {});
+  ASSERT_EQ(viaLink.stations.size(), offline.stations.size());
+  EXPECT_EQ(lastDone, lastTotal);
+  EXPECT_EQ(calls, lastTotal + 1);  // 0 first, then one per picture
+  EXPECT_EQ(sim.hardware().mode(), DisplayMode::kPlayback);
+  double worst = 0.0;
+  for (size_t i = 0; i < offline.stations.size(); ++i) {
+    EXPECT_EQ(viaLink.stations[i].station, offline.stations[i].station);
+    EXPECT_EQ(viaLink.stations[i].group, offline.stations[i].group);
+    ASSERT_EQ(viaLink.stations[i].columnFrames.size(), offline.stations[i].columnFrames.size());
+    ASSERT_EQ(viaLink.stations[i].rowFrames.size(), offline.stations[i].rowFrames.size());
+    for (size_t f = 0; f < offline.stations[i].columnFrames.size(); ++f) {
+      worst = std::max(worst, cv::norm(viaLink.stations[i].columnFrames[f], offline.stations[i].columnFrames[f], cv::NORM_INF));
+    }
+    for (size_t f = 0; f < offline.stations[i].rowFrames.size(); ++f) {
+      worst = std::max(worst, cv::norm(viaLink.stations[i].rowFrames[f], offline.stations[i].rowFrames[f], cv::NORM_INF));
+    }
+  }
+  // Same truth, same sensor noise stream, same order: equal up to a rounding tie of one 8-bit
+  // level (at most ~0.01 in linear light near white).
+  EXPECT_LT(worst, 0.02);
+  // And the pictures are of the display, not blank: they decode to correspondences for every module.
+  CaptureDecoderOptions decoder;
+  const CalibrationObservations obs = decodeCaptures(viaLink, s.nominal, decoder);
+  std::vector<int> perModule(s.nominal.modules.size(), 0);
+  for (const Correspondence& c : obs.correspondences) ++perModule[static_cast<size_t>(c.module)];
+  for (size_t m = 0; m < perModule.size(); ++m) EXPECT_GT(perModule[m], 20) << "module " << m;
+  EXPECT_FALSE(obs.fiducialSightings.empty());
+}
+
+TEST(CalibrationSession, CancelStopsAndLeavesPlaybackMode) {
+  const SmallSession s = smallSession();
+  InProcessSimhw sim(modulesOf(s.truth), std::make_unique<CalibrationPhysics>(s.truth, s.rig.truth));
+  std::atomic<bool> cancel{false};
+  int pictures = 0;
+  {
+    LinkClient link(std::make_unique<SocketTransport>(sim.path()));
+    SimulatedCamera camera(link);
+    EXPECT_THROW(captureCalibration(link, camera, s.nominal, s.rig.metadata, {},
+                                    [&](int done, int) {
+                                      pictures = done;
+                                      if (done == 5) cancel = true;
+                                    },
+                                    &cancel),
+                 CalibrationCancelled);
+    EXPECT_FALSE(camera.locked());
+  }
+  sim.stop();
+  EXPECT_EQ(pictures, 5);
+  EXPECT_EQ(sim.hardware().mode(), DisplayMode::kPlayback);
+}
+
+TEST(CalibrationSession, AStationTheCameraDoesNotHaveIsAClearError) {
+  SmallSession s = smallSession();
+  CameraTruth oneStation = s.rig.truth;
+  oneStation.poses.resize(1);  // the simulator's camera knows one station, the metadata two
+  InProcessSimhw sim(modulesOf(s.truth), std::make_unique<CalibrationPhysics>(s.truth, oneStation));
+  LinkClient link(std::make_unique<SocketTransport>(sim.path()));
+  SimulatedCamera camera(link);
+  CalibrationCaptureOptions options;
+  options.stations = {1};
+  try {
+    captureCalibration(link, camera, s.nominal, s.rig.metadata, options);
+    ADD_FAILURE() << "expected an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("station 1"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace parallax::hw

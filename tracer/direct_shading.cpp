@@ -17,7 +17,7 @@ Rgb shadePixel(const PhysicalScene& scene, const SurfaceSample& sample, const Ei
                DirectShadingCounters* c) {
   const PhysicalMesh& mesh = scene.meshes()[static_cast<size_t>(sample.mesh)];
   const Material& m = scene.materials()[static_cast<size_t>(mesh.material)];
-  const HitInfo h = hitInfoOf(mesh, static_cast<unsigned>(sample.triangle), sample.b1, sample.b2, d);
+  const HitInfo h = hitInfoOf(mesh, static_cast<unsigned>(sample.triangle), sample.b1, sample.b2, d, m.diffuseTexture >= 0);
   Rgb texture = Rgb::Ones();
   if (m.diffuseTexture >= 0) {
     const TextureImage& image = scene.textures()[static_cast<size_t>(m.diffuseTexture)];

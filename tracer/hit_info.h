@@ -20,8 +20,10 @@ struct HitInfo {
   float texelsPerMetreSq = 0.0f;  // uv area / physical area (for the texture footprint)
 };
 
-// (u, v): Embree's barycentrics of vertices 1 and 2; d: the incoming ray's direction.
-inline HitInfo hitInfoOf(const PhysicalMesh& mesh, unsigned prim, float u, float v, const Eigen::Vector3f& d) {
+// (u, v): Embree's barycentrics of vertices 1 and 2; d: the incoming ray's direction;
+// `wantUv`: the surface samples a texture (its uv and texel density are needed).
+inline HitInfo hitInfoOf(const PhysicalMesh& mesh, unsigned prim, float u, float v, const Eigen::Vector3f& d,
+                         bool wantUv) {
   const auto& tri = mesh.triangles[prim];
   const Eigen::Vector3f& p0 = mesh.positions[tri[0]];
   const Eigen::Vector3f& p1 = mesh.positions[tri[1]];
@@ -30,8 +32,7 @@ inline HitInfo hitInfoOf(const PhysicalMesh& mesh, unsigned prim, float u, float
   HitInfo h;
   // From the vertices, not o + t d: its error is then ulps of the vertices, not of the ray length.
   h.position = w * p0 + u * p1 + v * p2;
-  const Eigen::Vector3f cross = (p1 - p0).cross(p2 - p0);
-  Eigen::Vector3f ng = cross.normalized();
+  Eigen::Vector3f ng = mesh.faceNormals[prim];
   h.frontFace = ng.dot(d) < 0.0f;
   if (!h.frontFace) ng = -ng;
   h.geometricNormal = ng;
@@ -47,14 +48,14 @@ inline HitInfo hitInfoOf(const PhysicalMesh& mesh, unsigned prim, float u, float
       h.shadingNormal = n;
     }
   }
-  if (!mesh.uvs.empty()) {
+  if (wantUv && !mesh.uvs.empty()) {
     const Eigen::Vector2f& t0 = mesh.uvs[tri[0]];
     const Eigen::Vector2f& t1 = mesh.uvs[tri[1]];
     const Eigen::Vector2f& t2 = mesh.uvs[tri[2]];
     h.uv = w * t0 + u * t1 + v * t2;
     const Eigen::Vector2f a = t1 - t0, b = t2 - t0;
     const float uvArea = std::abs(a.x() * b.y() - a.y() * b.x());
-    h.texelsPerMetreSq = uvArea / cross.norm();
+    h.texelsPerMetreSq = uvArea / mesh.crossLengths[prim];
   }
   if (!mesh.colors.empty()) h.vertexColor = w * mesh.colors[tri[0]] + u * mesh.colors[tri[1]] + v * mesh.colors[tri[2]];
   return h;

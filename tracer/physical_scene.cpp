@@ -219,7 +219,16 @@ void PhysicalScene::addInstance(const Scene& scene, const Instance& instance, co
       ++counters_.trianglesBuilt;
     }
   }
-  if (!mesh.triangles.empty()) meshes_.push_back(std::move(mesh));
+  if (mesh.triangles.empty()) return;
+  mesh.faceNormals.reserve(mesh.triangles.size());
+  mesh.crossLengths.reserve(mesh.triangles.size());
+  for (const auto& tri : mesh.triangles) {
+    const Eigen::Vector3f& p0 = mesh.positions[tri[0]];
+    const Eigen::Vector3f cross = (mesh.positions[tri[1]] - p0).cross(mesh.positions[tri[2]] - p0);
+    mesh.faceNormals.push_back(cross.normalized());
+    mesh.crossLengths.push_back(cross.norm());
+  }
+  meshes_.push_back(std::move(mesh));
 }
 
 void PhysicalScene::loadTextures(const Scene& scene) {

@@ -39,6 +39,10 @@ struct PhysicalMesh {
   std::vector<Eigen::Vector3f> normals;  // empty or per position
   std::vector<Eigen::Vector2f> uvs;      // empty or per position
   std::vector<Rgb> colors;               // empty or per position
+  // Per triangle: (p1 − p0) × (p2 − p0) normalised (CCW side), and that cross product's length
+  // (twice the area). Computed once here rather than at every hit.
+  std::vector<Eigen::Vector3f> faceNormals;
+  std::vector<float> crossLengths;
   int material = 0;
 };
 

@@ -9,13 +9,6 @@
 namespace parallax {
 namespace {
 
-RTCIntersectContext contextFor(bool coherent) {
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
-  context.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-  return context;
-}
-
 // AOS → SOA for one group of up to 16 rays; lanes past `count` are invalid.
 void toPacket(const RTCRay* rays, int count, RTCRay16* packet, int* valid) {
   for (int i = 0; i < 16; ++i) {
@@ -38,6 +31,13 @@ void toPacket(const RTCRay* rays, int count, RTCRay16* packet, int* valid) {
 
 }  // namespace
 
+RTCIntersectContext intersectContext(bool coherent) {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  context.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  return context;
+}
+
 const char* traversalName(Traversal traversal) {
   switch (traversal) {
     case Traversal::kSingle: return "single";
@@ -59,7 +59,7 @@ bool parseTraversal(const char* name, Traversal* traversal) {
 
 void intersectBatch(RTCScene scene, std::span<RTCRayHit> rays, Traversal traversal, bool coherent) {
   if (rays.empty()) return;
-  RTCIntersectContext context = contextFor(coherent);
+  RTCIntersectContext context = intersectContext(coherent);
   switch (traversal) {
     case Traversal::kSingle:
       for (RTCRayHit& r : rays) rtcIntersect1(scene, &context, &r);
@@ -104,7 +104,7 @@ void intersectBatch(RTCScene scene, std::span<RTCRayHit> rays, Traversal travers
 
 void occludedBatch(RTCScene scene, std::span<RTCRay> rays, Traversal traversal, bool coherent) {
   if (rays.empty()) return;
-  RTCIntersectContext context = contextFor(coherent);
+  RTCIntersectContext context = intersectContext(coherent);
   switch (traversal) {
     case Traversal::kSingle:
       for (RTCRay& r : rays) rtcOccluded1(scene, &context, &r);

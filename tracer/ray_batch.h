@@ -69,6 +69,9 @@ inline RTCRay makeShadowRay(const Eigen::Vector3f& origin, const Eigen::Vector3f
   return r;
 }
 
+// The context of one batch: coherent (primary rays and their shadow rays) or incoherent.
+RTCIntersectContext intersectContext(bool coherent);
+
 void intersectBatch(RTCScene scene, std::span<RTCRayHit> rays, Traversal traversal, bool coherent);
 void occludedBatch(RTCScene scene, std::span<RTCRay> rays, Traversal traversal, bool coherent);
 

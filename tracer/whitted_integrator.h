@@ -68,7 +68,12 @@ struct RayLog {
   std::vector<Batch> batches;
 };
 
-// Renders one module frame. `textures` must come from the display the scene was mapped into.
+// Renders one module frame into `frame`, reusing its memory when it already has the textures'
+// size (a daemon renders every frame into the same buffers). `textures` must come from the
+// display the scene was mapped into.
+void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options,
+                     Frame* frame, RenderCounters* counters = nullptr, RayLog* log = nullptr);
+// The same into a new frame.
 // Throws InputError for samplesPerPixel > 1 (see supersampled_render.h).
 Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options,
                   RenderCounters* counters = nullptr, RayLog* log = nullptr);
@@ -76,8 +81,9 @@ Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures, const
 enum class RayKind { kAll, kPrimary, kShadow, kSecondary };
 
 // Traces the logged batches of `kind` again (in parallel, no shading) with `traversal`; returns
-// wall-clock ms. `rays` (optional) receives how many rays that was, `cpuMs` (optional) the
-// process CPU time the tracing took (all threads).
+// the wall-clock ms of the Embree calls (a pass that only copies each batch into packets is
+// timed too and subtracted). `rays` (optional) receives how many rays that was, `cpuMs`
+// (optional) the process CPU time of those calls (all threads).
 double replayRayLog(const PhysicalScene& scene, const RayLog& log, Traversal traversal, RayKind kind = RayKind::kAll,
                     long* rays = nullptr, double* cpuMs = nullptr);
 

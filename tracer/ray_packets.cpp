@@ -1,0 +1,147 @@
+#include "tracer/ray_packets.h"
+
+namespace parallax {
+namespace {
+
+// valid[] of packet p: all lanes but those past the last ray.
+void validLanes(size_t packet, size_t size, int* valid) {
+  for (size_t lane = 0; lane < 16; ++lane) valid[lane] = packet * 16 + lane < size ? -1 : 0;
+}
+
+}  // namespace
+
+void RayHitPackets::grow() { packets_.emplace_back(); }
+
+void OcclusionPackets::grow() { packets_.emplace_back(); }
+
+RTCRayHit RayHitPackets::get(size_t i) const {
+  const RTCRayHit16& p = packets_[i / 16];
+  const size_t l = i % 16;
+  RTCRayHit r;
+  r.ray.org_x = p.ray.org_x[l];
+  r.ray.org_y = p.ray.org_y[l];
+  r.ray.org_z = p.ray.org_z[l];
+  r.ray.tnear = p.ray.tnear[l];
+  r.ray.dir_x = p.ray.dir_x[l];
+  r.ray.dir_y = p.ray.dir_y[l];
+  r.ray.dir_z = p.ray.dir_z[l];
+  r.ray.time = p.ray.time[l];
+  r.ray.tfar = p.ray.tfar[l];
+  r.ray.mask = p.ray.mask[l];
+  r.ray.id = p.ray.id[l];
+  r.ray.flags = p.ray.flags[l];
+  r.hit.Ng_x = p.hit.Ng_x[l];
+  r.hit.Ng_y = p.hit.Ng_y[l];
+  r.hit.Ng_z = p.hit.Ng_z[l];
+  r.hit.u = p.hit.u[l];
+  r.hit.v = p.hit.v[l];
+  r.hit.primID = p.hit.primID[l];
+  r.hit.geomID = p.hit.geomID[l];
+  r.hit.instID[0] = p.hit.instID[0][l];
+  return r;
+}
+
+void RayHitPackets::set(size_t i, const RTCRayHit& r) {
+  RTCRayHit16& p = packets_[i / 16];
+  const size_t l = i % 16;
+  p.ray.tfar[l] = r.ray.tfar;
+  p.hit.Ng_x[l] = r.hit.Ng_x;
+  p.hit.Ng_y[l] = r.hit.Ng_y;
+  p.hit.Ng_z[l] = r.hit.Ng_z;
+  p.hit.u[l] = r.hit.u;
+  p.hit.v[l] = r.hit.v;
+  p.hit.primID[l] = r.hit.primID;
+  p.hit.geomID[l] = r.hit.geomID;
+  p.hit.instID[0][l] = r.hit.instID[0];
+}
+
+RTCRay OcclusionPackets::get(size_t i) const {
+  const RTCRay16& p = packets_[i / 16];
+  const size_t l = i % 16;
+  RTCRay r;
+  r.org_x = p.org_x[l];
+  r.org_y = p.org_y[l];
+  r.org_z = p.org_z[l];
+  r.tnear = p.tnear[l];
+  r.dir_x = p.dir_x[l];
+  r.dir_y = p.dir_y[l];
+  r.dir_z = p.dir_z[l];
+  r.time = p.time[l];
+  r.tfar = p.tfar[l];
+  r.mask = p.mask[l];
+  r.id = p.id[l];
+  r.flags = p.flags[l];
+  return r;
+}
+
+void OcclusionPackets::set(size_t i, const RTCRay& r) { packets_[i / 16].tfar[i % 16] = r.tfar; }
+
+void intersectPackets(RTCScene scene, RayHitPackets& rays, Traversal traversal, bool coherent) {
+  if (rays.empty()) return;
+  RTCIntersectContext context = intersectContext(coherent);
+  const size_t count = rays.packetCount();
+  switch (traversal) {
+    case Traversal::kSingle:
+      for (size_t i = 0; i < rays.size(); ++i) {
+        RTCRayHit r = rays.get(i);
+        rtcIntersect1(scene, &context, &r);
+        rays.set(i, r);
+      }
+      break;
+    case Traversal::kPacket16: {
+      alignas(64) int valid[16];
+      validLanes(0, 16, valid);
+      for (size_t p = 0; p < count; ++p) {
+        if (p + 1 == count) validLanes(p, rays.size(), valid);
+        rtcIntersect16(valid, scene, &context, &rays.packets()[p]);
+      }
+      break;
+    }
+    case Traversal::kStream: {
+      RTCRayHit16& last = rays.packets()[count - 1];
+      for (size_t lane = rays.size() % 16; lane != 0 && lane < 16; ++lane) {
+        last.ray.tnear[lane] = 1.0f;  // tnear > tfar: inactive
+        last.ray.tfar[lane] = 0.0f;
+      }
+      rtcIntersectNM(scene, &context, reinterpret_cast<RTCRayHitN*>(rays.packets()), 16, static_cast<unsigned>(count),
+                     sizeof(RTCRayHit16));
+      break;
+    }
+  }
+}
+
+void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal, bool coherent) {
+  if (rays.empty()) return;
+  RTCIntersectContext context = intersectContext(coherent);
+  const size_t count = rays.packetCount();
+  switch (traversal) {
+    case Traversal::kSingle:
+      for (size_t i = 0; i < rays.size(); ++i) {
+        RTCRay r = rays.get(i);
+        rtcOccluded1(scene, &context, &r);
+        rays.set(i, r);
+      }
+      break;
+    case Traversal::kPacket16: {
+      alignas(64) int valid[16];
+      validLanes(0, 16, valid);
+      for (size_t p = 0; p < count; ++p) {
+        if (p + 1 == count) validLanes(p, rays.size(), valid);
+        rtcOccluded16(valid, scene, &context, &rays.packets()[p]);
+      }
+      break;
+    }
+    case Traversal::kStream: {
+      RTCRay16& last = rays.packets()[count - 1];
+      for (size_t lane = rays.size() % 16; lane != 0 && lane < 16; ++lane) {
+        last.tnear[lane] = 1.0f;  // tnear > tfar: inactive
+        last.tfar[lane] = 0.0f;
+      }
+      rtcOccludedNM(scene, &context, reinterpret_cast<RTCRayN*>(rays.packets()), 16, static_cast<unsigned>(count),
+                    sizeof(RTCRay16));
+      break;
+    }
+  }
+}
+
+}  // namespace parallax

@@ -36,6 +36,10 @@ struct FitOptions {
   double fiducialSigmaPx = 0.2;            // camera px
   double tapeSigmaM = 0.05;
   double robustScale = 3.0;                // Cauchy scale, in units of σ
+  // Correspondence residual: true — the camera pixel predicted from the module pixel (the
+  // noise stays on the measured side); false — the camera pixel back-projected into the module
+  // (noise inside the model: errors-in-variables bias). Both in module px.
+  bool residualInCameraPx = true;
   bool reestimateNoise = true;
   bool fitCurvature = true;
   bool fitDistortion = true;

@@ -16,7 +16,7 @@ namespace {
 constexpr double kScreenWidth = 1.6;
 constexpr double kScreenHeight = 0.9;
 constexpr double kModuleDistance = 1.0;     // behind the screen
-constexpr double kFieldOfViewDeg = 70.0;    // of the module row, seen from the screen centre
+constexpr double kFieldOfViewDeg = 70.0;    // diffusion of a lone module (no pitch to scale)
 constexpr double kObserverDistance = 2.0;
 constexpr double kDisplayableDepth = 0.5;
 constexpr double kCoverMargin = 1.02;
@@ -79,7 +79,7 @@ DisplayModel makeNominalDisplay(const NominalDisplayOptions& options) {
   const int count = options.modules.value_or(demo ? 16 : 72);
   const int width = options.width.value_or(demo ? 512 : 1024);
   const int height = options.height.value_or(demo ? 384 : 768);
-  const double rowHalfWidth = kModuleDistance * std::tan(radians(0.5 * kFieldOfViewDeg));
+  const double rowHalfWidth = 0.5 * kScreenWidth * (1.0 + kModuleDistance / kObserverDistance);
   for (int i = 0; i < count; ++i) {
     OpticalModule m;
     m.id = i;

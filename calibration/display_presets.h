@@ -5,8 +5,14 @@
 //  demo:    16 modules of 512×384 behind the same screen.
 //
 // Both: a straight row of modules 1.0 m behind the screen at its centre's height, evenly
-// spaced across ±35° as seen from the screen centre (the 70° field of view of a HoloVizio
-// 722RC), each yawed to aim at the screen centre, upright and mirrored (rear projection), with
+// spaced over x ∈ ±(W/2)(1 + D/Z) (D the modules' distance behind the screen, Z the observer
+// line's in front): just wide enough that a viewer at the centre of the observer line sees the
+// whole screen lit — the screen's edge reaches that viewer only through a module that far out.
+// (A row ±35° wide as seen from the screen centre, the 70° of a HoloVizio 722RC, left that
+// viewer the middle 58% of the screen; a row giving every screen point ±35° would coarsen the
+// angular pitch 2.1× and need camera stations far beyond the observer line's centre to see the
+// outermost modules.) Each module is yawed to aim at the screen centre, upright and mirrored
+// (rear projection), with
 // the largest focal length whose image still covers the whole screen with a 2% margin. The
 // observer line is 2 m in front at the screen centre's height; the diffusion width is 1.5× the
 // angular pitch between neighbouring modules seen from the screen centre; B_P is the screen's

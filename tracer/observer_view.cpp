@@ -4,12 +4,13 @@
 #include <tbb/parallel_for.h>
 
 #include <cmath>
+#include <algorithm>
 #include <limits>
 #include <numbers>
+#include <optional>
 
 #include <fmt/format.h>
 
-#include "calibration/display_presets.h"
 #include "calibration/optical_module.h"
 #include "calibration/screen_transfer.h"
 #include "common/check.h"
@@ -35,6 +36,22 @@ Eigen::Vector3d viewPixelOnScreen(const Screen& screen, const ObserverViewOption
   return screen.pointAt(x, y);
 }
 
+// Half the angle between the nearest neighbours of row position k that have an exit angle (the
+// angle to the one neighbour at an end of the row); 0 when k has none.
+double angularShare(const std::vector<double>& exitAngle, size_t k) {
+  std::optional<double> before, after;
+  for (size_t b = k; b-- > 0;) {
+    if (!std::isnan(exitAngle[b])) { before = exitAngle[b]; break; }
+  }
+  for (size_t a = k + 1; a < exitAngle.size(); ++a) {
+    if (!std::isnan(exitAngle[a])) { after = exitAngle[a]; break; }
+  }
+  if (before && after) return 0.5 * std::abs(*after - *before);
+  if (before) return std::abs(exitAngle[k] - *before);
+  if (after) return std::abs(*after - exitAngle[k]);
+  return 0.0;
+}
+
 }  // namespace
 
 void ObserverViewOptions::validate() const {
@@ -54,36 +71,54 @@ Frame synthesizeObserverView(const DisplayModel& model, const std::vector<Frame>
     PARALLAX_CHECK_OP(frames[i].height, ==, model.modules[i].height);
     optics.emplace_back(model.modules[i]);
   }
-  // Gaussian lobe with FWHM = diffusion width, scaled by the display's mean angular pitch so
-  // that a row of modules one pitch apart sums to ~1 (a single module: peak 1). Where modules
-  // sit closer or further apart than the mean (a straight row seen at an angle), the screen
-  // looks brighter or darker, as a real one does until its brightness is calibrated.
+  // Gaussian lobe with FWHM = diffusion width. At each screen point the modules' exit angles
+  // sample the lobe, so each module's lobe is weighted by its own share of those angles (half
+  // the gap to its neighbours in the row, seen from that point): the sum is then a quadrature
+  // of the lobe's integral, ~1 wherever the lobes overlap, whatever the row's spacing — the
+  // brightness calibration a real display gets (a straight row is denser in angle toward its
+  // ends; uncompensated, the middle of the screen would look darker). Where the diffusion is
+  // too narrow for the pitch the sum still dips between modules: the dark gaps stay visible.
+  // A single module has no neighbours: its lobe peaks at 1.
   const double fwhm = model.screen.diffusionDeg * std::numbers::pi / 180.0;
   const double sigma = fwhm / (2.0 * std::sqrt(2.0 * std::numbers::ln2));
-  const double pitchDeg = angularPitchDeg(model);
-  const double pitch = (pitchDeg > 0.0 ? pitchDeg : model.screen.diffusionDeg) * std::numbers::pi / 180.0;
-  const double scale = model.modules.size() > 1 ? pitch / (sigma * std::sqrt(2.0 * std::numbers::pi)) : 1.0;
+  const double lobeIntegral = sigma * std::sqrt(2.0 * std::numbers::pi);
   const double cutoff = 5.0 * sigma;  // beyond it the lobe is below 4e-6 of its peak
+  std::vector<size_t> rowOrder(model.modules.size());
+  for (size_t m = 0; m < rowOrder.size(); ++m) rowOrder[m] = m;
+  std::sort(rowOrder.begin(), rowOrder.end(), [&](size_t a, size_t b) {
+    return model.modules[a].position.x() < model.modules[b].position.x();
+  });
 
   Frame view(options.width, options.height);
   if (coverage) coverage->assign(view.pixels.size(), 0.0f);
   tbb::parallel_for(tbb::blocked_range<int>(0, options.height), [&](const tbb::blocked_range<int>& rows) {
+    std::vector<double> exitAngle;  // per row position, NaN where the transfer has no solution
     for (int j = rows.begin(); j != rows.end(); ++j) {
       for (int i = 0; i < options.width; ++i) {
         const Eigen::Vector3d s = viewPixelOnScreen(model.screen, options, i, j);
         const double viewerAngle = std::atan2(viewer.x() - s.x(), viewer.z() - s.z());
+        exitAngle.assign(rowOrder.size(), std::numeric_limits<double>::quiet_NaN());
+        for (size_t k = 0; k < rowOrder.size(); ++k) {
+          const Eigen::Vector3d d = (s - optics[rowOrder[k]].position()).normalized();
+          double x;
+          if (transferToObserverLine(model.screen, model.observer, s, d, &x)) {
+            exitAngle[k] = std::atan2(x - s.x(), model.observer.z - s.z());
+          }
+        }
         Rgb sum = Rgb::Zero();
         double weights = 0.0;
-        for (size_t m = 0; m < optics.size(); ++m) {
-          const Eigen::Vector3d d = (s - optics[m].position()).normalized();
-          double x;
-          if (!transferToObserverLine(model.screen, model.observer, s, d, &x)) continue;
-          const double angle = std::atan2(x - s.x(), model.observer.z - s.z()) - viewerAngle;
+        for (size_t k = 0; k < rowOrder.size(); ++k) {
+          if (std::isnan(exitAngle[k])) continue;
+          const double angle = exitAngle[k] - viewerAngle;
           if (std::abs(angle) > cutoff) continue;
+          const size_t m = rowOrder[k];
           Eigen::Vector2d pixel;
+          const Eigen::Vector3d d = (s - optics[m].position()).normalized();
           if (!optics[m].project(d, &pixel)) continue;
           const OpticalModule& module = model.modules[m];
           if (pixel.x() < 0.0 || pixel.y() < 0.0 || pixel.x() > module.width || pixel.y() > module.height) continue;
+          const double share = angularShare(exitAngle, k);
+          const double scale = share > 0.0 ? share / lobeIntegral : 1.0;
           const double weight = scale * std::exp(-0.5 * angle * angle / (sigma * sigma));
           sum += static_cast<float>(weight) * sampleBilinear(frames[m], pixel.x(), pixel.y());
           weights += weight;

@@ -8,8 +8,9 @@
 // (the forward projection of s − p) along the ray its transfer gives, toward o on the observer
 // line; the screen spreads it horizontally in a Gaussian lobe whose full width at half maximum
 // is the display's diffusion width. The viewer receives the sum over modules of colour × lobe
-// at the horizontal angle between "s → o" and "s → viewer", the lobe scaled so that modules one
-// angular pitch apart sum to ~1: with too narrow a diffusion the viewer sees dark gaps.
+// at the horizontal angle between "s → o" and "s → viewer", each module's lobe scaled by its
+// share of the modules' exit angles at s, so that the row sums to ~1 (a brightness-calibrated
+// display): with too narrow a diffusion the viewer sees dark gaps.
 
 #include <Eigen/Core>
 #include <vector>

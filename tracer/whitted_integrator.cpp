@@ -36,9 +36,9 @@ struct PendingShadow {
   Rgb contribution;
 };
 
-// Slab test: does o + t d (t > 0) meet the box?
+// Slab test: does o + t d (t > 0) meet the box? If so, *entry is the t where it comes in.
 bool hitsBox(const Eigen::Vector3f& o, const Eigen::Vector3f& d, const Eigen::Vector3f& lo,
-             const Eigen::Vector3f& hi) {
+             const Eigen::Vector3f& hi, float* entry) {
   float t0 = 0.0f, t1 = kInf;
   for (int i = 0; i < 3; ++i) {
     const float inv = 1.0f / d[i];
@@ -49,6 +49,7 @@ bool hitsBox(const Eigen::Vector3f& o, const Eigen::Vector3f& d, const Eigen::Ve
     t1 = b < t1 ? b : t1;
     if (t0 > t1) return false;
   }
+  *entry = t0;
   return true;
 }
 
@@ -105,7 +106,8 @@ class TileRenderer {
  public:
   TileRenderer(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options, int depth,
                Frame* frame, RayLog* log)
-      : scene_(scene), textures_(textures), options_(options), depth_(depth), frame_(frame), log_(log) {}
+      : scene_(scene), textures_(textures), options_(options), depth_(depth), frame_(frame), log_(log),
+        boxMargin_(0.01f * (scene.boundsMax() - scene.boundsMin()).norm()) {}
 
   void render(int x0, int x1, int y0, int y1, RenderCounters* c);
 
@@ -125,6 +127,7 @@ class TileRenderer {
   const int depth_;
   Frame* frame_;
   RayLog* log_;
+  const float boxMargin_;  // primary rays start this far (metres) before the scene's box
 
   std::vector<Path> paths_, nextPaths_;
   std::vector<RTCRayHit> rays_, nextRays_;
@@ -184,7 +187,8 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
       // The box test needs no unit direction; most pixels of a small scene stop here, so the
       // square root of the normalisation is paid only by the rays that are traced.
       const int pixel = row * textures_.width() + column;
-      if (!hitsBox(o, toScreen, lo, hi)) {
+      float entry;
+      if (!hitsBox(o, toScreen, lo, hi, &entry)) {
         ++c->missedBounds;
         frame_->pixels[static_cast<size_t>(pixel)] = background;
         continue;
@@ -192,6 +196,14 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
       Path path;
       path.pixel = pixel;
       if (cones) cone(column, row, toScreen, &path);
+      // Start the ray just before the scene's box rather than on the observer line, metres
+      // away: Embree intersects in float relative to the origin, so a near origin keeps the hit
+      // (and the attributes interpolated there) exact to float precision of the scene's size,
+      // where a far one loses digits in proportion to the distance (the outer modules' rays
+      // start up to several metres to the side).
+      const float advance = std::max(0.0f, entry - boxMargin_ / toScreen.norm());
+      o += advance * toScreen;
+      path.coneWidth += advance * toScreen.norm() * path.coneSpread;
       paths_.push_back(path);
       rays_.push_back(makeRayHit(o, toScreen.normalized()));
     }

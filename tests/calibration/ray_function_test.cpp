@@ -69,7 +69,7 @@ TEST_P(RayFunctionProperties, RandomPixelsKeepWhatTheirTransferKeeps) {
 TEST_P(RayFunctionProperties, ForwardMapReturnsThePixelAlongTheRay) {
   const DisplayModel model = testing::smallDisplay(GetParam().curvature, GetParam().transfer);
   std::mt19937_64 rng(7);
-  int checked = 0;
+  int checked = 0, secondImages = 0;
   double worst = 0.0;
   for (int index = 0; index < static_cast<int>(model.modules.size()); index += 2) {
     const RayFunction rays(model, index);
@@ -86,14 +86,28 @@ TEST_P(RayFunctionProperties, ForwardMapReturnsThePixelAlongTheRay) {
         const ForwardMapResult back = forward.pixelOf(point);
         ASSERT_TRUE(back.ok) << "module " << index << " pixel " << pixel.transpose() << " λ " << lambda;
         const double error = (back.pixel - pixel).norm();
-        worst = std::max(worst, error);
-        EXPECT_LT(error, 1e-6) << "module " << index << " pixel " << pixel.transpose() << " λ " << lambda;
         ++checked;
+        if (error >= 1e-6) {
+          // A grazing module on a screen curved away from the viewers can light a point off the
+          // screen through two pixels (both rays pass through it): any such pixel is a right
+          // answer, a pixel whose ray misses the point is not.
+          const PixelRay other = rays.at(back.pixel.x(), back.pixel.y());
+          ASSERT_TRUE(other.valid()) << "module " << index << " pixel " << pixel.transpose() << " λ " << lambda;
+          const Eigen::Vector3d along = other.direction();
+          const double missM = (point - other.origin).cross(along).norm();
+          EXPECT_LT(missM, 1e-9) << "module " << index << " pixel " << pixel.transpose() << " λ " << lambda
+                                 << " → " << back.pixel.transpose();
+          ++secondImages;
+          continue;
+        }
+        worst = std::max(worst, error);
       }
     }
   }
   EXPECT_GT(checked, 500);
+  EXPECT_LT(secondImages, checked / 100) << "the other image should be the rare grazing case";
   RecordProperty("worst_round_trip_px", fmt::format("{:.3g}", worst));
+  RecordProperty("second_images", secondImages);
 }
 
 INSTANTIATE_TEST_SUITE_P(

@@ -58,10 +58,10 @@ TEST(ObserverView, UniformModulesLookUniformWithTheNominalDiffusion) {
   const Frame view = synthesizeObserverView(model, uniformFrames(model, Rgb(0.5f, 0.5f, 0.5f)),
                                             model.observer.pointAt(0.0), options);
   const auto [lo, hi] = centralRange(view);
-  // The Gaussian lobes of modules one mean pitch apart sum to ~1: within a few percent, plus the
-  // ~12% by which a straight row of modules is sparser in angle near its middle than on average.
-  EXPECT_NEAR(lo, 0.5f, 0.08f);
-  EXPECT_NEAR(hi, 0.5f, 0.08f);
+  // The Gaussian lobes, each weighted by its module's share of the exit angles, sum to ~1:
+  // within a few percent (the quadrature's ripple at 1.5 pitches per FWHM).
+  EXPECT_NEAR(lo, 0.5f, 0.03f);
+  EXPECT_NEAR(hi, 0.5f, 0.03f);
   EXPECT_LT(hi - lo, 0.04f);
 }
 

@@ -27,7 +27,7 @@ Eigen::Affine3d at(const Eigen::Vector3d& t) { return Eigen::Affine3d(Eigen::Tra
 // Floor y = -1 (albedo 0.5) under a box hovering at y ∈ [-0.5, -0.2], |x|, |z| < 0.3, light
 // straight down: the floor is dark exactly under the box and 0.5 elsewhere.
 TEST(Shadows, PresentWhereGeometryBlocksTheLightAbsentElsewhere) {
-  const DisplayModel display = smallDisplay(2, 320, 240);
+  const DisplayModel display = smallDisplay(3, 320, 240);  // the middle module looks straight at the shadow
   for (bool fromBelow : {false, true}) {
     Scene scene;
     const int white = scene.addMaterial(Material::makeDiffuse({0.5f, 0.5f, 0.5f}));

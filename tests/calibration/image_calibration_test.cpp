@@ -29,7 +29,7 @@ TEST(ImageCalibration, DemoDisplayFromRenderedPatterns) {
   const DisplayModel truth = makeGroundTruth(nominal, gt);
 
   CameraRigOptions rig;
-  rig.spanM = 3.2;
+  rig.spanM = 4.0;  // the module row spans ±(W/2)(1+D/Z): outer stations see the outer modules
   rig.intrinsics.width = 640;
   rig.intrinsics.height = 360;
   rig.intrinsics.fx = rig.intrinsics.fy = 700.0;
@@ -119,11 +119,12 @@ TEST(ImageCalibration, DemoDisplayFromRenderedPatterns) {
                 pct(corrErr, 0.5), pct(corrErr, 0.9), pct(corrErr, 0.99), 100.0 * far / std::max<size_t>(1, corrErr.size()),
                 wrongModule, pct(stripeAbs, 0.5), pct(stripeAbs, 0.9), stripeMean);
     std::printf("    gross: %d given to the wrong module, %d beyond 2 sigma of the lobe\n", misassigned, weak);
-    // Measured 1.9% gross (> 2 px) and 0.85 px p90 for the stripes with the decoder predicting
-    // from the fiducials' camera pose; 5.5% and 2.6 px from the tape marks.
+    // Measured 1.8% gross (> 2 px) and 1.3 px p90 for the stripes with the decoder predicting
+    // from the fiducials' camera pose (the outer modules of the widened row are seen obliquely);
+    // 5.5% and 2.6 px from the tape marks (before the widening: 1.9% and 0.85 px).
     EXPECT_LT(static_cast<double>(far) / static_cast<double>(corrErr.size()), 0.03);
     EXPECT_LT(pct(corrErr, 0.5), 0.1);
-    EXPECT_LT(pct(stripeAbs, 0.9), 1.2);
+    EXPECT_LT(pct(stripeAbs, 0.9), 1.6);
   }
   const double captureSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
@@ -140,11 +141,12 @@ TEST(ImageCalibration, DemoDisplayFromRenderedPatterns) {
   for (const Deficiency& d : result.deficiencies) std::printf("    %s\n", d.describe().c_str());
   for (const std::string& n : result.notes) std::printf("    note: %s\n", n.c_str());
   EXPECT_TRUE(result.passesQualityChecks());
-  // Measured 0.22 px RMS (nominal: ~12 px), against 0.03 px from synthetic correspondences at
-  // the same noise: the image path has a systematic error not yet tracked down (suspects:
-  // ~9% of pixels near stripe borders given to the wrong module, and stripe centroids biased
-  // where a stripe runs off a module's image). The tolerance records where it stands.
-  EXPECT_LT(rays.rmsPx, 0.4);
+  // Measured 0.10 px RMS (nominal: ~12 px), against ~0.04 px from synthetic correspondences
+  // at the same noise. Fixed on the way: wrong-module pixels and biased stripes from the
+  // tape-mark prediction (the decoder predicts from the fiducials' pose). Still reported: the
+  // four outermost modules are poorly conditioned (cx / yaw / position), seen from too few
+  // stations even over 4 m.
+  EXPECT_LT(rays.rmsPx, 0.2);
   EXPECT_LT(rays.rmsPx, 0.05 * totalRayError(compareRays(truth, nominal)).rmsPx);
   EXPECT_TRUE(std::isfinite(rays.maxPx));
 }

@@ -89,18 +89,23 @@ int main(int argc, char** argv) {
   std::printf("base: 5 stations over 3.2 m, 0.3 px camera noise, rows every 16 px, 5 samples across each stripe\n");
 
   if (experiment) {
-    header("noise (px) on / sampling");
-    for (auto [noise, onModule] : std::vector<std::pair<double, bool>>{{0.0, false}, {0.3, false}, {0.3, true}}) {
+    header("noise (px) on / residual / sampling");
+    struct Case { double noise; bool onModule, cameraResidual; };
+    for (const Case& c : std::vector<Case>{{0.3, false, true}, {0.3, false, false}, {0.3, true, false},
+                                           {0.0, false, true}, {0.0, false, false}}) {
       for (auto [rows, across] : std::vector<std::pair<double, int>>{{16, 5}, {8, 9}}) {
         SyntheticOptions s = base;
-        s.noisePx = noise;
-        s.noiseOnModulePx = onModule;
+        s.noisePx = c.noise;
+        s.noiseOnModulePx = c.onModule;
         s.rowStepPx = rows;
         s.samplesAcrossStripe = across;
-        char label[96];
-        std::snprintf(label, sizeof label, "%.1f on %s / rows %d, %d across", noise, onModule ? "module px" : "camera px",
+        FitOptions f = fit;
+        f.residualInCameraPx = c.cameraResidual;
+        char label[128];
+        std::snprintf(label, sizeof label, "%.1f on %s / residual in %s / rows %d, %d across", c.noise,
+                      c.onModule ? "module px" : "camera px", c.cameraResidual ? "camera px" : "module px",
                       static_cast<int>(rows), across);
-        print(label, runOnce(nominal, truth, s, fit));
+        print(label, runOnce(nominal, truth, s, f));
       }
     }
     return 0;
@@ -119,7 +124,7 @@ int main(int argc, char** argv) {
   }
   header("sampled rows / samples across a stripe");
   for (auto [rows, across] : quick ? std::vector<std::pair<double, int>>{{32, 3}, {8, 9}}
-                                   : std::vector<std::pair<double, int>>{{32, 3}, {16, 5}, {8, 9}, {4, 9}}) {
+                                   : std::vector<std::pair<double, int>>{{32, 3}, {16, 5}, {16, 9}, {8, 5}, {8, 9}}) {
     SyntheticOptions s = base;
     s.rowStepPx = rows;
     s.samplesAcrossStripe = across;

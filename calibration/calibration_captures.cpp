@@ -136,13 +136,19 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures, cons
   CaptureDecoderOptions decoder = options;
   decoder.patterns = captures.patterns;
   CalibrationObservations obs = observationsFrame(captures.camera);
+  // Fiducials first (from each station's first black reference picture): the pose they give
+  // is what the decoder predicts the stripes from.
+  std::vector<std::optional<CameraPose>> poses(captures.camera.stations.size());
   std::vector<bool> fiducialsDone(captures.camera.stations.size(), false);
   for (const StationCaptures& s : captures.stations) {
-    decodeStation(s.columnFrames, s.rowFrames, s.group, nominal, s.station, decoder, &obs);
-    if (!fiducialsDone[static_cast<size_t>(s.station)]) {
-      fiducialsDone[static_cast<size_t>(s.station)] = true;
-      detectFiducials(s.columnFrames[1], nominal.screen, s.station, FiducialDetectorOptions{}, &obs);
-    }
+    if (fiducialsDone[static_cast<size_t>(s.station)]) continue;
+    fiducialsDone[static_cast<size_t>(s.station)] = true;
+    detectFiducials(s.columnFrames[1], nominal.screen, s.station, FiducialDetectorOptions{}, &obs);
+    poses[static_cast<size_t>(s.station)] = poseFromFiducials(obs, nominal.screen, s.station);
+  }
+  for (const StationCaptures& s : captures.stations) {
+    const auto& pose = poses[static_cast<size_t>(s.station)];
+    decodeStation(s.columnFrames, s.rowFrames, s.group, nominal, s.station, decoder, &obs, pose ? &*pose : nullptr);
   }
   return obs;
 }

@@ -21,7 +21,8 @@ void CaptureDecoderOptions::validate() const {
 
 void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<cv::Mat>& rowFrames,
                    const std::vector<int>& group, const DisplayModel& nominal, int station,
-                   const CaptureDecoderOptions& options, CalibrationObservations* obs) {
+                   const CaptureDecoderOptions& options, CalibrationObservations* obs,
+                   const CameraPose* decoderPose) {
   options.validate();
   PARALLAX_CHECK(!columnFrames.empty() && !rowFrames.empty());
   PARALLAX_CHECK(station >= 0 && station < static_cast<int>(obs->stations.size()));
@@ -32,6 +33,7 @@ void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<c
   CameraPose pose;
   pose.centre = obs->stations[static_cast<size_t>(station)].tapeCentre;
   pose.physicalFromCamera = aimCameraAt(pose.centre, Eigen::Vector3d::Zero());
+  if (decoderPose) pose = *decoderPose;
   const auto camera = packCamera(pose);
 
   for (int y = 0; y < height; ++y) {

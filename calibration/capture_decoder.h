@@ -34,8 +34,12 @@ struct CaptureDecoderOptions {
 
 // frames: per axis (columns, rows), the station's recorded frames already converted to linear
 // light, in makePatternFrames' order. group: the modules that showed the patterns.
+// The camera pose the decoder predicts stripes from: the tape mark aimed at the screen
+// centre, or (decodeCaptures) the pose the fiducials give, which is far closer — the tape's
+// 5 cm shift the predicted stripes by about a degree, near the spacing of a group's stripes.
 void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<cv::Mat>& rowFrames,
                    const std::vector<int>& group, const DisplayModel& nominal, int station,
-                   const CaptureDecoderOptions& options, CalibrationObservations* observations);
+                   const CaptureDecoderOptions& options, CalibrationObservations* observations,
+                   const CameraPose* decoderPose = nullptr);
 
 }  // namespace parallax

@@ -40,6 +40,29 @@ struct CorrespondenceCost {
   }
 };
 
+// r = (π_camera(s(module, k, u, v)) − observed camera px) · scale / σ. The noise sits on the
+// camera pixel (the decoder locates the pattern in the picture; the module pixel is the code it
+// read, exact), so the camera pixel is predicted from the module pixel and stays on the
+// measured side: back-projecting the noisy camera pixel instead (CorrespondenceCost) puts the
+// noise inside the model, which biases least squares (errors in variables). `scale`, module px
+// per camera px at this correspondence fixed at the start, keeps the residual in module px like
+// the other form, so σ, outliers and reports keep their units.
+struct CameraCorrespondenceCost {
+  const CameraIntrinsics* intrinsics;
+  double u, v, cameraU, cameraV, width, mirrorSign, scaleOverSigma;
+
+  template <typename T>
+  bool operator()(const T* module, const T* camera, const T* k, T* r) const {
+    Vec3<T> s;
+    if (!screenPointOfModulePixel(module, width, mirrorSign, k[0], u, v, &s)) return false;
+    T px[2];
+    if (!projectIntoCamera(*intrinsics, camera, s, px)) return false;
+    r[0] = (px[0] - T(cameraU)) * T(scaleOverSigma);
+    r[1] = (px[1] - T(cameraV)) * T(scaleOverSigma);
+    return true;
+  }
+};
+
 // r = stripeMismatch(s(k, camera, n), p, c) / σ, mm / σ.
 struct StripeCost {
   double nx, ny, invSigmaM;
@@ -203,13 +226,27 @@ class DisplayFitter {
                                                             ceres::EuclideanManifold<9>>());
       if (held_[m]) problem->SetParameterBlockConstant(state_.modules[m].data());
     }
+    if (options_.residualInCameraPx && cameraScale_.empty()) fixCameraScales();
     for (size_t i = 0; i < obs_.correspondences.size(); ++i) {
       const Correspondence& c = obs_.correspondences[i];
       const OpticalModule& m = nominal_.modules[static_cast<size_t>(c.module)];
-      auto* cost = new ceres::AutoDiffCostFunction<CorrespondenceCost, 2, kModuleBlockSize, kCameraBlockSize, 1>(
-          new CorrespondenceCost{prepared_.corrN[i].x(), prepared_.corrN[i].y(), c.modulePx.x(),
-                                 c.modulePx.y(), static_cast<double>(m.width), m.mirror ? -1.0 : 1.0,
-                                 1.0 / sigmas_.correspondencePx});
+      ceres::CostFunction* cost;
+      Eigen::Vector2d startResidual;
+      // A residual Ceres cannot evaluate at the start stops the solve before its first step;
+      // such a correspondence (a module pixel whose starting ray misses the screen, at the
+      // rim of a strongly curved one) is left out of this solve.
+      if (!correspondenceResidual(i, &startResidual)) continue;
+      if (options_.residualInCameraPx) {
+        cost = new ceres::AutoDiffCostFunction<CameraCorrespondenceCost, 2, kModuleBlockSize, kCameraBlockSize, 1>(
+            new CameraCorrespondenceCost{&obs_.intrinsics, c.modulePx.x(), c.modulePx.y(), c.cameraPx.x(),
+                                         c.cameraPx.y(), static_cast<double>(m.width), m.mirror ? -1.0 : 1.0,
+                                         cameraScale_[i] / sigmas_.correspondencePx});
+      } else {
+        cost = new ceres::AutoDiffCostFunction<CorrespondenceCost, 2, kModuleBlockSize, kCameraBlockSize, 1>(
+            new CorrespondenceCost{prepared_.corrN[i].x(), prepared_.corrN[i].y(), c.modulePx.x(),
+                                   c.modulePx.y(), static_cast<double>(m.width), m.mirror ? -1.0 : 1.0,
+                                   1.0 / sigmas_.correspondencePx});
+      }
       problem->AddResidualBlock(cost, loss, state_.modules[static_cast<size_t>(c.module)].data(),
                                 state_.cameras[static_cast<size_t>(c.camera)].data(), &state_.k);
     }
@@ -260,18 +297,67 @@ class DisplayFitter {
   }
 
   // Unrobustified residuals, in their natural units.
-  bool correspondenceResidual(size_t i, Eigen::Vector2d* r) const {
+  // Module px of camera pixel `n` (normalized) of correspondence i through the current state.
+  bool modulePixelOf(size_t i, const Eigen::Vector2d& n, Eigen::Vector2d* uv) const {
     const Correspondence& c = obs_.correspondences[i];
     const OpticalModule& m = nominal_.modules[static_cast<size_t>(c.module)];
-    const CorrespondenceCost cost{prepared_.corrN[i].x(), prepared_.corrN[i].y(), c.modulePx.x(),
-                                  c.modulePx.y(), static_cast<double>(m.width), m.mirror ? -1.0 : 1.0, 1.0};
+    const CorrespondenceCost cost{n.x(), n.y(), 0.0, 0.0, static_cast<double>(m.width), m.mirror ? -1.0 : 1.0, 1.0};
     double out[2];
     if (!cost(state_.modules[static_cast<size_t>(c.module)].data(),
               state_.cameras[static_cast<size_t>(c.camera)].data(), &state_.k, out)) {
       return false;
     }
-    *r = {out[0], out[1]};
-    return std::isfinite(out[0]) && std::isfinite(out[1]);
+    *uv = {out[0], out[1]};
+    return uv->allFinite();
+  }
+
+  // Module px per camera px at every correspondence, √|det| of the local 2 × 2 map, from the
+  // current state (called once, after the cameras found the screen). Where it cannot be
+  // evaluated, the median of the others.
+  void fixCameraScales() {
+    cameraScale_.assign(obs_.correspondences.size(), 0.0);
+    std::vector<double> good;
+    for (size_t i = 0; i < obs_.correspondences.size(); ++i) {
+      const Eigen::Vector2d& px = obs_.correspondences[i].cameraPx;
+      Eigen::Vector2d a, b, c;
+      if (!modulePixelOf(i, prepared_.corrN[i], &a) ||
+          !modulePixelOf(i, obs_.intrinsics.normalized(px + Eigen::Vector2d(1.0, 0.0)), &b) ||
+          !modulePixelOf(i, obs_.intrinsics.normalized(px + Eigen::Vector2d(0.0, 1.0)), &c)) {
+        continue;
+      }
+      Eigen::Matrix2d j;
+      j << b - a, c - a;
+      const double scale = std::sqrt(std::abs(j.determinant()));
+      if (std::isfinite(scale) && scale > 0.0) {
+        cameraScale_[i] = scale;
+        good.push_back(scale);
+      }
+    }
+    const double fallback = good.empty() ? 1.0 : median(good);
+    for (double& s : cameraScale_) {
+      if (!(s > 0.0)) s = fallback;
+    }
+  }
+
+  bool correspondenceResidual(size_t i, Eigen::Vector2d* r) const {
+    const Correspondence& c = obs_.correspondences[i];
+    if (options_.residualInCameraPx && !cameraScale_.empty()) {
+      const OpticalModule& m = nominal_.modules[static_cast<size_t>(c.module)];
+      const CameraCorrespondenceCost cost{&obs_.intrinsics, c.modulePx.x(), c.modulePx.y(), c.cameraPx.x(),
+                                          c.cameraPx.y(), static_cast<double>(m.width), m.mirror ? -1.0 : 1.0,
+                                          cameraScale_[i]};
+      double out[2];
+      if (!cost(state_.modules[static_cast<size_t>(c.module)].data(),
+                state_.cameras[static_cast<size_t>(c.camera)].data(), &state_.k, out)) {
+        return false;
+      }
+      *r = {out[0], out[1]};
+      return r->allFinite();
+    }
+    Eigen::Vector2d uv;
+    if (!modulePixelOf(i, prepared_.corrN[i], &uv)) return false;
+    *r = uv - c.modulePx;
+    return true;
   }
   bool stripeResidualMm(size_t i, double* r) const {
     const StripeCentre& s = obs_.stripes[i];
@@ -562,6 +648,7 @@ class DisplayFitter {
   Prepared prepared_;
   State state_;
   Sigmas sigmas_;
+  std::vector<double> cameraScale_;  // per correspondence, with residualInCameraPx
   std::unique_ptr<ceres::LossFunction> lossOwner_;
   std::unique_ptr<ceres::Problem> problem_;
 };

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "common/check.h"
@@ -85,6 +87,43 @@ void detectFiducials(const cv::Mat& blackLinear, const Screen& nominalScreen, in
     }
     if (mine) obs->fiducialSightings.push_back({station, static_cast<int>(f), blobs[static_cast<size_t>(best)]});
   }
+}
+
+std::optional<CameraPose> poseFromFiducials(const CalibrationObservations& obs, const Screen& nominalScreen,
+                                            int station) {
+  std::vector<cv::Point3d> world;
+  std::vector<cv::Point2d> image;
+  for (const FiducialSighting& f : obs.fiducialSightings) {
+    if (f.camera != station) continue;
+    const Eigen::Vector2d& xy = obs.fiducials[static_cast<size_t>(f.fiducial)];
+    const Eigen::Vector3d p = nominalScreen.pointAt(xy.x(), xy.y());
+    world.emplace_back(p.x(), p.y(), p.z());
+    image.emplace_back(f.cameraPx.x(), f.cameraPx.y());  // same origin as cx, cy below
+  }
+  if (world.size() < 4) return std::nullopt;
+  const CameraIntrinsics& in = obs.intrinsics;
+  const cv::Matx33d k(in.fx, 0, in.cx, 0, in.fy, in.cy, 0, 0, 1);
+  const cv::Vec4d distortion(in.k1, in.k2, 0, 0);
+  // Start at the tape mark aimed at the screen centre: cameraFromPhysical = (R, t).
+  const Eigen::Vector3d tape = obs.stations[static_cast<size_t>(station)].tapeCentre;
+  const Eigen::Matrix3d cameraFromPhysical = aimCameraAt(tape, Eigen::Vector3d::Zero()).conjugate().toRotationMatrix();
+  cv::Mat r, rvec, tvec;
+  cv::eigen2cv(cameraFromPhysical, r);
+  cv::Rodrigues(r, rvec);
+  const Eigen::Vector3d t0 = -cameraFromPhysical * tape;
+  tvec = (cv::Mat_<double>(3, 1) << t0.x(), t0.y(), t0.z());
+  if (!cv::solvePnP(world, image, k, distortion, rvec, tvec, /*useExtrinsicGuess=*/true, cv::SOLVEPNP_ITERATIVE)) {
+    return std::nullopt;
+  }
+  cv::Rodrigues(rvec, r);
+  Eigen::Matrix3d rotation;
+  cv::cv2eigen(r, rotation);
+  const Eigen::Vector3d t(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
+  CameraPose pose;
+  pose.physicalFromCamera = Eigen::Quaterniond(rotation.transpose()).normalized();
+  pose.centre = -rotation.transpose() * t;
+  if (!pose.centre.allFinite() || !(pose.centre.z() > 0.0)) return std::nullopt;
+  return pose;
 }
 
 }  // namespace parallax

@@ -7,6 +7,7 @@
 // any other fiducial's prediction; a blob cut by the picture's edge is no sighting. The position is the blob's background-subtracted centroid.
 
 #include <opencv2/core.hpp>
+#include <optional>
 #include <vector>
 
 #include "calibration/calibration_observations.h"
@@ -24,5 +25,11 @@ struct FiducialDetectorOptions {
 
 void detectFiducials(const cv::Mat& blackLinear, const Screen& nominalScreen, int station,
                      const FiducialDetectorOptions& options, CalibrationObservations* observations);
+
+// The camera pose from a station's fiducial sightings (cv::solvePnP, iterating from the tape
+// mark aimed at the screen centre; the markers on the nominal screen). nullopt with fewer
+// than four sightings or when the solution is not in front of the screen.
+std::optional<CameraPose> poseFromFiducials(const CalibrationObservations& observations, const Screen& nominalScreen,
+                                            int station);
 
 }  // namespace parallax

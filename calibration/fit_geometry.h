@@ -81,6 +81,48 @@ bool projectIntoModule(const T* module, double width, double mirrorSign, const V
   return true;
 }
 
+// The screen point that module pixel (u, v) lights: projectIntoModule inverted (the radial
+// polynomial by fixed-point iteration — a contraction for projector-lens distortion, |k1| r²
+// well below 1/3 — then the module ray) met with the screen k (x² + z²) − 2 z = 0. Of the two
+// roots (computed without cancellation) the nearest forward one on the screen's branch
+// (k z < 1). The correspondence residual in camera pixels starts here: the camera pixel,
+// where the noise is, stays on the measured side.
+template <typename T>
+bool screenPointOfModulePixel(const T* module, double width, double mirrorSign, const T& k, double u,
+                              double v, Vec3<T>* s) {
+  using std::sqrt;
+  const T xd = (T(u / width) - module[9]) / module[7];
+  const T yd = (T(v / width) - module[10]) / module[8];
+  T x = xd, y = yd;
+  for (int i = 0; i < 10; ++i) {
+    const T r2 = x * x + y * y;
+    const T scale = T(1) + module[11] * r2 + module[12] * r2 * r2;
+    x = xd / scale;
+    y = yd / scale;
+  }
+  const Eigen::Map<const Eigen::Quaternion<T>> physicalFromModule(module);
+  const Vec3<T> p(module[4], module[5], module[6]);
+  const Vec3<T> d = physicalFromModule * Vec3<T>(T(mirrorSign) * x, y, T(1));
+  const T a = k * (d.x() * d.x() + d.z() * d.z());
+  const T b = T(2) * (k * (p.x() * d.x() + p.z() * d.z()) - d.z());
+  const T c = k * (p.x() * p.x() + p.z() * p.z()) - T(2) * p.z();
+  const T disc = b * b - T(4) * a * c;
+  if (!(disc >= T(0))) return false;
+  const T q = b < T(0) ? T(-0.5) * (b - sqrt(disc)) : T(-0.5) * (b + sqrt(disc));
+  if (q == T(0)) return false;
+  T roots[2] = {c / q, a != T(0) ? q / a : T(-1)};
+  if (roots[1] < roots[0]) std::swap(roots[0], roots[1]);
+  for (const T& t : roots) {
+    if (!(t > T(0))) continue;
+    const Vec3<T> hit = p + t * d;
+    if (k * hit.z() < T(1)) {
+      *s = hit;
+      return true;
+    }
+  }
+  return false;
+}
+
 // Pixel of physical point p in a camera with fixed intrinsics.
 template <typename T>
 bool projectIntoCamera(const CameraIntrinsics& in, const T* camera, const Vec3<T>& p, T* px) {

@@ -56,6 +56,35 @@ TEST_P(CurvatureSweep, CameraRayHitsTheScreenWhereScreenIntersectSays) {
   EXPECT_GT(compared, 300);
 }
 
+TEST_P(CurvatureSweep, ModulePixelLightsTheScreenWhereModuleOpticsSays) {
+  NominalDisplayOptions options;
+  options.curvature = GetParam();
+  const DisplayModel nominal = makeNominalDisplay(options);
+  GroundTruthOptions gt;
+  gt.seed = 9;
+  gt.curvature = GetParam();
+  const DisplayModel truth = makeGroundTruth(nominal, gt);  // distorted, rotated modules
+  SeededRandom random(6);
+  int compared = 0;
+  for (size_t m = 0; m < truth.modules.size(); m += 7) {
+    const OpticalModule& module = truth.modules[m];
+    const ModuleOptics optics(module);
+    const auto block = packModule(module);
+    for (int i = 0; i < 50; ++i) {
+      const double u = random.uniform(0, module.width), v = random.uniform(0, module.height);
+      Eigen::Vector3d d, expected;
+      double t;
+      if (!optics.rayDirection(u, v, &d) || !truth.screen.intersect(module.position, d, &t, &expected)) continue;
+      Vec3<double> s;
+      ASSERT_TRUE(screenPointOfModulePixel(block.data(), module.width, module.mirror ? -1.0 : 1.0,
+                                           truth.screen.curvature, u, v, &s));
+      EXPECT_LT((s - expected).norm(), 1e-9) << "k " << truth.screen.curvature << " module " << m;
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 200);
+}
+
 INSTANTIATE_TEST_SUITE_P(FitGeometry, CurvatureSweep,
                          testing::Values(0.0, 1e-4, -0.3, 0.5, 1.0 / 0.96));
 

@@ -7,10 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 
 #include "calibration/calibration_captures.h"
 #include "calibration/display_fit.h"
+#include "calibration/fit_geometry.h"
 #include "calibration/display_presets.h"
 #include "calibration/ground_truth.h"
 #include "calibration/ray_error.h"
@@ -27,7 +29,7 @@ TEST(ImageCalibration, DemoDisplayFromRenderedPatterns) {
   const DisplayModel truth = makeGroundTruth(nominal, gt);
 
   CameraRigOptions rig;
-  rig.spanM = 3.2;
+  rig.spanM = 4.0;  // the module row spans ±(W/2)(1+D/Z): outer stations see the outer modules
   rig.intrinsics.width = 640;
   rig.intrinsics.height = 360;
   rig.intrinsics.fx = rig.intrinsics.fy = 700.0;
@@ -55,6 +57,75 @@ TEST(ImageCalibration, DemoDisplayFromRenderedPatterns) {
   }
   std::printf("    fiducials: %zu sightings, worst %.3f px from the truth\n", obs.fiducialSightings.size(), worstFiducialPx);
   EXPECT_LT(worstFiducialPx, 0.3);
+  {  // Decoding against the truth: where each decoded module pixel really is.
+    std::vector<double> corrErr, stripeErr;
+    int wrongModule = 0, misassigned = 0, weak = 0;
+    for (const Correspondence& c : obs.correspondences) {
+      const auto cam = packCamera(camera.truth.poses[static_cast<size_t>(c.camera)]);
+      const Eigen::Vector2d n = camera.truth.intrinsics.normalized(c.cameraPx);
+      Vec3<double> s;
+      if (!screenPointOfCameraRay(truth.screen.curvature, cam.data(), n.x(), n.y(), &s)) continue;
+      Eigen::Vector2d uv;
+      const OpticalModule& m = truth.modules[static_cast<size_t>(c.module)];
+      if (!ModuleOptics(m).project(s - m.position, &uv)) { ++wrongModule; continue; }
+      corrErr.push_back((uv - c.modulePx).norm());
+      if (corrErr.back() > 2.0) {
+        int owner = -1;
+        double best = 1e9;
+        for (int g = c.module % 3; g < static_cast<int>(truth.modules.size()); g += 3) {
+          const double a = std::abs(stripeAngle(truth.screen, s, truth.modules[static_cast<size_t>(g)].position,
+                                                camera.truth.poses[static_cast<size_t>(c.camera)].centre));
+          if (a < best) { best = a; owner = g; }
+        }
+        const double sigma = truth.screen.diffusionDeg * 3.14159265 / 180.0 / 2.3548;
+        const double own = std::abs(stripeAngle(truth.screen, s, m.position, camera.truth.poses[static_cast<size_t>(c.camera)].centre));
+        if (owner != c.module) ++misassigned;
+        if (own > 2.0 * sigma) ++weak;
+      }
+    }
+    for (const StripeCentre& st : obs.stripes) {
+      const auto cam = packCamera(camera.truth.poses[static_cast<size_t>(st.camera)]);
+      const OpticalModule& m = truth.modules[static_cast<size_t>(st.module)];
+      auto angleAt = [&](double x, double* a) {
+        const Eigen::Vector2d n = camera.truth.intrinsics.normalized({x, st.cameraPx.y()});
+        Vec3<double> s;
+        if (!screenPointOfCameraRay(truth.screen.curvature, cam.data(), n.x(), n.y(), &s)) return false;
+        *a = stripeAngle(truth.screen, s, m.position, camera.truth.poses[static_cast<size_t>(st.camera)].centre);
+        return true;
+      };
+      double lo = st.cameraPx.x() - 30, hi = st.cameraPx.x() + 30, alo, ahi;
+      if (!angleAt(lo, &alo) || !angleAt(hi, &ahi) || (alo > 0) == (ahi > 0)) continue;
+      for (int i = 0; i < 60; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        double am;
+        if (!angleAt(mid, &am)) break;
+        if ((am > 0) == (alo > 0)) { lo = mid; alo = am; } else { hi = mid; }
+      }
+      stripeErr.push_back(st.cameraPx.x() - 0.5 * (lo + hi));
+    }
+    auto pct = [](std::vector<double> v, double q) {
+      if (v.empty()) return 0.0;
+      std::sort(v.begin(), v.end());
+      return v[static_cast<size_t>(q * (v.size() - 1))];
+    };
+    int far = 0;
+    for (double e : corrErr) far += e > 2.0 ? 1 : 0;
+    double stripeMean = 0.0;
+    for (double e : stripeErr) stripeMean += e / std::max<size_t>(1, stripeErr.size());
+    std::vector<double> stripeAbs;
+    for (double e : stripeErr) stripeAbs.push_back(std::abs(e));
+    std::printf("    decoded vs truth: correspondences median %.3f p90 %.3f p99 %.3f module px, %.1f%% > 2 px, %d unprojectable;"
+                " stripes median |err| %.3f p90 %.3f camera px, mean %.3f\n",
+                pct(corrErr, 0.5), pct(corrErr, 0.9), pct(corrErr, 0.99), 100.0 * far / std::max<size_t>(1, corrErr.size()),
+                wrongModule, pct(stripeAbs, 0.5), pct(stripeAbs, 0.9), stripeMean);
+    std::printf("    gross: %d given to the wrong module, %d beyond 2 sigma of the lobe\n", misassigned, weak);
+    // Measured 1.8% gross (> 2 px) and 1.3 px p90 for the stripes with the decoder predicting
+    // from the fiducials' camera pose (the outer modules of the widened row are seen obliquely);
+    // 5.5% and 2.6 px from the tape marks (before the widening: 1.9% and 0.85 px).
+    EXPECT_LT(static_cast<double>(far) / static_cast<double>(corrErr.size()), 0.03);
+    EXPECT_LT(pct(corrErr, 0.5), 0.1);
+    EXPECT_LT(pct(stripeAbs, 0.9), 1.6);
+  }
   const double captureSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
   FitOptions fit;
@@ -70,11 +141,12 @@ TEST(ImageCalibration, DemoDisplayFromRenderedPatterns) {
   for (const Deficiency& d : result.deficiencies) std::printf("    %s\n", d.describe().c_str());
   for (const std::string& n : result.notes) std::printf("    note: %s\n", n.c_str());
   EXPECT_TRUE(result.passesQualityChecks());
-  // Measured 0.22 px RMS (nominal: ~12 px), against 0.03 px from synthetic correspondences at
-  // the same noise: the image path has a systematic error not yet tracked down (suspects:
-  // ~9% of pixels near stripe borders given to the wrong module, and stripe centroids biased
-  // where a stripe runs off a module's image). The tolerance records where it stands.
-  EXPECT_LT(rays.rmsPx, 0.4);
+  // Measured 0.10 px RMS (nominal: ~12 px), against ~0.04 px from synthetic correspondences
+  // at the same noise. Fixed on the way: wrong-module pixels and biased stripes from the
+  // tape-mark prediction (the decoder predicts from the fiducials' pose). Still reported: the
+  // four outermost modules are poorly conditioned (cx / yaw / position), seen from too few
+  // stations even over 4 m.
+  EXPECT_LT(rays.rmsPx, 0.2);
   EXPECT_LT(rays.rmsPx, 0.05 * totalRayError(compareRays(truth, nominal)).rmsPx);
   EXPECT_TRUE(std::isfinite(rays.maxPx));
 }

@@ -47,13 +47,14 @@ SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardwa
                        const std::string& cacheDir)
     : socketPath_(socketPath), folder_(folderFor(cacheDir, hardware.seed)) {
   // The seeded truth and camera rig, as `parallax simulate` makes them (a 640×360 camera with
-  // the default's field of view, five stations across 3.2 m of the observer line).
+  // the default's field of view, five stations across 4 m of the observer line: the module row
+  // spans ±(W/2)(1+D/Z), and the outer stations must see the outer modules).
   GroundTruthOptions truthOptions;
   truthOptions.seed = static_cast<std::uint64_t>(hardware.seed);
   const DisplayModel truth = makeGroundTruth(nominal, truthOptions);
   CameraRigOptions rig;
   rig.stations = 5;
-  rig.spanM = 3.2;
+  rig.spanM = 4.0;
   rig.intrinsics.width = 640;
   rig.intrinsics.height = 360;
   rig.intrinsics.fx = rig.intrinsics.fy = 2100.0 * 640.0 / 1920.0;

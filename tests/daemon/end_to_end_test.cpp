@@ -101,6 +101,17 @@ TEST(EndToEnd, CalibratedThroughTheLinkTheViewersSeeTheGroundTruthsViews) {
   pid_t pid = -1;
   ASSERT_EQ(posix_spawn(&pid, PARALLAXD_PATH, &actions, nullptr, argv.data(), environ), 0);
   posix_spawn_file_actions_destroy(&actions);
+  // A failed assertion returns early: stop the daemon (and through it its simulator) then too,
+  // or they outlive the test holding ctest's output pipe and it waits out its timeout.
+  struct StopOnExit {
+    pid_t& pid;
+    ~StopOnExit() {
+      if (pid <= 0) return;
+      ::kill(pid, SIGTERM);
+      int ignored = 0;
+      ::waitpid(pid, &ignored, 0);
+    }
+  } stopOnExit{pid};
   auto logText = [&] {
     std::ifstream in(log);
     return std::string((std::istreambuf_iterator<char>(in)), {});
@@ -125,6 +136,7 @@ TEST(EndToEnd, CalibratedThroughTheLinkTheViewersSeeTheGroundTruthsViews) {
   ask(socket, {{"request", "shutdown"}});
   int exit = 0;
   ASSERT_EQ(::waitpid(pid, &exit, 0), pid);
+  pid = -1;
   ASSERT_TRUE(WIFEXITED(exit) && WEXITSTATUS(exit) == 0) << logText();
 
   // The physics of the truth (the daemon never read it), the scene, three viewers.

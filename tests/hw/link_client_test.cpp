@@ -12,6 +12,7 @@
 #include "common/input_error.h"
 #include "hw/socket_transport.h"
 #include "sim_fixture.h"
+#include "random_frame.h"
 
 namespace parallax::hw {
 namespace {
@@ -38,15 +39,7 @@ LinkOptions fastOptions() {
   return o;
 }
 
-std::shared_ptr<const Image> makeFrame(uint32_t seed) {
-  auto f = std::make_shared<Image>();
-  f->width = kWidth;
-  f->height = kHeight;
-  f->pixels.resize(f->byteSize());
-  std::mt19937 rng(seed);
-  for (auto& b : f->pixels) b = static_cast<uint8_t>(rng());
-  return f;
-}
+std::shared_ptr<const Image> makeFrame(uint32_t seed) { return randomFrame(kWidth, kHeight, seed); }
 
 std::unique_ptr<LinkClient> connect(const InProcessSimhw& sim,
                                     LinkOptions options = fastOptions()) {

@@ -11,21 +11,14 @@
 #include "fake_usb_backend.h"
 #include "hw/link_client.h"
 #include "hw/link_factory.h"
+#include "random_frame.h"
 
 namespace parallax::hw {
 namespace {
 
 constexpr int kWidth = 64, kHeight = 48;  // 9216-byte frames: five 2 KiB transfers
 
-std::shared_ptr<const Image> makeFrame(uint32_t seed) {
-  auto f = std::make_shared<Image>();
-  f->width = kWidth;
-  f->height = kHeight;
-  f->pixels.resize(f->byteSize());
-  std::mt19937 rng(seed);
-  for (auto& b : f->pixels) b = static_cast<uint8_t>(rng());
-  return f;
-}
+std::shared_ptr<const Image> makeFrame(uint32_t seed) { return randomFrame(kWidth, kHeight, seed); }
 
 UsbTransportOptions usbOptions(std::vector<std::string> serials) {
   UsbTransportOptions o;

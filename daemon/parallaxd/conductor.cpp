@@ -419,14 +419,28 @@ void Conductor::reloadConfig(DaemonConfig config) {
   jobsChanged_.notify_all();
 }
 
+void Conductor::reloadConfigFrom(std::string path) {
+  {
+    std::lock_guard lock(jobsMutex_);
+    pendingConfigPath_ = std::move(path);
+  }
+  jobsChanged_.notify_all();
+}
+
 void Conductor::drainJobs(Clock::time_point until) {
   while (true) {
     std::shared_ptr<Job> job;
     std::optional<DaemonConfig> config;
+    std::optional<std::string> configPath;
     {
       std::unique_lock lock(jobsMutex_);
-      jobsChanged_.wait_until(lock, until, [&] { return !jobs_.empty() || pendingConfig_ || shutdown_.load(); });
-      if (pendingConfig_) {
+      jobsChanged_.wait_until(lock, until, [&] {
+        return !jobs_.empty() || pendingConfig_ || pendingConfigPath_ || shutdown_.load();
+      });
+      if (pendingConfigPath_) {
+        configPath = std::move(pendingConfigPath_);
+        pendingConfigPath_.reset();
+      } else if (pendingConfig_) {
         config = std::move(pendingConfig_);
         pendingConfig_.reset();
       } else if (!jobs_.empty()) {
@@ -434,7 +448,13 @@ void Conductor::drainJobs(Clock::time_point until) {
         jobs_.pop_front();
       }
     }
-    if (config) {
+    if (configPath) {
+      try {
+        applyConfig(loadDaemonConfig(*configPath));
+      } catch (const std::exception& e) {
+        state_.fail("reloading the config (the old one stays)", e.what(), state_.state());
+      }
+    } else if (config) {
       applyConfig(*config);
     } else if (job) {
       nlohmann::json reply;
@@ -468,6 +488,21 @@ void Conductor::applyConfig(const DaemonConfig& config) {
   if (config.cacheDirPath() != old.cacheDirPath()) needRestart.push_back("daemon.cache_dir");
   if (config.calibrationFilePath() != old.calibrationFilePath()) needRestart.push_back("calibration.file");
   const bool sceneChanged = config.scene.script != old.scene.script || config.scene.parameters != old.scene.parameters;
+  if (!needRestart.empty()) {
+    // Check what the restart will build before stopping anything that works.
+    try {
+      config.validate();
+      const DisplayModel display = nominalDisplayOf(config.display);
+      linkSpecOf(config.hardware, static_cast<int>(display.modules.size()));
+    } catch (const std::exception& e) {
+      state_.fail("reloading the config (the old one stays)", e.what(), state_.state());
+      return;
+    }
+    spdlog::info("config: [{}] changed: building the daemon again", fmt::join(needRestart, "], ["));
+    restartWith_ = config;
+    shutdown_ = true;
+    return;
+  }
   DaemonConfig applied = old;
   applied.scene = config.scene;
   applied.calibration.camera = config.calibration.camera;
@@ -475,7 +510,6 @@ void Conductor::applyConfig(const DaemonConfig& config) {
   applied.logLevel = config.logLevel;
   options_.config = applied;
   spdlog::set_level(spdlog::level::from_str(applied.logLevel));
-  for (const std::string& key : needRestart) spdlog::warn("config: [{}] changed; it takes effect at the next start", key);
   spdlog::info("config reloaded");
   if (sceneChanged) {
     try {

@@ -63,10 +63,19 @@ class Conductor {
   // Any thread: one request (a JSON object with "request"), its reply ({"ok": ...}).
   nlohmann::json handle(const nlohmann::json& request);
 
-  // Any thread (SIGHUP): applies what can change while running; says what needs a restart.
+  // Any thread (SIGHUP): reads the config file on the conductor thread; a file that does not
+  // load is reported in `status` (last_error) and changes nothing. Then, as reloadConfig.
+  void reloadConfigFrom(std::string path);
+  // Any thread: applies what can change while running (scene, parameters, fps,
+  // camera, auto-calibrate, log level). A changed display, hardware, socket, cache or
+  // calibration file needs the pipeline built again: run() then returns with restartWith()
+  // set, once the new config's display and hardware have been checked (a config that fails
+  // that check changes nothing: the old one plays on).
   void reloadConfig(DaemonConfig config);
 
   bool shutdownRequested() const { return shutdown_.load(); }
+  // After run(): the config to build the daemon again from, when a reload asked for it.
+  const std::optional<DaemonConfig>& restartWith() const { return restartWith_; }
   StateSnapshot state() const { return state_.snapshot(); }
 
  private:
@@ -140,11 +149,13 @@ class Conductor {
   std::deque<std::shared_ptr<Job>> jobs_;
   bool acceptingJobs_ = true;  // false once run() has ended
   std::atomic<bool> shutdown_{false};
+  std::optional<DaemonConfig> restartWith_;
   std::atomic<bool> cancel_{false};
 
   mutable std::mutex publishedMutex_;
   nlohmann::json publishedStatus_, publishedStats_;
   std::optional<DaemonConfig> pendingConfig_;  // guarded by jobsMutex_
+  std::optional<std::string> pendingConfigPath_;  // guarded by jobsMutex_
 };
 
 }  // namespace parallax::daemon

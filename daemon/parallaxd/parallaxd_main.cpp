@@ -5,8 +5,9 @@
 // Without a config: the built-in `demo` display on a simulator it starts itself, the control
 // socket at the per-user default path that `parallax ctl` finds with no argument. SIGTERM and
 // SIGINT stop cleanly (frames in flight finished, socket removed, the simulator stopped);
-// SIGHUP reloads the config. Logs go to stderr (the journal under systemd); with
-// $NOTIFY_SOCKET it speaks sd_notify (READY, WATCHDOG, STOPPING).
+// SIGHUP reloads the config (what cannot change in place builds the pipeline again). Logs go
+// to stderr (the journal under systemd); with $NOTIFY_SOCKET it speaks sd_notify (READY,
+// WATCHDOG, RELOADING, STOPPING).
 
 #include <signal.h>
 
@@ -18,6 +19,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <thread>
 
 #include "common/input_error.h"
@@ -31,19 +33,11 @@ namespace {
 
 using namespace parallax::daemon;
 
-int run(const std::string& configPath) {
-  DaemonConfig config = configPath.empty() ? DaemonConfig{} : loadDaemonConfig(configPath);
-  config.validate();
-  spdlog::set_level(spdlog::level::from_str(config.logLevel));
-
-  // Signals are taken by one thread with sigwait, never by handlers: every other thread
-  // inherits this mask, so no library call is interrupted at a random point.
-  sigset_t signals;
-  sigemptyset(&signals);
-  for (int s : {SIGTERM, SIGINT, SIGHUP, SIGCHLD}) sigaddset(&signals, s);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-  ::signal(SIGPIPE, SIG_IGN);
-
+// One life of the pipeline: simulator (when configured), conductor, control socket and the
+// signal thread, from one config. Returns the config to build it again from when a SIGHUP
+// reload changed what cannot change under a running loop (display, hardware, socket, ...).
+std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& configPath, const sigset_t& signals,
+                                        SystemdNotifier& notifier) {
   const parallax::DisplayModel nominal = nominalDisplayOf(config.display);
   std::string linkSpec = linkSpecOf(config.hardware, static_cast<int>(nominal.modules.size()));
   std::unique_ptr<SimhwChild> simulator;
@@ -56,7 +50,6 @@ int run(const std::string& configPath) {
     if (config.calibration.camera.empty()) config.calibration.camera = simulator->cameraMetadataPath();
   }
 
-  SystemdNotifier notifier;
   std::atomic<bool> stop{false};
   ConductorOptions options;
   options.config = config;
@@ -82,11 +75,7 @@ int run(const std::string& configPath) {
         if (configPath.empty()) {
           spdlog::info("SIGHUP: no config file to reload");
         } else {
-          try {
-            conductor.reloadConfig(loadDaemonConfig(configPath));
-          } catch (const std::exception& e) {
-            spdlog::error("SIGHUP: config not reloaded, the old one stays: {}", e.what());
-          }
+          conductor.reloadConfigFrom(configPath);
         }
       }
       if (conductor.shutdownRequested()) stop = true;
@@ -95,11 +84,37 @@ int run(const std::string& configPath) {
   });
 
   conductor.run(stop);
+  if (!conductor.restartWith()) notifier.stopping();
   stop = true;
-  notifier.stopping();
   signalThread.join();
   control.reset();  // removes the socket
   if (simulator) simulator->stop();
+  return conductor.restartWith();
+}
+
+int run(const std::string& configPath) {
+  DaemonConfig config = configPath.empty() ? DaemonConfig{} : loadDaemonConfig(configPath);
+  config.validate();
+  spdlog::set_level(spdlog::level::from_str(config.logLevel));
+
+  // Signals are taken by one thread with sigwait, never by handlers: every other thread
+  // inherits this mask, so no library call is interrupted at a random point. (Between two
+  // lives of the pipeline they stay pending for the next signal thread.)
+  sigset_t signals;
+  sigemptyset(&signals);
+  for (int s : {SIGTERM, SIGINT, SIGHUP, SIGCHLD}) sigaddset(&signals, s);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  ::signal(SIGPIPE, SIG_IGN);
+
+  SystemdNotifier notifier;
+  std::optional<DaemonConfig> next = config;
+  while (next) {
+    next = runPipeline(*next, configPath, signals, notifier);
+    if (next) {
+      notifier.notify("RELOADING=1");
+      spdlog::set_level(spdlog::level::from_str(next->logLevel));
+    }
+  }
   spdlog::info("parallaxd stopped");
   return 0;
 }

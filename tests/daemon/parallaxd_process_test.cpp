@@ -242,5 +242,48 @@ TEST_F(ParallaxdProcess, SighupReloadsTheConfig) {
   EXPECT_TRUE(WIFEXITED(exit) && WEXITSTATUS(exit) == 0) << daemon.log();
 }
 
+TEST_F(ParallaxdProcess, SighupRebuildsForANewDisplayRefusesABadOne) {
+  Daemon daemon(folder_, config(), {runtimeEnv()});
+  waitForStats(socket_, [](const json& s) { return s["module_frames_sent"] == 4; });
+  auto withDisplay = [&](const std::string& display) {
+    std::string text = config();
+    const std::string old = "preset = \"demo\"\nmodules = 4\nresolution = [64, 48]\n";
+    text.replace(text.find(old), old.size(), display);
+    return text;
+  };
+  auto waitForModules = [&](int modules) {
+    json status;
+    for (int i = 0; i < 1500; ++i) {
+      status = ask(socket_, {{"request", "status"}});
+      if (status.is_object() && status["display"]["modules"] == modules && status["state"] == "playing") break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return status;
+  };
+  // Three modules: the display changed, so simulator, link and loop are built again.
+  std::ofstream(folder_ / "parallax.toml") << withDisplay("preset = \"demo\"\nmodules = 3\nresolution = [64, 48]\n");
+  ASSERT_EQ(::kill(daemon.pid(), SIGHUP), 0);
+  json status = waitForModules(3);
+  EXPECT_EQ(status["display"]["modules"], 3) << status.dump() << daemon.log();
+  waitForStats(socket_, [](const json& s) { return s["module_frames_sent"] == 3; });
+  // A display file that does not exist: refused before anything stops; three modules play on.
+  std::ofstream(folder_ / "parallax.toml") << withDisplay("file = \"" + (folder_ / "no_such_display.json").string() + "\"\n");
+  ASSERT_EQ(::kill(daemon.pid(), SIGHUP), 0);
+  for (int i = 0; i < 500; ++i) {
+    status = ask(socket_, {{"request", "status"}});
+    if (status.is_object() && status.contains("last_error") && !status["last_error"].is_null() &&
+        status["last_error"].dump().find("no_such_display") != std::string::npos) {
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_NE(status.dump().find("no_such_display"), std::string::npos) << status.dump() << daemon.log();
+  EXPECT_EQ(status["display"]["modules"], 3) << status.dump();
+  EXPECT_EQ(status["state"], "playing") << status.dump();
+  ::kill(daemon.pid(), SIGTERM);
+  const int exit = daemon.waitExit(20000);
+  EXPECT_TRUE(WIFEXITED(exit) && WEXITSTATUS(exit) == 0) << daemon.log();
+}
+
 }  // namespace
 }  // namespace parallax::daemon

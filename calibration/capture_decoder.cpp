@@ -1,9 +1,9 @@
 #include "calibration/capture_decoder.h"
 
 #include <cmath>
-#include <map>
 
 #include "calibration/fit_geometry.h"
+#include "calibration/stripe_peak.h"
 #include "calibration/synthetic_observations.h"
 #include "common/check.h"
 #include "common/input_error.h"
@@ -37,9 +37,11 @@ void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<c
   const auto camera = packCamera(pose);
 
   for (int y = 0; y < height; ++y) {
-    // Per module in this row: contrast-weighted sums for the stripe centre.
-    // module → {Σw, Σw·x, count, contrast at the run's first pixel, at its last, peak}
-    std::map<int, std::array<double, 6>> stripe;
+    // Correspondences and stripe centres on every n-th row: neighbouring rows' stripe centres
+    // are nearly the same measurement, and each costs the solver a residual.
+    if (y % options.pixelStep != 0) continue;
+    // This row's lit pixels with every group module's predicted angle, for the stripe peaks.
+    std::vector<StripeRowSample> lit;
     double rowMax = 0.0;
     for (int x = 0; x < width; ++x) rowMax = std::max(rowMax, static_cast<double>(columnFrames[0].at<float>(y, x) - columnFrames[1].at<float>(y, x)));
     if (!(rowMax > options.patterns.minContrast)) continue;
@@ -49,21 +51,20 @@ void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<c
       const Eigen::Vector2d n = in.normalized({x + 0.5, y + 0.5});
       Vec3<double> s;
       if (!screenPointOfCameraRay(nominal.screen.curvature, camera.data(), n.x(), n.y(), &s)) continue;
-      int label = -1;
+      StripeRowSample sample{x + 0.5, contrast, -1, {}};
       double best = 1e9;
-      for (int m : group) {
-        const double angle = std::abs(stripeAngle(nominal.screen, s, nominal.modules[static_cast<size_t>(m)].position, pose.centre));
-        if (angle < best) { best = angle; label = m; }
+      for (size_t g = 0; g < group.size(); ++g) {
+        const double angle = stripeAngle(nominal.screen, s, nominal.modules[static_cast<size_t>(group[g])].position, pose.centre);
+        sample.angles.push_back(angle);
+        if (std::abs(angle) < best) {
+          best = std::abs(angle);
+          sample.owner = static_cast<int>(g);
+        }
       }
-      if (label < 0) continue;
-      auto [it, fresh] = stripe.try_emplace(label, std::array<double, 6>{0, 0, 0, contrast, 0, 0});
-      auto& acc = it->second;
-      acc[4] = contrast;
-      acc[5] = std::max(acc[5], contrast);
-      acc[0] += contrast;
-      acc[1] += contrast * (x + 0.5);
-      acc[2] += 1.0;
-      if (x % options.pixelStep != 0 || y % options.pixelStep != 0) continue;
+      if (sample.owner < 0) continue;
+      const int label = group[static_cast<size_t>(sample.owner)];
+      lit.push_back(std::move(sample));
+      if (x % options.pixelStep != 0) continue;
       std::vector<float> ic, ir;
       for (const cv::Mat& f : columnFrames) ic.push_back(f.at<float>(y, x));
       for (const cv::Mat& f : rowFrames) ir.push_back(f.at<float>(y, x));
@@ -72,15 +73,11 @@ void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<c
       if (!u || !v) continue;
       obs->correspondences.push_back({station, label, {x + 0.5, y + 0.5}, {*u, *v}});
     }
-    // Stripe centres on the same row subsampling as the correspondences: neighbouring rows'
-    // centres are nearly the same measurement, and each costs the solver a residual.
-    if (y % options.pixelStep != 0) continue;
-    for (const auto& [module, acc] : stripe) {
-      if (acc[2] < options.minStripePixels) continue;
-      // A run that starts or ends bright was cut (by the module's image edge or the screen's):
-      // its centroid would not be the lobe's centre.
-      if (acc[3] > 0.5 * acc[5] || acc[4] > 0.5 * acc[5]) continue;
-      obs->stripes.push_back({station, module, {acc[1] / acc[0], y + 0.5}});
+    std::vector<int> pixels(group.size(), 0);
+    for (const StripeRowSample& p : lit) ++pixels[static_cast<size_t>(p.owner)];
+    const auto peaks = stripePeaksInRow(lit, static_cast<int>(group.size()));
+    for (size_t g = 0; g < group.size(); ++g) {
+      if (pixels[g] >= options.minStripePixels && peaks[g]) obs->stripes.push_back({station, group[g], {*peaks[g], y + 0.5}});
     }
   }
 }

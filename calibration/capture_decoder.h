@@ -10,8 +10,8 @@
 // angle to the camera is smallest. Stripe position depends only on module position (not on
 // its orientation or intrinsics), and groups are spaced several diffusion widths apart, so
 // the nominal layout is enough to tell them apart.
-// Stripe centre: the contrast-weighted centroid (white − black) of a module's pixels along a
-// camera row — the lobe is symmetric about the exact transfer direction.
+// Stripe centre: the peak of the module's lobe along a camera row (white − black contrast),
+// found in the predicted exit angle (stripe_peak.h), not the pixels' centroid.
 
 #include <opencv2/core.hpp>
 #include <vector>

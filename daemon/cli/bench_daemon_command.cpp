@@ -27,6 +27,7 @@
 
 #include "common/input_error.h"
 #include "daemon/cli/commands.h"
+#include "daemon/parallaxd/control_client.h"
 
 extern char** environ;
 
@@ -52,25 +53,7 @@ std::string siblingBinary(const std::string& name) {
 }
 
 nlohmann::json request(const std::string& socket, const nlohmann::json& r) {
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  std::strncpy(addr.sun_path, socket.c_str(), sizeof addr.sun_path - 1);
-  if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
-    ::close(fd);
-    return nullptr;
-  }
-  const std::string line = r.dump() + "\n";
-  ::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
-  std::string reply;
-  char buffer[4096];
-  while (reply.find('\n') == std::string::npos) {
-    const ssize_t n = ::recv(fd, buffer, sizeof buffer, 0);
-    if (n <= 0) break;
-    reply.append(buffer, static_cast<size_t>(n));
-  }
-  ::close(fd);
-  return nlohmann::json::parse(reply.substr(0, reply.find('\n')), nullptr, false);
+  return daemon::tryAskDaemon(socket, r).value_or(nullptr);
 }
 
 // CPU seconds (user + system) and peak resident MiB of a process, from /proc.

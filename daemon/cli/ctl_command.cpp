@@ -10,21 +10,15 @@
 //   parallax ctl identify [3]            parallax ctl calibrate [--module 3]
 //   parallax ctl --json '{"request": "status"}'
 
-#include <poll.h>
-#include <sys/socket.h>
-#include <sys/un.h>
-#include <unistd.h>
-
 #include <fmt/format.h>
 
-#include <cerrno>
-#include <cstring>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
 #include "common/input_error.h"
 #include "daemon/cli/commands.h"
+#include "daemon/parallaxd/control_client.h"
 #include "daemon/parallaxd/daemon_config.h"
 
 namespace parallax::cli {
@@ -76,42 +70,6 @@ nlohmann::json requestFromWords(const std::vector<std::string>& words) {
   return request;
 }
 
-std::string exchange(const std::string& path, const std::string& line, double timeoutSeconds) {
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  if (fd < 0) throw std::runtime_error(std::string("socket: ") + std::strerror(errno));
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  if (path.size() >= sizeof addr.sun_path) throw InputError({"", "--socket", 0}, "path too long");
-  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-  if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
-    const std::string why = std::strerror(errno);
-    ::close(fd);
-    throw std::runtime_error(fmt::format("no daemon at {} ({}): is parallaxd running?", path, why));
-  }
-  const std::string out = line + "\n";
-  if (::send(fd, out.data(), out.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(out.size())) {
-    ::close(fd);
-    throw std::runtime_error("the daemon closed the connection");
-  }
-  std::string reply;
-  char buffer[4096];
-  while (reply.find('\n') == std::string::npos) {
-    pollfd p{fd, POLLIN, 0};
-    const int ready = ::poll(&p, 1, static_cast<int>(timeoutSeconds * 1000.0));
-    if (ready == 0) {
-      ::close(fd);
-      throw std::runtime_error(fmt::format("no reply within {} s", timeoutSeconds));
-    }
-    const ssize_t n = ::recv(fd, buffer, sizeof buffer, 0);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;
-    reply.append(buffer, static_cast<size_t>(n));
-  }
-  ::close(fd);
-  if (reply.empty()) throw std::runtime_error("the daemon closed the connection without a reply");
-  return reply.substr(0, reply.find('\n'));
-}
-
 int runCtl(const CtlArgs& args, const std::vector<std::string>& words) {
   nlohmann::json request;
   if (!args.json.empty()) {
@@ -121,7 +79,7 @@ int runCtl(const CtlArgs& args, const std::vector<std::string>& words) {
     request = requestFromWords(words);
   }
   const std::string path = args.socket.empty() ? daemon::defaultControlSocketPath() : args.socket;
-  const std::string line = exchange(path, request.dump(), args.timeoutSeconds);
+  const std::string line = daemon::exchangeControlLine(path, request.dump(), args.timeoutSeconds);
   const nlohmann::json reply = nlohmann::json::parse(line, nullptr, false);
   if (reply.is_discarded()) {
     std::cout << line << "\n";

@@ -1,5 +1,8 @@
 #include "daemon/parallaxd/simhw_child.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
@@ -46,15 +49,18 @@ std::string SimhwChild::folderFor(const std::string& cacheDir, int seed) {
 SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardware, const std::string& socketPath,
                        const std::string& cacheDir)
     : socketPath_(socketPath), folder_(folderFor(cacheDir, hardware.seed)) {
-  // The seeded truth and camera rig, as `parallax simulate` makes them (a 640×360 camera with
-  // the default's field of view, five stations across 4 m of the observer line: the module row
-  // spans ±(W/2)(1+D/Z), and the outer stations must see the outer modules).
+  // The seeded truth and camera rig, as `parallax simulate` makes them: a 640×360 camera with
+  // the default's field of view at five stations spread over four times the module row's half
+  // width. The outermost modules light only the far side of the observer line; spread that
+  // far, each is photographed from three stations or more.
   GroundTruthOptions truthOptions;
   truthOptions.seed = static_cast<std::uint64_t>(hardware.seed);
   const DisplayModel truth = makeGroundTruth(nominal, truthOptions);
   CameraRigOptions rig;
+  double rowHalfWidth = 0.0;
+  for (const OpticalModule& m : nominal.modules) rowHalfWidth = std::max(rowHalfWidth, std::abs(m.position.x()));
   rig.stations = 5;
-  rig.spanM = 4.0;
+  rig.spanM = std::max(1.0, 4.0 * rowHalfWidth);
   rig.intrinsics.width = 640;
   rig.intrinsics.height = 360;
   rig.intrinsics.fx = rig.intrinsics.fy = 2100.0 * 640.0 / 1920.0;

@@ -1,3 +1,4 @@
+
 // The end-to-end test on simulated hardware: parallaxd starts parallax-simhw with a
 // seeded ground truth, knows only the nominal `demo` display and the camera's metadata,
 // calibrates through the link and the camera, and plays cornell.lua. From the frames the
@@ -28,6 +29,7 @@
 #include "calibration/display_model_json.h"
 #include "calibration/display_presets.h"
 #include "calibration/ray_textures.h"
+#include "daemon/parallaxd/control_client.h"
 #include "scripts/scene_argument.h"
 #include "tracer/frame.h"
 #include "tracer/observer_view.h"
@@ -43,25 +45,7 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 json ask(const std::string& socket, const json& request) {
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  std::strncpy(addr.sun_path, socket.c_str(), sizeof addr.sun_path - 1);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    ::close(fd);
-    return nullptr;
-  }
-  const std::string line = request.dump() + "\n";
-  ::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
-  std::string reply;
-  char buffer[4096];
-  while (reply.find('\n') == std::string::npos) {
-    const ssize_t n = ::recv(fd, buffer, sizeof buffer, 0);
-    if (n <= 0) break;
-    reply.append(buffer, static_cast<size_t>(n));
-  }
-  ::close(fd);
-  return json::parse(reply.substr(0, reply.find('\n')), nullptr, false);
+  return daemon::tryAskDaemon(socket, request).value_or(nullptr);
 }
 
 // What a module shows of a linear frame: through the link's 8-bit sRGB and back.

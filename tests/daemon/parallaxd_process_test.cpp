@@ -22,6 +22,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "daemon/parallaxd/control_client.h"
 #include "tracer/frame.h"
 
 extern char** environ;
@@ -82,25 +83,7 @@ class Daemon {
 };
 
 json ask(const std::string& socket, const json& request) {
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  std::strncpy(addr.sun_path, socket.c_str(), sizeof addr.sun_path - 1);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    ::close(fd);
-    return nullptr;
-  }
-  const std::string line = request.dump() + "\n";
-  ::send(fd, line.data(), line.size(), MSG_NOSIGNAL);
-  std::string reply;
-  char buffer[4096];
-  while (reply.find('\n') == std::string::npos) {
-    const ssize_t n = ::recv(fd, buffer, sizeof buffer, 0);
-    if (n <= 0) break;
-    reply.append(buffer, static_cast<size_t>(n));
-  }
-  ::close(fd);
-  return json::parse(reply.substr(0, reply.find('\n')), nullptr, false);
+  return daemon::tryAskDaemon(socket, request).value_or(nullptr);
 }
 
 json waitForStats(const std::string& socket, const std::function<bool(const json&)>& done, int ms = 30000) {

@@ -1,0 +1,112 @@
+// Stripe centres along a camera row (stripe_peak.h): the lobe's peak, not the pixels' centroid,
+// with the neighbours' overlapping lobes taken out.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "calibration/stripe_peak.h"
+
+namespace parallax {
+namespace {
+
+// A row seen obliquely: module m's angle at camera x bends (quadratic term), the way an oblique
+// station maps equal angles to unequal pixel runs. Lobes: Gaussian in the true angle.
+struct SyntheticRow {
+  std::vector<double> peakX;   // where each module's angle is zero (the truth)
+  double sigma = 0.072;        // rad (demo's ~10° FWHM)
+  double slope = 0.0075;       // rad per camera px
+  double bend = 2.0e-5;        // rad per px²
+  double predictionOffset = 0.0;  // the nominal's angle error (rad), constant over the row
+
+  double angle(int m, double x) const {
+    const double u = x - peakX[static_cast<size_t>(m)];
+    return -(slope * u + bend * u * u);
+  }
+
+  std::vector<StripeRowSample> samples(double threshold = 0.2) const {
+    std::vector<StripeRowSample> row;
+    for (int px = 0; px < 640; ++px) {
+      const double x = px + 0.5;
+      StripeRowSample s{x, 0.0, -1, {}};
+      double best = 1e9;
+      for (int m = 0; m < static_cast<int>(peakX.size()); ++m) {
+        const double a = angle(m, x);
+        s.contrast += std::exp(-0.5 * (a / sigma) * (a / sigma));
+        s.angles.push_back(a + predictionOffset);
+        if (std::abs(a) < best) {
+          best = std::abs(a);
+          s.owner = m;
+        }
+      }
+      if (s.contrast >= threshold) row.push_back(s);
+    }
+    return row;
+  }
+};
+
+double centroid(const std::vector<StripeRowSample>& row, int module) {
+  double sw = 0.0, swx = 0.0;
+  for (const StripeRowSample& s : row) {
+    if (s.owner != module) continue;
+    sw += s.contrast;
+    swx += s.contrast * s.x;
+  }
+  return swx / sw;
+}
+
+TEST(StripePeak, AnIsolatedLobeSeenObliquelyPeaksWhereItsAngleIsZeroNotAtItsCentroid) {
+  SyntheticRow truth;
+  truth.peakX = {300.25};
+  const auto row = truth.samples();
+  const auto peaks = stripePeaksInRow(row, 1);
+  ASSERT_TRUE(peaks[0].has_value());
+  EXPECT_NEAR(*peaks[0], 300.25, 0.02);
+  // The centroid is what the decoder used before: pixels off on this bend.
+  EXPECT_GT(std::abs(centroid(row, 0) - 300.25), 0.5);
+}
+
+TEST(StripePeak, OverlappingNeighboursAreTakenOutOfEachOthersFlanks) {
+  SyntheticRow truth;
+  truth.peakX = {200.0, 228.0, 262.0};  // ~3 lobe widths apart, the valleys above half of the
+                                        // threshold the decoder lights pixels at
+  truth.predictionOffset = 0.01;        // the nominal model's angles are off by ~0.6°
+  const auto row = truth.samples();
+  const auto peaks = stripePeaksInRow(row, 3);
+  for (int m = 0; m < 3; ++m) {
+    ASSERT_TRUE(peaks[static_cast<size_t>(m)].has_value()) << m;
+    EXPECT_NEAR(*peaks[static_cast<size_t>(m)], truth.peakX[static_cast<size_t>(m)], 0.05) << m;
+  }
+  // Without the rounds, the middle lobe's flanks carry its neighbours' tails.
+  StripePeakOptions single;
+  single.rounds = 0;
+  const auto biased = stripePeaksInRow(row, 3, single);
+  double worst = 0.0;
+  for (int m = 0; m < 3; ++m) {
+    if (biased[static_cast<size_t>(m)]) worst = std::max(worst, std::abs(*biased[static_cast<size_t>(m)] - truth.peakX[static_cast<size_t>(m)]));
+  }
+  EXPECT_GT(worst, 0.2);
+}
+
+TEST(StripePeak, ALobeCutByTheImageEdgeGivesNoCentre) {
+  SyntheticRow truth;
+  truth.peakX = {5.0};  // its left half falls off the camera's row
+  const auto peaks = stripePeaksInRow(truth.samples(), 1);
+  EXPECT_FALSE(peaks[0].has_value());
+}
+
+TEST(StripePeak, FlatNoisyOrEmptyRowsGiveNoCentreAndNoNan) {
+  std::vector<StripeRowSample> flat;
+  for (int x = 0; x < 50; ++x) flat.push_back({x + 0.5, 0.5, 0, {0.001 * (x - 25)}});
+  EXPECT_FALSE(stripePeaksInRow(flat, 1)[0].has_value());  // no peak inside: cut at both ends
+  EXPECT_TRUE(stripePeaksInRow({}, 2).size() == 2);
+  std::vector<StripeRowSample> hostile = {{0.5, NAN, 0, {0.0}}, {1.5, 1.0, 0, {INFINITY}}, {2.5, -1.0, 0, {0.0}},
+                                          {3.5, 0.1, 7, {0.0}}, {4.5, 0.1, 0, {}}};
+  for (const auto& p : stripePeaksInRow(hostile, 1)) {
+    if (p) EXPECT_TRUE(std::isfinite(*p));
+  }
+}
+
+}  // namespace
+}  // namespace parallax

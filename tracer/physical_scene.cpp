@@ -10,6 +10,7 @@
 
 #include "common/check.h"
 #include "tracer/embree_device.h"
+#include "tracer/glass_shadows.h"
 
 namespace parallax {
 namespace {
@@ -95,6 +96,13 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox) {
   rtcSetSceneBuildQuality(scene_, animated_ ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_HIGH);
   boundsMin_ = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
   boundsMax_ = -boundsMin_;
+  // Glass lets shadow rays through (glass_shadows.h) by a filter on the dielectric geometries
+  // only: other geometries, and scenes without glass or without shadow rays, never call it.
+  glassShadows_ = features_.shadowPass() && features_.dielectrics;
+  if (glassShadows_ && rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_FILTER_FUNCTION_SUPPORTED) == 0) {
+    glassShadows_ = false;
+    warnings_.push_back("this Embree has no filter functions: glass casts opaque shadows");
+  }
   for (size_t g = 0; g < meshes_.size(); ++g) {
     const PhysicalMesh& mesh = meshes_[g];
     RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
@@ -114,6 +122,9 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox) {
         boundsMin_ = boundsMin_.cwiseMin(mesh.positions[index]);
         boundsMax_ = boundsMax_.cwiseMax(mesh.positions[index]);
       }
+    }
+    if (glassShadows_ && materials_[static_cast<size_t>(mesh.material)].kind == MaterialKind::kDielectric) {
+      rtcSetGeometryOccludedFilterFunction(geometry, glassShadowFilter);
     }
     rtcCommitGeometry(geometry);
     const unsigned id = rtcAttachGeometry(scene_, geometry);

@@ -78,6 +78,9 @@ class PhysicalScene {
   // World units per physical metre (absorption and point-light falloff are in world units).
   float worldPerPhysical() const { return static_cast<float>(1.0 / physicalFromWorld_.scale); }
   bool animated() const { return animated_; }
+  // Shadow rays pass through glass with its transmittance (glass_shadows.h): the scene has lit
+  // surfaces, lights and drawn glass, and Embree supports filter functions.
+  bool glassShadows() const { return glassShadows_; }
   std::vector<std::string> warnings() const { return warnings_; }
 
  private:
@@ -97,6 +100,7 @@ class PhysicalScene {
   Eigen::Vector3f boundsMin_ = Eigen::Vector3f::Zero();
   Eigen::Vector3f boundsMax_ = Eigen::Vector3f::Zero();
   bool animated_ = false;
+  bool glassShadows_ = false;
   std::vector<std::string> warnings_;
 };
 

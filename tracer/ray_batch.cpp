@@ -1,5 +1,7 @@
 #include "tracer/ray_batch.h"
 
+#include "tracer/glass_shadows.h"
+
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -104,7 +106,10 @@ void intersectBatch(RTCScene scene, std::span<RTCRayHit> rays, Traversal travers
 
 void occludedBatch(RTCScene scene, std::span<RTCRay> rays, Traversal traversal, bool coherent) {
   if (rays.empty()) return;
-  RTCIntersectContext context = intersectContext(coherent);
+  // Every occlusion query carries the context the glass filter expects (glass_shadows.h); with
+  // no transmittance states, glass blocks.
+  ShadowQueryContext query = shadowQueryContext(coherent);
+  RTCIntersectContext& context = query.base;
   switch (traversal) {
     case Traversal::kSingle:
       for (RTCRay& r : rays) rtcOccluded1(scene, &context, &r);

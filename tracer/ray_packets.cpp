@@ -1,5 +1,7 @@
 #include "tracer/ray_packets.h"
 
+#include "tracer/glass_shadows.h"
+
 namespace parallax {
 namespace {
 
@@ -111,8 +113,13 @@ void intersectPackets(RTCScene scene, RayHitPackets& rays, Traversal traversal, 
 }
 
 void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal, bool coherent) {
+  ShadowQueryContext query = shadowQueryContext(coherent);
+  occludedPackets(scene, rays, traversal, &query);
+}
+
+void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal, ShadowQueryContext* query) {
   if (rays.empty()) return;
-  RTCIntersectContext context = intersectContext(coherent);
+  RTCIntersectContext& context = query->base;
   const size_t count = rays.packetCount();
   switch (traversal) {
     case Traversal::kSingle:

@@ -15,6 +15,8 @@
 
 namespace parallax {
 
+struct ShadowQueryContext;
+
 // Intersection rays with their hit records. clear() keeps the memory: a renderer reuses the
 // same packets frame after frame.
 class RayHitPackets {
@@ -91,7 +93,7 @@ class OcclusionPackets {
     p.tfar[lane] = tfar;
     p.time[lane] = 0.0f;
     p.mask[lane] = 0xFFFFFFFFu;
-    p.id[lane] = 0;
+    p.id[lane] = static_cast<unsigned>(size_);  // the glass filter's index into its states
     p.flags[lane] = 0;
     ++size_;
   }
@@ -114,6 +116,9 @@ class OcclusionPackets {
 // one masked), kStream one rtcIntersectNM over all packets (the unused lanes of the last packet
 // made inactive, tnear > tfar), kSingle one rtcIntersect1 per ray.
 void intersectPackets(RTCScene scene, RayHitPackets& rays, Traversal traversal, bool coherent);
+// Glass blocks these (no transmittance states).
 void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal, bool coherent);
+// With the caller's context: its transmittance states (if any) are indexed by push order.
+void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal, ShadowQueryContext* query);
 
 }  // namespace parallax

@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 
 #include "common/input_error.h"
+#include "tracer/glass_shadows.h"
 #include "tracer/hit_info.h"
 #include "tracer/optics.h"
 #include "tracer/ray_packets.h"
@@ -79,6 +80,8 @@ struct TileBuffers {
   // neighbouring pixels' rays toward the same light, which traverse the BVH together.
   std::vector<OcclusionPackets> shadowRaysByLight;
   std::vector<std::vector<PendingShadow>> shadowsByLight;
+  // Per light, per shadow ray: what glass let through (only in scenes with glass shadows).
+  std::vector<std::vector<ShadowTransmittance>> transmittanceByLight;
 };
 
 class TileRenderer {
@@ -87,9 +90,10 @@ class TileRenderer {
                Frame* frame, RayLog* log, TileBuffers* buffers)
       : scene_(scene), textures_(textures), options_(options), depth_(depth), frame_(frame), log_(log),
         texturesUsed_(scene.features().texturePass()),
-        boxMargin_(0.01f * (scene.boundsMax() - scene.boundsMin()).norm()),
+        boxMargin_(0.01f * (scene.boundsMax() - scene.boundsMin()).norm()), glassShadows_(scene.glassShadows()),
         paths_(buffers->paths), nextPaths_(buffers->nextPaths), rays_(buffers->rays), nextRays_(buffers->nextRays),
-        shadowRaysByLight_(buffers->shadowRaysByLight), shadowsByLight_(buffers->shadowsByLight) {}
+        shadowRaysByLight_(buffers->shadowRaysByLight),
+        shadowsByLight_(buffers->shadowsByLight), transmittanceByLight_(buffers->transmittanceByLight) {}
 
   void render(int x0, int x1, int y0, int y1, RenderCounters* c);
 
@@ -113,6 +117,7 @@ class TileRenderer {
   RayLog* log_;
   const bool texturesUsed_;  // the scene samples a texture (ray footprints are needed)
   const float boxMargin_;    // primary rays start this far (metres) before the scene's box
+  const bool glassShadows_;  // shadow rays pass through glass (glass_shadows.h)
 
   std::vector<Path>& paths_;
   std::vector<Path>& nextPaths_;
@@ -120,6 +125,7 @@ class TileRenderer {
   RayHitPackets& nextRays_;
   std::vector<OcclusionPackets>& shadowRaysByLight_;
   std::vector<std::vector<PendingShadow>>& shadowsByLight_;
+  std::vector<std::vector<ShadowTransmittance>>& transmittanceByLight_;
 };
 
 // o and s − o of a compact ray. A flat screen (the common case) needs no sag and its square root.
@@ -217,6 +223,7 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
   initialRays(x0, x1, y0, y1, c);
   shadowRaysByLight_.resize(scene_.lights().size());
   shadowsByLight_.resize(scene_.lights().size());
+  transmittanceByLight_.resize(glassShadows_ ? scene_.lights().size() : 0);
   for (int generation = 0; generation < depth_ && !rays_.empty(); ++generation) {
     c->deepest = std::max(c->deepest, generation + 1);
     const bool coherent = generation == 0;
@@ -231,9 +238,23 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
       const std::vector<PendingShadow>& pending = shadowsByLight_[l];
       if (rays.empty()) continue;
       if (log_) logBatch(generation, rays);
-      occludedPackets(scene_.handle(), rays, options_.traversal, coherent);
-      for (size_t i = 0; i < rays.size(); ++i) {
-        if (!rays.occluded(i)) frame_->pixels[static_cast<size_t>(pending[i].pixel)] += pending[i].contribution;
+      if (glassShadows_) {
+        std::vector<ShadowTransmittance>& states = transmittanceByLight_[l];
+        ShadowQueryContext query = shadowQueryContext(coherent, &scene_, states.data(), &c->glassShadowHits);
+        occludedPackets(scene_.handle(), rays, options_.traversal, &query);
+        for (size_t i = 0; i < rays.size(); ++i) {
+          if (rays.occluded(i)) continue;
+          Rgb& out = frame_->pixels[static_cast<size_t>(pending[i].pixel)];
+          // Most shadow rays cross no glass: no exp() for them.
+          out += states[i].crossings == 0 ? pending[i].contribution
+                                          : Rgb(pending[i].contribution.cwiseProduct(states[i].factor()));
+        }
+      } else {
+        // No glass: the plain query, no per-ray state.
+        occludedPackets(scene_.handle(), rays, options_.traversal, coherent);
+        for (size_t i = 0; i < rays.size(); ++i) {
+          if (!rays.occluded(i)) frame_->pixels[static_cast<size_t>(pending[i].pixel)] += pending[i].contribution;
+        }
       }
       c->shadow += static_cast<long>(rays.size());
       rays.clear();
@@ -364,6 +385,15 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
         }
         const Rgb contribution = weight.cwiseProduct(response).cwiseProduct(irradiance);
         if (contribution.maxCoeff() <= 0.0f) continue;
+        if (glassShadows_) {
+          // Indexed like the ray (its id is its push order); only the running fields are reset.
+          std::vector<ShadowTransmittance>& states = transmittanceByLight_[lightIndex];
+          const size_t index = shadowsByLight_[lightIndex].size();
+          if (states.size() <= index) states.resize(2 * index + 16);
+          states[index].fresnel = 1.0f;
+          states[index].opticalDepth.setZero();
+          states[index].crossings = 0;
+        }
         shadowsByLight_[lightIndex].push_back({path.pixel, contribution});
         shadowRaysByLight_[lightIndex].push(above, l, tfar);
       }
@@ -432,6 +462,7 @@ RenderCounters& RenderCounters::operator+=(const RenderCounters& o) {
   reflection += o.reflection;
   refraction += o.refraction;
   pruned += o.pruned;
+  glassShadowHits += o.glassShadowHits;
   textureLookups += o.textureLookups;
   deepest = std::max(deepest, o.deepest);
   return *this;
@@ -445,6 +476,7 @@ std::vector<std::string> RenderCounters::lines() const {
                   reflection, refraction),
       fmt::format("  branches pruned below the weight limit {}; texture lookups {}; deepest generation {}", pruned,
                   textureLookups, deepest),
+      fmt::format("  glass surfaces shadow rays passed through {} (the glass filter's calls)", glassShadowHits),
   };
 }
 
@@ -509,6 +541,8 @@ double replayRayLog(const PhysicalScene& scene, const RayLog& log, Traversal tra
   struct Packets {
     RayHitPackets hits;
     OcclusionPackets shadows;
+    std::vector<ShadowTransmittance> states;  // scenes with glass shadows: traced as the frame does
+    long glassHits = 0;
   };
   tbb::enumerable_thread_specific<Packets> perThread;
   auto pass = [&](bool trace, double* passCpuMs) {
@@ -521,7 +555,18 @@ double replayRayLog(const PhysicalScene& scene, const RayLog& log, Traversal tra
       if (batch.occlusion) {
         p.shadows.clear();
         for (const RTCRay& r : batch.rays) p.shadows.push({r.org_x, r.org_y, r.org_z}, {r.dir_x, r.dir_y, r.dir_z}, r.tfar);
-        if (trace) occludedPackets(scene.handle(), p.shadows, traversal, batch.coherent);
+        ShadowQueryContext query = shadowQueryContext(batch.coherent);
+        if (scene.glassShadows()) {
+          // Glass is part of the query's cost: its filter runs here as in the frame.
+          if (p.states.size() < batch.rays.size()) p.states.resize(batch.rays.size());
+          for (size_t i = 0; i < batch.rays.size(); ++i) {
+            p.states[i].fresnel = 1.0f;
+            p.states[i].opticalDepth.setZero();
+            p.states[i].crossings = 0;
+          }
+          query = shadowQueryContext(batch.coherent, &scene, p.states.data(), &p.glassHits);
+        }
+        if (trace) occludedPackets(scene.handle(), p.shadows, traversal, &query);
       } else {
         p.hits.clear();
         for (const RTCRay& r : batch.rays) p.hits.push({r.org_x, r.org_y, r.org_z}, {r.dir_x, r.dir_y, r.dir_z}, r.tfar);

@@ -47,6 +47,9 @@ struct RenderCounters {
   long reflection = 0;
   long refraction = 0;
   long pruned = 0;        // branches below RenderOptions::minWeight
+  // Glass surfaces shadow rays met and passed through (calls of the glass filter, per ray and
+  // surface, duplicates from the BVH's spatial splits included): not extra rays.
+  long glassShadowHits = 0;
   long textureLookups = 0;
   int deepest = 0;        // highest ray generation traced (1 = primary only)
 

@@ -83,6 +83,91 @@ TEST(Shadows, PresentWhereGeometryBlocksTheLightAbsentElsewhere) {
   }
 }
 
+// The same floor and hovering box, light straight down, the box now glass. Shadow rays pass
+// through glass (glass_shadows.h): at normal incidence the floor under the box gets the
+// analytic single-pass transmittance of a slab, (1 − R)² · exp(−a · h) per channel, with
+// R = ((n − 1)/(n + 1))² and h = 0.3 the box's height, a its absorption per world unit — the
+// shadow ray's straight path is the exact one here (no refraction at normal incidence), so the
+// only tolerance is float rounding (1e-5 on values ≤ 0.5; the light that bounces twice inside
+// the slab, R² e^{−2ah} ≈ 0.1 %, is left out by Whitted's model for every ray, not only here).
+// An opaque box still blocks; IOR 1 without absorption casts no shadow at all.
+TEST(Shadows, GlassLetsThroughItsFresnelAndBeerLambertTransmittance) {
+  const DisplayModel display = smallDisplay(3, 320, 240);
+  const Rgb absorption(0.5f, 1.0f, 2.0f);
+  struct Case {
+    const char* name;
+    Material material;
+    Rgb expected;  // floor under the box
+  };
+  const double r = std::pow((1.5 - 1.0) / (1.5 + 1.0), 2.0);
+  Rgb glassExpected;
+  for (int c = 0; c < 3; ++c) glassExpected[c] = static_cast<float>(0.5 * (1 - r) * (1 - r) * std::exp(-absorption[c] * 0.3));
+  const Case cases[] = {
+      {"absorbing glass", Material::makeDielectric(1.5f, absorption), glassExpected},
+      {"opaque", Material::makeDiffuse({0.5f, 0.5f, 0.5f}), Rgb::Zero()},
+      {"index 1, clear", Material::makeDielectric(1.0f), Rgb::Constant(0.5f)},
+  };
+  for (const Case& test : cases) {
+    SCOPED_TRACE(test.name);
+    Scene scene;
+    const int white = scene.addMaterial(Material::makeDiffuse({0.5f, 0.5f, 0.5f}));
+    const int boxMaterial = scene.addMaterial(test.material);
+    Mesh floor = positionColouredRect(0, 2, 1, -1.0, 1.0, 0.0, white);
+    floor.colors.clear();
+    scene.addMesh(floor);
+    Mesh box = makeBox({0.6, 0.3, 0.6});
+    box.material = boxMaterial;
+    scene.addMesh(box, true, at({0, -0.35, 0}));
+    scene.addLight(Light::makeDirectional({0, -1.0, 0}, Rgb::Ones()));
+    scene.worldBox = Box3{Eigen::Vector3d::Constant(-1), Eigen::Vector3d::Constant(1)};
+    const PhysicalScene physical(scene, display.displayableBox);
+    const bool glass = test.material.kind == MaterialKind::kDielectric;
+    EXPECT_EQ(physical.glassShadows(), glass);
+    long under = 0, lit = 0;
+    RenderCounters total;
+    for (int module = 0; module < 2; ++module) {
+      const RayTextures textures = generateRayTextures(display, module);
+      RenderCounters counters;
+      const Frame frame = renderFrame(physical, textures, RenderOptions{}, &counters);
+      total += counters;
+      for (int row = 0; row < textures.height(); ++row) {
+        for (int column = 0; column < textures.width(); ++column) {
+          const auto ray = worldRayOf(textures, column, row, physical.physicalFromWorld());
+          if (!ray) continue;
+          const auto t = hitPlane(*ray, Eigen::Vector3d::UnitY(), -1.0);
+          if (!t) continue;
+          const Eigen::Vector3d p = ray->origin + *t * ray->direction;
+          if (std::abs(p.x()) > 0.98 || std::abs(p.z()) > 0.98) continue;
+          // Skip pixels that see the floor through the box (refracted there, elsewhere).
+          bool throughBox = false;
+          for (double y : {-0.2, -0.5}) {
+            const auto ty = hitPlane(*ray, Eigen::Vector3d::UnitY(), y);
+            if (ty) {
+              const Eigen::Vector3d q = ray->origin + *ty * ray->direction;
+              throughBox = throughBox || (std::abs(q.x()) < 0.32 && std::abs(q.z()) < 0.32);
+            }
+          }
+          const double edge = std::max(std::abs(p.x()), std::abs(p.z()));
+          if (throughBox || std::abs(edge - 0.3) < 0.02) continue;
+          const Rgb& c = frame.at(column, row);
+          const Rgb expected = edge < 0.3 ? test.expected : Rgb::Constant(0.5f);
+          (edge < 0.3 ? under : lit) += 1;
+          for (int k = 0; k < 3; ++k) ASSERT_NEAR(c[k], expected[k], 1e-5f) << column << "," << row << " channel " << k;
+        }
+      }
+    }
+    EXPECT_GT(under, 100);
+    EXPECT_GT(lit, 1000);
+    // Glass costs no extra shadow rays: each shadow ray under the box met the two faces it
+    // crossed (the filter's calls); opaque boxes never call it.
+    if (glass) {
+      EXPECT_GE(total.glassShadowHits, 2 * under);
+    } else {
+      EXPECT_EQ(total.glassShadowHits, 0);
+    }
+  }
+}
+
 // A point light at the origin in front of a white wall z = -1: Lambert with inverse-square
 // falloff in world units gives L = cos / d² = 1 / d³ at distance d; the same scene 1000×
 // larger with a light 1000² stronger renders the same.

@@ -77,12 +77,12 @@ struct SrgbEncoder {
       clamped[i] = _mm_cvtss_f32(c);
       index[i] = _mm_cvttss_si32(_mm_add_ss(_mm_mul_ss(c, steps), half));
     }
-    for (size_t i = 0; i < n; ++i) {
-      const float c = clamped[i];
-      int k = code[static_cast<unsigned>(index[i])];
+    for (size_t j = 0; j < n; ++j) {
+      const float c = clamped[j];
+      int k = code[static_cast<unsigned>(index[j])];
       k += c >= lowest[static_cast<size_t>(k) + 1];
       k -= c < lowest[static_cast<size_t>(k)];
-      out[i] = static_cast<std::uint8_t>(k);
+      out[j] = static_cast<std::uint8_t>(k);
     }
   }
 };

@@ -82,6 +82,35 @@ TEST(CalibrationCaptures, FolderRoundTripKeepsPicturesAndDecodesTheSame) {
   fs::remove_all(dir);
 }
 
+TEST(CalibrationCaptures, CheckerboardPicturesTravelWithTheFolderAndCameraJsonHasNoIntrinsics) {
+  Small s = small();
+  CheckerboardShotOptions shots;
+  shots.pictures = 3;
+  s.captures.checkerboard = simulateCheckerboardCaptures(s.rig.truth, CheckerboardBoard{}, shots);
+  s.captures.camera.intrinsicsKnown = false;
+  const fs::path dir = freshDir("plx-captures-board");
+  saveCaptures(s.captures, dir.string());
+  const CalibrationCaptures loaded = loadCaptures(dir.string());
+  EXPECT_FALSE(loaded.camera.intrinsicsKnown);
+  EXPECT_EQ(loaded.camera.intrinsics.width, s.rig.truth.intrinsics.width);
+  EXPECT_FALSE(std::isfinite(loaded.camera.intrinsics.fx));  // nothing plausible-looking to misuse
+  ASSERT_TRUE(loaded.checkerboard);
+  ASSERT_EQ(loaded.checkerboard->pictures.size(), 3u);
+  for (size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(cv::norm(loaded.checkerboard->pictures[i].recorded, s.captures.checkerboard->pictures[i].recorded,
+                       cv::NORM_INF),
+              0.0);
+  }
+  // Not decodable until the camera is calibrated.
+  try {
+    decodeCaptures(loaded, s.nominal, CaptureDecoderOptions{});
+    ADD_FAILURE() << "decoded with unknown intrinsics";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("intrinsics"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
 std::string errorOf(const std::string& dir) {
   try {
     loadCaptures(dir);

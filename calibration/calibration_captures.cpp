@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calibration/fiducial_detector.h"
+#include "calibration/json_fields.h"
 #include "calibration/json_file.h"
 #include "calibration/observations_json.h"
 #include "common/atomic_file.h"
@@ -17,41 +18,15 @@ namespace parallax {
 namespace {
 
 using nlohmann::json;
+using jsonfield::fail;
+using jsonfield::member;
+using jsonfield::integer;
+using jsonfield::number;
+using jsonfield::array;
 
 constexpr const char* kPatternsFormatName = "parallax-patterns";
 constexpr int kPatternsFormatVersion = 1;
 constexpr size_t kMaxCaptureSets = 4096;
-
-[[noreturn]] void fail(const std::string& field, const std::string& reason) {
-  throw InputError(InputLocation{"", field, 0}, reason);
-}
-
-const json& member(const json& object, const std::string& key, const std::string& path) {
-  if (!object.is_object()) fail(path, fmt::format("must be an object, got {}", object.type_name()));
-  const auto it = object.find(key);
-  if (it == object.end()) fail(path.empty() ? key : path + "." + key, "missing");
-  return *it;
-}
-
-long long integer(const json& j, const std::string& field, long long lo, long long hi) {
-  if (!j.is_number_integer()) fail(field, fmt::format("must be an integer, got {}", j.type_name()));
-  const long long v = j.get<long long>();
-  if (v < lo || v > hi) fail(field, fmt::format("must be {}..{}, got {}", lo, hi, v));
-  return v;
-}
-
-double number(const json& j, const std::string& field) {
-  if (!j.is_number()) fail(field, fmt::format("must be a number, got {}", j.type_name()));
-  const double v = j.get<double>();
-  if (!std::isfinite(v)) fail(field, "must be finite");
-  return v;
-}
-
-const json& array(const json& j, const std::string& field, size_t maxSize) {
-  if (!j.is_array()) fail(field, fmt::format("must be an array, got {}", j.type_name()));
-  if (j.size() > maxSize) fail(field, fmt::format("at most {} entries", maxSize));
-  return j;
-}
 
 int framesPerAxis(int extent, const StructuredLightOptions& patterns) {
   return 2 + grayBitCount(extent, patterns.periodPx) + patterns.phaseSteps;

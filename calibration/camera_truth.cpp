@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include "calibration/json_fields.h"
 #include "calibration/json_file.h"
 #include "calibration/observations_json.h"
 #include "common/atomic_file.h"
@@ -13,33 +14,12 @@ namespace parallax {
 namespace {
 
 using nlohmann::json;
+using jsonfield::fail;
+using jsonfield::member;
+using jsonfield::number;
+using jsonfield::numbers;
 constexpr const char* kFormatName = "parallax-camera-truth";
 constexpr int kFormatVersion = 1;
-
-[[noreturn]] void fail(const std::string& field, const std::string& reason) {
-  throw InputError(InputLocation{"", field, 0}, reason);
-}
-
-const json& member(const json& object, const std::string& key, const std::string& path) {
-  if (!object.is_object()) fail(path, fmt::format("must be an object, got {}", object.type_name()));
-  const auto it = object.find(key);
-  if (it == object.end()) fail(path.empty() ? key : path + "." + key, "missing");
-  return *it;
-}
-
-double number(const json& j, const std::string& field) {
-  if (!j.is_number()) fail(field, fmt::format("must be a number, got {}", j.type_name()));
-  const double v = j.get<double>();
-  if (!std::isfinite(v)) fail(field, "must be finite");
-  return v;
-}
-
-std::vector<double> numbers(const json& j, const std::string& field, size_t size) {
-  if (!j.is_array() || j.size() != size) fail(field, fmt::format("must be an array of {} numbers", size));
-  std::vector<double> out;
-  for (size_t i = 0; i < size; ++i) out.push_back(number(j[i], fmt::format("{}[{}]", field, i)));
-  return out;
-}
 
 }  // namespace
 

@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "calibration/json_fields.h"
 #include "calibration/json_file.h"
 #include "common/atomic_file.h"
 #include "common/input_error.h"
@@ -15,21 +16,12 @@ namespace parallax {
 namespace {
 
 using nlohmann::json;
+using jsonfield::fail;
+using jsonfield::member;
 
 constexpr const char* kFormatName = "parallax-checkerboard";
 constexpr int kFormatVersion = 1;
 constexpr size_t kMaxPictures = 1000;
-
-[[noreturn]] void fail(const std::string& field, const std::string& reason) {
-  throw InputError(InputLocation{"", field, 0}, reason);
-}
-
-const json& member(const json& object, const std::string& key) {
-  if (!object.is_object()) fail("", fmt::format("must be an object, got {}", object.type_name()));
-  const auto it = object.find(key);
-  if (it == object.end()) fail(key, "missing");
-  return *it;
-}
 
 // A picture's name: a relative path that stays inside the captures folder.
 bool insideFolder(const std::string& name) {

@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "calibration/json_fields.h"
 #include "calibration/json_file.h"
 #include "common/atomic_file.h"
 #include "common/input_error.h"
@@ -18,56 +19,21 @@ namespace {
 
 using nlohmann::json;
 
-[[noreturn]] void fail(const std::string& field, const std::string& reason) {
-  throw InputError(InputLocation{"", field, 0}, reason);
-}
-
-const char* typeName(const json& j) { return j.type_name(); }
-
-const json& member(const json& object, const std::string& key, const std::string& path) {
-  if (!object.is_object()) fail(path, fmt::format("must be an object, got {}", typeName(object)));
-  const auto it = object.find(key);
-  if (it == object.end()) fail(path.empty() ? key : path + "." + key, "missing key");
-  return *it;
-}
-
-std::string join(const std::string& path, const std::string& key) {
-  return path.empty() ? key : path + "." + key;
-}
+using jsonfield::fail;
+using jsonfield::join;
+using jsonfield::member;
 
 double number(const json& object, const std::string& key, const std::string& path) {
-  const json& j = member(object, key, path);
-  const std::string field = join(path, key);
-  if (!j.is_number()) fail(field, fmt::format("must be a number, got {}", typeName(j)));
-  const double value = j.get<double>();
-  if (!std::isfinite(value)) fail(field, "must be a finite number");
-  return value;
+  return jsonfield::number(member(object, key, path), join(path, key));
 }
 
 std::vector<double> numbers(const json& object, const std::string& key, const std::string& path,
                             size_t count) {
-  const json& j = member(object, key, path);
-  const std::string field = join(path, key);
-  if (!j.is_array() || j.size() != count) {
-    fail(field, fmt::format("must be an array of {} numbers, got {}", count,
-                            j.is_array() ? fmt::format("{} elements", j.size()) : typeName(j)));
-  }
-  std::vector<double> out;
-  for (size_t i = 0; i < count; ++i) {
-    if (!j[i].is_number()) {
-      fail(fmt::format("{}[{}]", field, i), fmt::format("must be a number, got {}", typeName(j[i])));
-    }
-    out.push_back(j[i].get<double>());
-    if (!std::isfinite(out.back())) fail(fmt::format("{}[{}]", field, i), "must be a finite number");
-  }
-  return out;
+  return jsonfield::numbers(member(object, key, path), join(path, key), count);
 }
 
 int integer(const json& j, const std::string& field) {
-  if (!j.is_number_integer()) fail(field, fmt::format("must be an integer, got {}", typeName(j)));
-  const auto value = j.get<long long>();
-  if (value < -(1LL << 30) || value > (1LL << 30)) fail(field, "integer out of range");
-  return static_cast<int>(value);
+  return static_cast<int>(jsonfield::integer(j, field, -(1LL << 30), 1LL << 30));
 }
 
 Eigen::Vector3d vec3(const json& object, const std::string& key, const std::string& path) {
@@ -98,7 +64,7 @@ OpticalModule moduleFromJson(const json& j, const std::string& path) {
   m.height = integer(res[1], join(path, "resolution") + "[1]");
   const json& mirror = member(j, "mirror", path);
   if (!mirror.is_boolean()) {
-    fail(join(path, "mirror"), fmt::format("must be true or false, got {}", typeName(mirror)));
+    fail(join(path, "mirror"), fmt::format("must be true or false, got {}", mirror.type_name()));
   }
   m.mirror = mirror.get<bool>();
   return m;
@@ -135,7 +101,7 @@ json displayModelToJson(const DisplayModel& model) {
 }
 
 DisplayModel displayModelFromJson(const json& j) {
-  if (!j.is_object()) fail("", fmt::format("the document must be an object, got {}", typeName(j)));
+  if (!j.is_object()) fail("", fmt::format("the document must be an object, got {}", j.type_name()));
   const json& format = member(j, "format", "");
   if (!format.is_string() || format.get<std::string>() != kDisplayFormatName) {
     fail("format", fmt::format("must be \"{}\", got {}", kDisplayFormatName, format.dump()));
@@ -166,7 +132,7 @@ DisplayModel displayModelFromJson(const json& j) {
   model.displayableBox.min = vec3(box, "min", "displayable_box");
   model.displayableBox.max = vec3(box, "max", "displayable_box");
   const json& modules = member(j, "modules", "");
-  if (!modules.is_array()) fail("modules", fmt::format("must be an array, got {}", typeName(modules)));
+  if (!modules.is_array()) fail("modules", fmt::format("must be an array, got {}", modules.type_name()));
   if (modules.size() > static_cast<size_t>(kMaxModules)) {
     fail("modules", fmt::format("at most {} modules, got {}", kMaxModules, modules.size()));
   }

@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "calibration/json_fields.h"
 #include "calibration/json_file.h"
 #include "common/atomic_file.h"
 #include "common/input_error.h"
@@ -19,38 +20,16 @@ namespace parallax {
 namespace {
 
 using nlohmann::json;
-
-[[noreturn]] void fail(const std::string& field, const std::string& reason) {
-  throw InputError(InputLocation{"", field, 0}, reason);
-}
-
-const json& member(const json& object, const std::string& key, const std::string& path) {
-  const std::string field = path.empty() ? key : path + "." + key;
-  if (!object.is_object()) fail(path, fmt::format("must be an object, got {}", object.type_name()));
-  const auto it = object.find(key);
-  if (it == object.end()) fail(field, "missing");
-  return *it;
-}
-
-double finiteNumber(const json& j, const std::string& field) {
-  if (!j.is_number()) fail(field, fmt::format("must be a number, got {}", j.type_name()));
-  const double v = j.get<double>();
-  if (!std::isfinite(v)) fail(field, "must be finite");
-  return v;
-}
+using jsonfield::fail;
+using jsonfield::member;
+using jsonfield::number;
+using jsonfield::numbers;
 
 int index(const json& j, const std::string& field, int limit) {
   if (!j.is_number_integer()) fail(field, fmt::format("must be an integer, got {}", j.type_name()));
   const long long v = j.get<long long>();
   if (v < 0 || v >= limit) fail(field, fmt::format("must be 0..{}, got {}", limit - 1, v));
   return static_cast<int>(v);
-}
-
-std::vector<double> numberArray(const json& j, const std::string& field, size_t size) {
-  if (!j.is_array() || j.size() != size) fail(field, fmt::format("must be an array of {} numbers", size));
-  std::vector<double> out;
-  for (size_t i = 0; i < size; ++i) out.push_back(finiteNumber(j[i], fmt::format("{}[{}]", field, i)));
-  return out;
 }
 
 const json& rows(const json& object, const std::string& key) {
@@ -118,9 +97,9 @@ json decodedToJson(const CalibrationObservations& o) {
 namespace {
 
 void intrinsicsFromJson(const json& in, CalibrationObservations* o) {
-  const auto focal = numberArray(member(in, "focal_px", "intrinsics"), "intrinsics.focal_px", 2);
-  const auto principal = numberArray(member(in, "principal_px", "intrinsics"), "intrinsics.principal_px", 2);
-  const auto distortion = numberArray(member(in, "distortion", "intrinsics"), "intrinsics.distortion", 2);
+  const auto focal = numbers(member(in, "focal_px", "intrinsics"), "intrinsics.focal_px", 2);
+  const auto principal = numbers(member(in, "principal_px", "intrinsics"), "intrinsics.principal_px", 2);
+  const auto distortion = numbers(member(in, "distortion", "intrinsics"), "intrinsics.distortion", 2);
   if (!(focal[0] > 0.0 && focal[1] > 0.0)) fail("intrinsics.focal_px", "must be positive");
   o->intrinsics.fx = focal[0];
   o->intrinsics.fy = focal[1];
@@ -139,13 +118,13 @@ void stationsFromJson(const json& j, CalibrationObservations* o) {
   o->stations.clear();
   for (size_t i = 0; i < stations.size(); ++i) {
     const std::string field = fmt::format("stations[{}].tape_centre", i);
-    const auto c = numberArray(member(stations[i], "tape_centre", fmt::format("stations[{}]", i)), field, 3);
+    const auto c = numbers(member(stations[i], "tape_centre", fmt::format("stations[{}]", i)), field, 3);
     o->stations.push_back({{c[0], c[1], c[2]}});
   }
   const json& fiducials = rows(j, "fiducials");
   o->fiducials.clear();
   for (size_t i = 0; i < fiducials.size(); ++i) {
-    const auto f = numberArray(fiducials[i], fmt::format("fiducials[{}]", i), 2);
+    const auto f = numbers(fiducials[i], fmt::format("fiducials[{}]", i), 2);
     o->fiducials.push_back({f[0], f[1]});
   }
 }
@@ -185,8 +164,8 @@ void decodedFromJson(const json& j, CalibrationObservations* o) {
     Correspondence c;
     c.camera = index(r[0], field + "[0]", kMaxIndex);
     c.module = index(r[1], field + "[1]", kMaxIndex);
-    c.cameraPx = {finiteNumber(r[2], field + "[2]"), finiteNumber(r[3], field + "[3]")};
-    c.modulePx = {finiteNumber(r[4], field + "[4]"), finiteNumber(r[5], field + "[5]")};
+    c.cameraPx = {number(r[2], field + "[2]"), number(r[3], field + "[3]")};
+    c.modulePx = {number(r[4], field + "[4]"), number(r[5], field + "[5]")};
     o->correspondences.push_back(c);
   }
   const json& stripes = rows(j, "stripes");
@@ -196,7 +175,7 @@ void decodedFromJson(const json& j, CalibrationObservations* o) {
     const json& r = stripes[i];
     if (!r.is_array() || r.size() != 4) fail(field, "must be [camera, module, camera_u, camera_v]");
     o->stripes.push_back({index(r[0], field + "[0]", kMaxIndex), index(r[1], field + "[1]", kMaxIndex),
-                          {finiteNumber(r[2], field + "[2]"), finiteNumber(r[3], field + "[3]")}});
+                          {number(r[2], field + "[2]"), number(r[3], field + "[3]")}});
   }
   const json& sightings = rows(j, "fiducial_sightings");
   o->fiducialSightings.clear();
@@ -205,7 +184,7 @@ void decodedFromJson(const json& j, CalibrationObservations* o) {
     const json& r = sightings[i];
     if (!r.is_array() || r.size() != 4) fail(field, "must be [camera, fiducial, camera_u, camera_v]");
     o->fiducialSightings.push_back({index(r[0], field + "[0]", kMaxIndex), index(r[1], field + "[1]", kMaxIndex),
-                                    {finiteNumber(r[2], field + "[2]"), finiteNumber(r[3], field + "[3]")}});
+                                    {number(r[2], field + "[2]"), number(r[3], field + "[3]")}});
   }
 }
 

@@ -83,9 +83,9 @@ TEST_P(DisplayModelJsonErrors, NameTheFieldAndTheReason) {
 INSTANTIATE_TEST_SUITE_P(
     Each, DisplayModelJsonErrors,
     ::testing::Values(
-        BadInput{"missing_key", [](json& j) { j["screen"].erase("height"); }, "screen.height", "missing key"},
+        BadInput{"missing_key", [](json& j) { j["screen"].erase("height"); }, "screen.height", "missing"},
         BadInput{"missing_module_key", [](json& j) { j["modules"][1].erase("focal_px"); },
-                 "modules[1].focal_px", "missing key"},
+                 "modules[1].focal_px", "missing"},
         BadInput{"wrong_type", [](json& j) { j["screen"]["width"] = "wide"; }, "screen.width",
                  "must be a number, got string"},
         BadInput{"wrong_type_mirror", [](json& j) { j["modules"][0]["mirror"] = 1; }, "modules[0].mirror",

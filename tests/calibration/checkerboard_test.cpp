@@ -22,6 +22,7 @@
 #include "calibration/checkerboard_renderer.h"
 #include "calibration/conventions.h"
 #include "common/input_error.h"
+#include "tests/calibration/input_error_message.h"
 
 namespace parallax {
 namespace {
@@ -64,14 +65,7 @@ CheckerboardPicture emptyPicture(const CameraIntrinsics& camera, const std::stri
   return {name, bytes};
 }
 
-std::string errorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::inputErrorOf;
 
 TEST(Checkerboard, DistortionIsOpenCvsWithHalfPixelCentres) {
   // The mapping calibrateCamera's result goes through: our project() must equal
@@ -167,13 +161,13 @@ TEST(Checkerboard, TooFewUsablePicturesIsAClearError) {
   pictures.push_back(emptyPicture(truth, "a.png"));
   pictures.push_back(emptyPicture(truth, "b.png"));
   const std::string message =
-      errorOf([&] { calibrateFromCheckerboard(pictures, CheckerboardBoard{}, truth.width, truth.height); });
+      inputErrorOf([&] { calibrateFromCheckerboard(pictures, CheckerboardBoard{}, truth.width, truth.height); });
   EXPECT_NE(message.find("pictures"), std::string::npos) << message;
   EXPECT_NE(message.find("found in 2 of 4"), std::string::npos) << message;
   // A picture of another size is named.
   auto wrong = photograph(truth, 4, 41);
   cv::resize(wrong[1].recorded, wrong[1].recorded, cv::Size(320, 180));
-  const std::string sized = errorOf([&] { calibrateFromCheckerboard(wrong, CheckerboardBoard{}, truth.width, truth.height); });
+  const std::string sized = inputErrorOf([&] { calibrateFromCheckerboard(wrong, CheckerboardBoard{}, truth.width, truth.height); });
   EXPECT_NE(sized.find("board_1.png"), std::string::npos) << sized;
   EXPECT_NE(sized.find("320x180"), std::string::npos) << sized;
 }
@@ -207,30 +201,30 @@ TEST(CheckerboardCaptures, FolderRoundTripAndErrorsNameTheFile) {
   EXPECT_NE(back.pictures[2].name.find("checkerboard/board_02.png"), std::string::npos);
 
   // Wrong size for the camera: the picture is named.
-  std::string message = errorOf([&] { loadCheckerboardCaptures(dir.string(), 800, 600); });
+  std::string message = inputErrorOf([&] { loadCheckerboardCaptures(dir.string(), 800, 600); });
   EXPECT_NE(message.find("board_00.png"), std::string::npos) << message;
   EXPECT_NE(message.find("640x360"), std::string::npos) << message;
   // Unreadable: not an image.
   { std::ofstream(dir / "checkerboard/board_01.png") << "not a png"; }
-  message = errorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
+  message = inputErrorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
   EXPECT_NE(message.find("board_01.png"), std::string::npos) << message;
   EXPECT_NE(message.find("cannot read"), std::string::npos) << message;
   // Missing.
   fs::remove(dir / "checkerboard/board_01.png");
-  message = errorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
+  message = inputErrorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
   EXPECT_NE(message.find("board_01.png"), std::string::npos) << message;
   // A bad board description names checkerboard.json and the field; a path out of the folder too.
   {
     std::ofstream(dir / "checkerboard.json")
         << R"({"format": "parallax-checkerboard", "version": 1, "inner_corners": [9, 1], "square_m": 0.04, "pictures": ["x.png"]})";
   }
-  message = errorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
+  message = inputErrorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
   EXPECT_NE(message.find("checkerboard.json: inner_corners"), std::string::npos) << message;
   {
     std::ofstream(dir / "checkerboard.json")
         << R"({"format": "parallax-checkerboard", "version": 1, "inner_corners": [9, 6], "square_m": 0.04, "pictures": ["../x.png"]})";
   }
-  message = errorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
+  message = inputErrorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
   EXPECT_NE(message.find("checkerboard.json: pictures[0]"), std::string::npos) << message;
   fs::remove_all(dir);
 }
@@ -250,16 +244,16 @@ TEST(CheckerboardCaptures, CameraJsonWithoutIntrinsicsNeedsTheBoard) {
   EXPECT_EQ(back.intrinsics.width, 640);
   EXPECT_EQ(back.intrinsics.height, 360);
   // Without checkerboard pictures the folder cannot be calibrated: camera.json is named.
-  std::string message = errorOf([&] { loadCaptures(dir.string()); });
+  std::string message = inputErrorOf([&] { loadCaptures(dir.string()); });
   EXPECT_NE(message.find("camera.json: intrinsics.focal_px"), std::string::npos) << message;
   EXPECT_NE(message.find("checkerboard"), std::string::npos) << message;
   // The link path needs known intrinsics too.
-  message = errorOf([&] { requireKnownIntrinsics(back, "camera.json", "calibrating through the link"); });
+  message = inputErrorOf([&] { requireKnownIntrinsics(back, "camera.json", "calibrating through the link"); });
   EXPECT_NE(message.find("camera.json: intrinsics.focal_px"), std::string::npos) << message;
   // Decoding with unknown intrinsics is refused rather than run on NaN.
   CalibrationCaptures captures;
   captures.camera = back;
-  message = errorOf([&] { decodeCaptures(captures, DisplayModel{}, CaptureDecoderOptions{}); });
+  message = inputErrorOf([&] { decodeCaptures(captures, DisplayModel{}, CaptureDecoderOptions{}); });
   EXPECT_NE(message.find("intrinsics"), std::string::npos) << message;
   fs::remove_all(dir);
 }

@@ -10,6 +10,7 @@
 #include "calibration/ground_truth.h"
 #include "calibration/synthetic_observations.h"
 #include "common/input_error.h"
+#include "tests/calibration/input_error_message.h"
 
 namespace parallax {
 namespace {
@@ -21,14 +22,7 @@ CalibrationObservations sample() {
   return simulateObservations(makeGroundTruth(resolveDisplay("demo"), {}), options).observations;
 }
 
-std::string errorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::inputErrorOf;
 
 TEST(ObservationsJson, RoundTripsThroughAFolderExactly) {
   const CalibrationObservations o = sample();
@@ -50,19 +44,19 @@ TEST(ObservationsJson, NamesTheBadField) {
   CalibrationObservations o = sample();
   nlohmann::json j = decodedToJson(o);
   j["correspondences"][3][4] = "left";
-  EXPECT_NE(errorOf([&] { decodedFromJson(j, &o); }).find("correspondences[3][4]"), std::string::npos);
+  EXPECT_NE(inputErrorOf([&] { decodedFromJson(j, &o); }).find("correspondences[3][4]"), std::string::npos);
   j = decodedToJson(o);
   j["stripes"][0][0] = -1;
-  EXPECT_NE(errorOf([&] { decodedFromJson(j, &o); }).find("stripes[0][0]"), std::string::npos);
+  EXPECT_NE(inputErrorOf([&] { decodedFromJson(j, &o); }).find("stripes[0][0]"), std::string::npos);
   j = decodedToJson(o);
   j["correspondences"][1] = nlohmann::json::array({0, 1});
-  EXPECT_NE(errorOf([&] { decodedFromJson(j, &o); }).find("correspondences[1]"), std::string::npos);
+  EXPECT_NE(inputErrorOf([&] { decodedFromJson(j, &o); }).find("correspondences[1]"), std::string::npos);
   nlohmann::json c = cameraMetadataToJson(o);
   c["intrinsics"]["focal_px"] = {0.0, 100.0};
-  EXPECT_NE(errorOf([&] { cameraMetadataFromJson(c, &o); }).find("intrinsics.focal_px"), std::string::npos);
+  EXPECT_NE(inputErrorOf([&] { cameraMetadataFromJson(c, &o); }).find("intrinsics.focal_px"), std::string::npos);
   c = cameraMetadataToJson(o);
   c["format"] = "parallax-display";
-  EXPECT_NE(errorOf([&] { cameraMetadataFromJson(c, &o); }).find("format"), std::string::npos);
+  EXPECT_NE(inputErrorOf([&] { cameraMetadataFromJson(c, &o); }).find("format"), std::string::npos);
 }
 
 TEST(ObservationsJson, SyntaxErrorsCarryFileAndLine) {
@@ -73,9 +67,9 @@ TEST(ObservationsJson, SyntaxErrorsCarryFileAndLine) {
     std::ofstream out(dir + "/camera.json");
     out << "{\n  \"format\": \"parallax-camera\",\n  \"version\": 1,\n  oops\n}\n";
   }
-  const std::string message = errorOf([&] { loadObservations(dir); });
+  const std::string message = inputErrorOf([&] { loadObservations(dir); });
   EXPECT_NE(message.find("camera.json:4"), std::string::npos) << message;
-  const std::string missing = errorOf([&] { loadObservations(dir + "/nowhere"); });
+  const std::string missing = inputErrorOf([&] { loadObservations(dir + "/nowhere"); });
   EXPECT_NE(missing.find("cannot open"), std::string::npos) << missing;
 }
 

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <limits>
+#include <stdexcept>
 
 #include "common/input_error.h"
 
@@ -25,6 +26,22 @@ std::uint8_t srgb8FromLinear(float linear) {
 
 float linearFromSrgb(float encoded) {
   return encoded <= 0.04045f ? encoded / 12.92f : std::pow((encoded + 0.055f) / 1.055f, 2.4f);
+}
+
+Frame frameFromSrgb8(int width, int height, const std::vector<std::uint8_t>& rgb) {
+  if (width < 0 || height < 0 || rgb.size() != static_cast<size_t>(width) * static_cast<size_t>(height) * 3) {
+    throw std::invalid_argument("frameFromSrgb8: byte count is not width x height x 3");
+  }
+  static const std::array<float, 256> kLinear = [] {
+    std::array<float, 256> table{};
+    for (int i = 0; i < 256; ++i) table[static_cast<size_t>(i)] = linearFromSrgb(static_cast<float>(i) / 255.0f);
+    return table;
+  }();
+  Frame frame(width, height);
+  for (size_t i = 0; i < frame.pixels.size(); ++i) {
+    frame.pixels[i] = Rgb(kLinear[rgb[3 * i]], kLinear[rgb[3 * i + 1]], kLinear[rgb[3 * i + 2]]);
+  }
+  return frame;
 }
 
 namespace {

@@ -29,6 +29,10 @@ struct Frame {
 std::uint8_t srgb8FromLinear(float linear);
 float linearFromSrgb(float encoded);  // encoded in [0, 1]
 
+// What a module shows of 8-bit sRGB bytes (RGB RGB ..., row-major), back in linear light.
+// Throws std::invalid_argument when the byte count is not width × height × 3.
+Frame frameFromSrgb8(int width, int height, const std::vector<std::uint8_t>& rgb);
+
 // Both throw InputError naming the file when it cannot be written.
 void writePng(const Frame& frame, const std::string& path);
 void writeExr(const Frame& frame, const std::string& path);

@@ -78,15 +78,21 @@ RTCRay OcclusionPackets::get(size_t i) const {
 
 void OcclusionPackets::set(size_t i, const RTCRay& r) { packets_[i / 16].tfar[i % 16] = r.tfar; }
 
-void intersectPackets(RTCScene scene, RayHitPackets& rays, Traversal traversal, bool coherent) {
+namespace {
+
+// The one loop behind both queries: ray by ray, packet by packet (the last packet's unused
+// lanes masked off) or as one stream (unused lanes made empty, tnear > tfar). `lanes` gives a
+// packet's ray part (RTCRay16 of an RTCRayHit16, or the RTCRay16 itself).
+template <class Packets, class One, class Sixteen, class Stream, class Lanes>
+void traceBatch(Packets& rays, Traversal traversal, One traceOne, Sixteen traceSixteen, Stream traceStream,
+                Lanes lanes) {
   if (rays.empty()) return;
-  RTCIntersectContext context = intersectContext(coherent);
   const size_t count = rays.packetCount();
   switch (traversal) {
     case Traversal::kSingle:
       for (size_t i = 0; i < rays.size(); ++i) {
-        RTCRayHit r = rays.get(i);
-        rtcIntersect1(scene, &context, &r);
+        auto r = rays.get(i);
+        traceOne(&r);
         rays.set(i, r);
       }
       break;
@@ -95,21 +101,33 @@ void intersectPackets(RTCScene scene, RayHitPackets& rays, Traversal traversal, 
       validLanes(0, 16, valid);
       for (size_t p = 0; p < count; ++p) {
         if (p + 1 == count) validLanes(p, rays.size(), valid);
-        rtcIntersect16(valid, scene, &context, &rays.packets()[p]);
+        traceSixteen(valid, &rays.packets()[p]);
       }
       break;
     }
     case Traversal::kStream: {
-      RTCRayHit16& last = rays.packets()[count - 1];
+      RTCRay16& last = lanes(rays.packets()[count - 1]);
       for (size_t lane = rays.size() % 16; lane != 0 && lane < 16; ++lane) {
-        last.ray.tnear[lane] = 1.0f;  // tnear > tfar: inactive
-        last.ray.tfar[lane] = 0.0f;
+        last.tnear[lane] = 1.0f;
+        last.tfar[lane] = 0.0f;
       }
-      rtcIntersectNM(scene, &context, reinterpret_cast<RTCRayHitN*>(rays.packets()), 16, static_cast<unsigned>(count),
-                     sizeof(RTCRayHit16));
+      traceStream(rays.packets(), static_cast<unsigned>(count));
       break;
     }
   }
+}
+
+}  // namespace
+
+void intersectPackets(RTCScene scene, RayHitPackets& rays, Traversal traversal, bool coherent) {
+  RTCIntersectContext context = intersectContext(coherent);
+  traceBatch(
+      rays, traversal, [&](RTCRayHit* r) { rtcIntersect1(scene, &context, r); },
+      [&](const int* valid, RTCRayHit16* p) { rtcIntersect16(valid, scene, &context, p); },
+      [&](RTCRayHit16* packets, unsigned count) {
+        rtcIntersectNM(scene, &context, reinterpret_cast<RTCRayHitN*>(packets), 16, count, sizeof(RTCRayHit16));
+      },
+      [](RTCRayHit16& p) -> RTCRay16& { return p.ray; });
 }
 
 void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal, bool coherent) {
@@ -118,37 +136,14 @@ void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal
 }
 
 void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal, ShadowQueryContext* query) {
-  if (rays.empty()) return;
   RTCIntersectContext& context = query->base;
-  const size_t count = rays.packetCount();
-  switch (traversal) {
-    case Traversal::kSingle:
-      for (size_t i = 0; i < rays.size(); ++i) {
-        RTCRay r = rays.get(i);
-        rtcOccluded1(scene, &context, &r);
-        rays.set(i, r);
-      }
-      break;
-    case Traversal::kPacket16: {
-      alignas(64) int valid[16];
-      validLanes(0, 16, valid);
-      for (size_t p = 0; p < count; ++p) {
-        if (p + 1 == count) validLanes(p, rays.size(), valid);
-        rtcOccluded16(valid, scene, &context, &rays.packets()[p]);
-      }
-      break;
-    }
-    case Traversal::kStream: {
-      RTCRay16& last = rays.packets()[count - 1];
-      for (size_t lane = rays.size() % 16; lane != 0 && lane < 16; ++lane) {
-        last.tnear[lane] = 1.0f;  // tnear > tfar: inactive
-        last.tfar[lane] = 0.0f;
-      }
-      rtcOccludedNM(scene, &context, reinterpret_cast<RTCRayN*>(rays.packets()), 16, static_cast<unsigned>(count),
-                    sizeof(RTCRay16));
-      break;
-    }
-  }
+  traceBatch(
+      rays, traversal, [&](RTCRay* r) { rtcOccluded1(scene, &context, r); },
+      [&](const int* valid, RTCRay16* p) { rtcOccluded16(valid, scene, &context, p); },
+      [&](RTCRay16* packets, unsigned count) {
+        rtcOccludedNM(scene, &context, reinterpret_cast<RTCRayN*>(packets), 16, count, sizeof(RTCRay16));
+      },
+      [](RTCRay16& p) -> RTCRay16& { return p; });
 }
 
 }  // namespace parallax

@@ -283,7 +283,6 @@ void Conductor::renderAndPush() {
     stats_.encode.add(frame.encodeMs);
     ++stats_.displayFrames;
     lastCounters_ = frame.counters;
-    currentFrames_ = std::move(frame.frames);
     currentImages_ = std::move(frame.images);
     renderedSceneVersion_ = script_->version();
     renderedTexturesVersion_ = texturesVersion_;
@@ -350,19 +349,18 @@ void Conductor::keepLinkAlive() {
 }
 
 void Conductor::showOverlay(const std::string& kind, std::optional<int> module) {
-  std::vector<Frame> frames = currentFrames_;
-  frames.resize(nominal_.modules.size());
+  std::vector<std::shared_ptr<const hw::Image>> images = currentImages_;
+  images.resize(nominal_.modules.size());
   for (size_t i = 0; i < nominal_.modules.size(); ++i) {
     const OpticalModule& m = nominal_.modules[i];
-    if (frames[i].width != m.width || frames[i].height != m.height) frames[i] = Frame(m.width, m.height);
-    if (module && static_cast<int>(i) != *module) continue;
     const int index = static_cast<int>(i);
-    frames[i] = kind == "identify" ? identifyFrame(m.width, m.height, index, m.mirror)
-                                   : testCardFrame(m.width, m.height, index, m.mirror);
+    if (!module || index == *module) {
+      images[i] = encodeForLink(kind == "identify" ? identifyFrame(m.width, m.height, index, m.mirror)
+                                                   : testCardFrame(m.width, m.height, index, m.mirror));
+    } else if (!images[i] || images[i]->width != m.width || images[i]->height != m.height) {
+      images[i] = encodeForLink(Frame(m.width, m.height));  // nothing shown there yet: black
+    }
   }
-  std::vector<std::shared_ptr<const hw::Image>> images;
-  for (const Frame& f : frames) images.push_back(encodeForLink(f));
-  currentFrames_ = std::move(frames);
   currentImages_ = std::move(images);
   overlay_ = kind;
   renderedSceneVersion_ = 0;  // `play` renders the scene again
@@ -633,7 +631,7 @@ nlohmann::json Conductor::writeModuleFrame(const nlohmann::json& request) {
 
 nlohmann::json Conductor::writeObserverView(const nlohmann::json& request) {
   if (!request.contains("x") || !request["x"].is_number()) throw InputError({"", "x", 0}, "view needs a number \"x\" (m)");
-  if (currentFrames_.size() != calibration_.modules.size()) throw std::runtime_error("the modules show no frames yet");
+  if (currentImages_.size() != calibration_.modules.size()) throw std::runtime_error("the modules show no frames yet");
   const double x = request["x"].get<double>();
   if (!std::isfinite(x) || std::abs(x) > 100.0) throw InputError({"", "x", 0}, "must be within ±100 m");
   ObserverViewOptions vo;
@@ -641,7 +639,11 @@ nlohmann::json Conductor::writeObserverView(const nlohmann::json& request) {
   if (request.contains("height")) vo.height = request["height"].get<int>();
   vo.validate();
   const Eigen::Vector3d viewer(x, calibration_.observer.y, calibration_.observer.z);
-  const Frame view = synthesizeObserverView(calibration_, currentFrames_, viewer, vo);
+  // From what the modules show (8-bit), back in linear light: the view includes quantisation.
+  std::vector<Frame> shown;
+  shown.reserve(currentImages_.size());
+  for (const auto& image : currentImages_) shown.push_back(frameShownBy(*image));
+  const Frame view = synthesizeObserverView(calibration_, shown, viewer, vo);
   const std::string path = request.contains("path") && request["path"].is_string()
                                ? request["path"].get<std::string>()
                                : fmt::format("{}/views/view_x{:+.3f}.png", options_.config.cacheDirPath(), x);

@@ -136,7 +136,8 @@ class Conductor {
   uint64_t linkSessions_ = 0;
   Clock::time_point lastLinkTry_, lastLinkActivity_;
   std::string linkError_;
-  std::vector<Frame> currentFrames_;  // what the modules show (linear, for views)
+  // What the modules show (8-bit sRGB); views decode it. No float copy is kept (680 MB on
+  // `default`).
   std::vector<std::shared_ptr<const hw::Image>> currentImages_;
   bool needsPush_ = false;
 

@@ -1,7 +1,7 @@
 #pragma once
-// One display frame: every module traced in parallel through its ray textures, then encoded
-// to the 8-bit sRGB images the link carries. Nothing is pushed from here: the caller gets
-// either the whole set or an exception, so a half-rendered display never reaches the modules.
+// One display frame: every module traced in parallel through its ray textures and encoded to
+// the 8-bit sRGB image the link carries. Nothing is pushed from here: the caller gets either
+// the whole set or an exception, so a half-rendered display never reaches the modules.
 
 #include <memory>
 #include <vector>
@@ -15,16 +15,23 @@
 namespace parallax::daemon {
 
 struct DisplayFrame {
-  std::vector<Frame> frames;                            // linear RGB, for observer views
   std::vector<std::shared_ptr<const hw::Image>> images;  // sRGB 8-bit, what the modules show
   RenderCounters counters;
-  double renderMs = 0.0;  // wall clock, all modules
+  // Wall clock of the whole display frame, split between the two stages by the time each
+  // took inside the modules' tasks (they run fused, see renderDisplayFrame).
+  double renderMs = 0.0;
   double encodeMs = 0.0;
 };
 
 // The 8-bit image of a frame as a module takes it (RGB8, rows top to bottom).
 std::shared_ptr<const hw::Image> encodeForLink(const Frame& frame);
 
+// What a module shows, back in linear light (for observer views).
+Frame frameShownBy(const hw::Image& image);
+
+// A module's float frame lives only in a worker's scratch buffer until it is encoded: the
+// display keeps one 8-bit image per module. On `default` (72 modules of 1024×768) that is
+// 170 MB where keeping the float frames too held another 680 MB.
 DisplayFrame renderDisplayFrame(const PhysicalScene& scene, const std::vector<RayTextures>& textures,
                                 const RenderOptions& options);
 

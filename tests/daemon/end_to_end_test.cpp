@@ -49,14 +49,7 @@ json ask(const std::string& socket, const json& request) {
 }
 
 // What a module shows of a linear frame: through the link's 8-bit sRGB and back.
-Frame asShown(const Frame& f) {
-  const std::vector<uint8_t> bytes = f.toSrgb8();
-  Frame out(f.width, f.height);
-  for (size_t i = 0; i < out.pixels.size(); ++i) {
-    for (int c = 0; c < 3; ++c) out.pixels[i][c] = linearFromSrgb(bytes[3 * i + static_cast<size_t>(c)] / 255.0f);
-  }
-  return out;
-}
+Frame asShown(const Frame& f) { return frameFromSrgb8(f.width, f.height, f.toSrgb8()); }
 
 std::vector<Frame> renderWith(const DisplayModel& model, const Scene& scene) {
   const PhysicalScene physical(scene, model.displayableBox);

@@ -153,7 +153,9 @@ TEST_F(ParallaxdProcess, TellsSystemdItIsReadyAndStopsCleanlyOnSigterm) {
     std::memset(message, 0, sizeof message);
     ASSERT_GT(::recv(notify, message, sizeof message - 1, 0), 0) << daemon.log();
     ready = std::string(message) == "READY=1";
-    if (!ready) EXPECT_STREQ(message, "WATCHDOG=1");
+    if (!ready) {
+      EXPECT_STREQ(message, "WATCHDOG=1");
+    }
   }
   ASSERT_TRUE(ready);
   // `parallax ctl` with no socket argument finds it (same $XDG_RUNTIME_DIR).

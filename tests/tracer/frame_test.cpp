@@ -6,6 +6,7 @@
 #include <bit>
 #include <cstdint>
 #include <limits>
+#include <stdexcept>
 #include <vector>
 
 #include "tracer/frame.h"
@@ -71,6 +72,17 @@ TEST(FrameEncode, DenseSweepMatchesTheFormula) {
     values.push_back(std::bit_cast<float>(bits));
   }
   expectEncodedExactly(values);
+}
+
+// What a module shows comes back to linear light (observer views of the daemon's frames): every
+// code decodes to a value that encodes to the same code, and a wrong byte count is refused.
+TEST(FrameDecode, EveryCodeRoundTripsThroughLinearLight) {
+  std::vector<std::uint8_t> codes(256 * 3);
+  for (size_t i = 0; i < codes.size(); ++i) codes[i] = static_cast<std::uint8_t>((i * 7 + i / 3) % 256);
+  const Frame frame = frameFromSrgb8(256, 1, codes);
+  EXPECT_EQ(frame.toSrgb8(), codes);
+  EXPECT_FLOAT_EQ(frameFromSrgb8(1, 1, {0, 255, 0}).pixels[0][1], 1.0f);
+  EXPECT_THROW(frameFromSrgb8(2, 2, codes), std::invalid_argument);
 }
 
 }  // namespace

@@ -17,63 +17,70 @@
 namespace parallax {
 namespace {
 
+using test::forEachRenderedPixel;
 using test::hitPlane;
 using test::positionColouredRect;
+using test::RenderedPixel;
 using test::smallDisplay;
-using test::worldRayOf;
+using test::WorldRay;
 
 Eigen::Affine3d at(const Eigen::Vector3d& t) { return Eigen::Affine3d(Eigen::Translation3d(t)); }
 
-// Floor y = -1 (albedo 0.5) under a box hovering at y ∈ [-0.5, -0.2], |x|, |z| < 0.3, light
-// straight down: the floor is dark exactly under the box and 0.5 elsewhere.
+// Floor y = −1 (albedo 0.5) under a box of `boxMaterial` hovering at y ∈ [−0.5, −0.2], |x|, |z|
+// < 0.3, lit by one directional light shining along `lightDirection`.
+Scene floorUnderHoveringBox(const Material& boxMaterial, const Eigen::Vector3d& lightDirection) {
+  Scene scene;
+  const int white = scene.addMaterial(Material::makeDiffuse({0.5f, 0.5f, 0.5f}));
+  Mesh floor = positionColouredRect(0, 2, 1, -1.0, 1.0, 0.0, white);
+  floor.colors.clear();
+  scene.addMesh(floor);
+  Mesh box = makeBox({0.6, 0.3, 0.6});
+  box.material = scene.addMaterial(boxMaterial);
+  scene.addMesh(box, true, at({0, -0.35, 0}));
+  scene.addLight(Light::makeDirectional(lightDirection, Rgb::Ones()));
+  scene.worldBox = Box3{Eigen::Vector3d::Constant(-1), Eigen::Vector3d::Constant(1)};
+  return scene;
+}
+
+// Where the ray meets that floor, max(|x|, |z|) of the point: below 0.3 it lies under the box.
+// nullopt for rays that see the floor through the box (they cross its slab above the floor),
+// meet it within 0.02 of its rim or of the box's shadow edge, or miss it.
+std::optional<double> floorPointEdge(const WorldRay& ray) {
+  const auto t = hitPlane(ray, Eigen::Vector3d::UnitY(), -1.0);
+  if (!t) return std::nullopt;
+  const Eigen::Vector3d p = ray.origin + *t * ray.direction;
+  if (std::abs(p.x()) > 0.98 || std::abs(p.z()) > 0.98) return std::nullopt;
+  for (double y : {-0.2, -0.5}) {
+    const auto ty = hitPlane(ray, Eigen::Vector3d::UnitY(), y);
+    if (!ty) continue;
+    const Eigen::Vector3d q = ray.origin + *ty * ray.direction;
+    if (std::abs(q.x()) < 0.32 && std::abs(q.z()) < 0.32) return std::nullopt;
+  }
+  const double edge = std::max(std::abs(p.x()), std::abs(p.z()));
+  if (std::abs(edge - 0.3) < 0.02) return std::nullopt;
+  return edge;
+}
+
+// The floor under an opaque box, light straight down: dark exactly under the box and 0.5
+// elsewhere; light from below reaches no floor point seen from above.
 TEST(Shadows, PresentWhereGeometryBlocksTheLightAbsentElsewhere) {
   const DisplayModel display = smallDisplay(3, 320, 240);  // the middle module looks straight at the shadow
   for (bool fromBelow : {false, true}) {
-    Scene scene;
-    const int white = scene.addMaterial(Material::makeDiffuse({0.5f, 0.5f, 0.5f}));
-    Mesh floor = positionColouredRect(0, 2, 1, -1.0, 1.0, 0.0, white);
-    floor.colors.clear();
-    scene.addMesh(floor);
-    Mesh box = makeBox({0.6, 0.3, 0.6});
-    box.material = white;
-    scene.addMesh(box, true, at({0, -0.35, 0}));
-    scene.addLight(Light::makeDirectional({0, fromBelow ? 1.0 : -1.0, 0}, Rgb::Ones()));
-    scene.worldBox = Box3{Eigen::Vector3d::Constant(-1), Eigen::Vector3d::Constant(1)};
+    const Scene scene =
+        floorUnderHoveringBox(Material::makeDiffuse({0.5f, 0.5f, 0.5f}), {0, fromBelow ? 1.0 : -1.0, 0});
     const PhysicalScene physical(scene, display.displayableBox);
     long lit = 0, shadowed = 0;
-    for (int module = 0; module < 2; ++module) {
-      const RayTextures textures = generateRayTextures(display, module);
-      const Frame frame = renderFrame(physical, textures, RenderOptions{});
-      for (int row = 0; row < textures.height(); ++row) {
-        for (int column = 0; column < textures.width(); ++column) {
-          const auto ray = worldRayOf(textures, column, row, physical.physicalFromWorld());
-          if (!ray) continue;
-          const auto t = hitPlane(*ray, Eigen::Vector3d::UnitY(), -1.0);
-          if (!t) continue;
-          const Eigen::Vector3d p = ray->origin + *t * ray->direction;
-          if (std::abs(p.x()) > 0.98 || std::abs(p.z()) > 0.98) continue;
-          // Skip rays that meet the box first (they pass through its slab above the floor).
-          bool throughBox = false;
-          for (double y : {-0.2, -0.5}) {
-            const auto ty = hitPlane(*ray, Eigen::Vector3d::UnitY(), y);
-            if (ty) {
-              const Eigen::Vector3d q = ray->origin + *ty * ray->direction;
-              throughBox = throughBox || (std::abs(q.x()) < 0.32 && std::abs(q.z()) < 0.32);
-            }
-          }
-          const double edge = std::max(std::abs(p.x()), std::abs(p.z()));
-          if (throughBox || std::abs(edge - 0.3) < 0.02) continue;
-          const Rgb& c = frame.at(column, row);
-          if (fromBelow || edge < 0.3) {
-            ++shadowed;
-            EXPECT_EQ(c, Rgb::Zero()) << column << "," << row;
-          } else {
-            ++lit;
-            EXPECT_NEAR(c.x(), 0.5f, 1e-5f) << column << "," << row;
-          }
-        }
+    forEachRenderedPixel(display, 2, physical, RenderOptions{}, [&](const RenderedPixel& pixel) {
+      const auto edge = floorPointEdge(pixel.ray);
+      if (!edge) return;
+      if (fromBelow || *edge < 0.3) {
+        ++shadowed;
+        EXPECT_EQ(pixel.colour, Rgb::Zero()) << pixel.column << "," << pixel.row;
+      } else {
+        ++lit;
+        EXPECT_NEAR(pixel.colour.x(), 0.5f, 1e-5f) << pixel.column << "," << pixel.row;
       }
-    }
+    });
     if (fromBelow) {
       EXPECT_GT(shadowed, 1000) << "light from below reaches no upward-seen floor point";
     } else {
@@ -109,53 +116,23 @@ TEST(Shadows, GlassLetsThroughItsFresnelAndBeerLambertTransmittance) {
   };
   for (const Case& test : cases) {
     SCOPED_TRACE(test.name);
-    Scene scene;
-    const int white = scene.addMaterial(Material::makeDiffuse({0.5f, 0.5f, 0.5f}));
-    const int boxMaterial = scene.addMaterial(test.material);
-    Mesh floor = positionColouredRect(0, 2, 1, -1.0, 1.0, 0.0, white);
-    floor.colors.clear();
-    scene.addMesh(floor);
-    Mesh box = makeBox({0.6, 0.3, 0.6});
-    box.material = boxMaterial;
-    scene.addMesh(box, true, at({0, -0.35, 0}));
-    scene.addLight(Light::makeDirectional({0, -1.0, 0}, Rgb::Ones()));
-    scene.worldBox = Box3{Eigen::Vector3d::Constant(-1), Eigen::Vector3d::Constant(1)};
-    const PhysicalScene physical(scene, display.displayableBox);
+    const PhysicalScene physical(floorUnderHoveringBox(test.material, {0, -1.0, 0}), display.displayableBox);
     const bool glass = test.material.kind == MaterialKind::kDielectric;
     EXPECT_EQ(physical.glassShadows(), glass);
     long under = 0, lit = 0;
     RenderCounters total;
-    for (int module = 0; module < 2; ++module) {
-      const RayTextures textures = generateRayTextures(display, module);
-      RenderCounters counters;
-      const Frame frame = renderFrame(physical, textures, RenderOptions{}, &counters);
-      total += counters;
-      for (int row = 0; row < textures.height(); ++row) {
-        for (int column = 0; column < textures.width(); ++column) {
-          const auto ray = worldRayOf(textures, column, row, physical.physicalFromWorld());
-          if (!ray) continue;
-          const auto t = hitPlane(*ray, Eigen::Vector3d::UnitY(), -1.0);
-          if (!t) continue;
-          const Eigen::Vector3d p = ray->origin + *t * ray->direction;
-          if (std::abs(p.x()) > 0.98 || std::abs(p.z()) > 0.98) continue;
-          // Skip pixels that see the floor through the box (refracted there, elsewhere).
-          bool throughBox = false;
-          for (double y : {-0.2, -0.5}) {
-            const auto ty = hitPlane(*ray, Eigen::Vector3d::UnitY(), y);
-            if (ty) {
-              const Eigen::Vector3d q = ray->origin + *ty * ray->direction;
-              throughBox = throughBox || (std::abs(q.x()) < 0.32 && std::abs(q.z()) < 0.32);
-            }
+    forEachRenderedPixel(
+        display, 2, physical, RenderOptions{},
+        [&](const RenderedPixel& pixel) {
+          const auto edge = floorPointEdge(pixel.ray);
+          if (!edge) return;
+          const Rgb expected = *edge < 0.3 ? test.expected : Rgb::Constant(0.5f);
+          (*edge < 0.3 ? under : lit) += 1;
+          for (int k = 0; k < 3; ++k) {
+            EXPECT_NEAR(pixel.colour[k], expected[k], 1e-5f) << pixel.column << "," << pixel.row << " channel " << k;
           }
-          const double edge = std::max(std::abs(p.x()), std::abs(p.z()));
-          if (throughBox || std::abs(edge - 0.3) < 0.02) continue;
-          const Rgb& c = frame.at(column, row);
-          const Rgb expected = edge < 0.3 ? test.expected : Rgb::Constant(0.5f);
-          (edge < 0.3 ? under : lit) += 1;
-          for (int k = 0; k < 3; ++k) ASSERT_NEAR(c[k], expected[k], 1e-5f) << column << "," << row << " channel " << k;
-        }
-      }
-    }
+        },
+        &total);
     EXPECT_GT(under, 100);
     EXPECT_GT(lit, 1000);
     // Glass costs no extra shadow rays: each shadow ray under the box met the two faces it
@@ -183,22 +160,16 @@ TEST(PointLights, InverseSquareFalloffInWorldUnitsAtAnyScale) {
     scene.addLight(Light::makePoint({0, 0, 0}, Rgb::Constant(static_cast<float>(scale * scale))));
     scene.worldBox = Box3{Eigen::Vector3d::Constant(-scale), Eigen::Vector3d::Constant(scale)};
     const PhysicalScene physical(scene, display.displayableBox);
-    const RayTextures textures = generateRayTextures(display, 0);
-    const Frame frame = renderFrame(physical, textures, RenderOptions{});
     long checked = 0;
-    for (int row = 0; row < textures.height(); ++row) {
-      for (int column = 0; column < textures.width(); ++column) {
-        const auto ray = worldRayOf(textures, column, row, physical.physicalFromWorld());
-        if (!ray) continue;
-        const auto t = hitPlane(*ray, Eigen::Vector3d::UnitZ(), -scale);
-        if (!t) continue;
-        const Eigen::Vector3d p = (ray->origin + *t * ray->direction) / scale;
-        if (std::abs(p.x()) > 0.98 || std::abs(p.y()) > 0.98) continue;
-        ++checked;
-        const double expected = 1.0 / std::pow(p.norm(), 3.0);
-        EXPECT_NEAR(frame.at(column, row).x(), expected, 1e-4 * expected) << "scale " << scale;
-      }
-    }
+    forEachRenderedPixel(display, 1, physical, RenderOptions{}, [&](const RenderedPixel& pixel) {
+      const auto t = hitPlane(pixel.ray, Eigen::Vector3d::UnitZ(), -scale);
+      if (!t) return;
+      const Eigen::Vector3d p = (pixel.ray.origin + *t * pixel.ray.direction) / scale;
+      if (std::abs(p.x()) > 0.98 || std::abs(p.y()) > 0.98) return;
+      ++checked;
+      const double expected = 1.0 / std::pow(p.norm(), 3.0);
+      EXPECT_NEAR(pixel.colour.x(), expected, 1e-4 * expected) << "scale " << scale;
+    });
     EXPECT_GT(checked, 1000);
   }
 }
@@ -247,28 +218,25 @@ TEST(Textures, RenderedPixelsShowTheTexelColour) {
   const PhysicalScene physical(scene, display.displayableBox);
   RenderOptions options;
   options.textureFiltering = false;
-  const RayTextures textures = generateRayTextures(display, 0);
   RenderCounters counters;
-  const Frame frame = renderFrame(physical, textures, options, &counters);
   long checked = 0;
-  for (int row = 0; row < textures.height(); ++row) {
-    for (int column = 0; column < textures.width(); ++column) {
-      const auto ray = worldRayOf(textures, column, row, physical.physicalFromWorld());
-      if (!ray) continue;
-      const auto t = hitPlane(*ray, Eigen::Vector3d::UnitZ(), 0.0);
-      if (!t) continue;
-      const Eigen::Vector3d p = ray->origin + *t * ray->direction;
-      const double u = (p.x() + 1) / 2, v = (p.y() + 1) / 2;
-      const double tx = u * 16, ty = (1 - v) * 16;  // texel coordinates, row 0 at the top
-      // Bilinear blends within half a texel of a block border: skip a full texel there.
-      const double bx = std::fmod(tx, 4.0), by = std::fmod(ty, 4.0);
-      if (u <= 0 || u >= 1 || v <= 0 || v >= 1 || bx < 1.0 || bx > 3.0 || by < 1.0 || by > 3.0) continue;
-      const int block = static_cast<int>(ty / 4) * 4 + static_cast<int>(tx / 4);
-      const Rgb expected(block / 16.0f, 1.0f - block / 16.0f, (block % 3) / 2.0f);
-      ++checked;
-      EXPECT_NEAR((frame.at(column, row) - expected).norm(), 0.0f, 1e-5f) << column << "," << row;
-    }
-  }
+  forEachRenderedPixel(
+      display, 1, physical, options,
+      [&](const RenderedPixel& pixel) {
+        const auto t = hitPlane(pixel.ray, Eigen::Vector3d::UnitZ(), 0.0);
+        if (!t) return;
+        const Eigen::Vector3d p = pixel.ray.origin + *t * pixel.ray.direction;
+        const double u = (p.x() + 1) / 2, v = (p.y() + 1) / 2;
+        const double tx = u * 16, ty = (1 - v) * 16;  // texel coordinates, row 0 at the top
+        // Bilinear blends within half a texel of a block border: skip a full texel there.
+        const double bx = std::fmod(tx, 4.0), by = std::fmod(ty, 4.0);
+        if (u <= 0 || u >= 1 || v <= 0 || v >= 1 || bx < 1.0 || bx > 3.0 || by < 1.0 || by > 3.0) return;
+        const int block = static_cast<int>(ty / 4) * 4 + static_cast<int>(tx / 4);
+        const Rgb expected(block / 16.0f, 1.0f - block / 16.0f, (block % 3) / 2.0f);
+        ++checked;
+        EXPECT_NEAR((pixel.colour - expected).norm(), 0.0f, 1e-5f) << pixel.column << "," << pixel.row;
+      },
+      &counters);
   EXPECT_GT(checked, 1000);
   EXPECT_GT(counters.textureLookups, 1000);
   EXPECT_EQ(physical.counters().texturesLoaded, 1);

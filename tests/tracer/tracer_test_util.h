@@ -4,12 +4,14 @@
 // (so a pixel's colour tells where its ray path ended).
 
 #include <Eigen/Core>
+#include <gtest/gtest.h>
 #include <optional>
 
 #include "calibration/display_presets.h"
 #include "calibration/ray_textures.h"
 #include "tracer/physical_scene.h"
 #include "tracer/scene.h"
+#include "tracer/whitted_integrator.h"
 
 namespace parallax::test {
 
@@ -47,6 +49,33 @@ inline std::optional<double> hitPlane(const WorldRay& ray, const Eigen::Vector3d
   return t;
 }
 
+// A traced pixel: its module, place, rendered colour and primary ray in world space.
+struct RenderedPixel {
+  int module, column, row;
+  Rgb colour;
+  WorldRay ray;
+};
+
+// Renders modules 0 .. modules − 1 and hands every pixel that has a primary ray to `visit`:
+// the loop of every test that checks pixels against an analytic path. Counters are summed
+// over the modules when asked for.
+template <class Visit>
+void forEachRenderedPixel(const DisplayModel& display, int modules, const PhysicalScene& scene,
+                          const RenderOptions& options, Visit&& visit, RenderCounters* counters = nullptr) {
+  for (int module = 0; module < modules; ++module) {
+    const RayTextures textures = generateRayTextures(display, module);
+    RenderCounters moduleCounters;
+    const Frame frame = renderFrame(scene, textures, options, &moduleCounters);
+    if (counters) *counters += moduleCounters;
+    for (int row = 0; row < textures.height(); ++row) {
+      for (int column = 0; column < textures.width(); ++column) {
+        const auto ray = worldRayOf(textures, column, row, scene.physicalFromWorld());
+        if (ray) visit(RenderedPixel{module, column, row, frame.at(column, row), *ray});
+      }
+    }
+  }
+}
+
 // An emissive rectangle with vertex colours = (a + offset, b + offset, 1) where (a, b) are the
 // two in-plane world coordinates `axisA`, `axisB` of the point: linear, so the interpolated
 // colour at any point encodes that point exactly, and dividing by the third channel cancels
@@ -66,6 +95,13 @@ inline Mesh positionColouredRect(int axisA, int axisB, int normalAxis, double pl
   }
   m.triangles = {{0, 1, 2}, {0, 2, 3}};
   return m;
+}
+
+// A pixel whose path ended on a positionColouredRect (offset 2) at in-plane coordinates (a, b):
+// its colour, with the path's weight divided out, must say so.
+inline void expectPaintedAt(const RenderedPixel& p, double a, double b, double tolerance) {
+  EXPECT_NEAR(p.colour.x() / p.colour.z(), a + 2.0, tolerance) << p.column << "," << p.row;
+  EXPECT_NEAR(p.colour.y() / p.colour.z(), b + 2.0, tolerance) << p.column << "," << p.row;
 }
 
 }  // namespace parallax::test

@@ -12,8 +12,11 @@
 namespace parallax {
 namespace {
 
+using test::expectPaintedAt;
+using test::forEachRenderedPixel;
 using test::hitPlane;
 using test::positionColouredRect;
+using test::RenderedPixel;
 using test::smallDisplay;
 using test::WorldRay;
 using test::worldRayOf;
@@ -87,31 +90,22 @@ TEST(WhittedIntegrator, MirrorPlaneReflectsAsTheLawOfReflectionSays) {
   scene.worldBox = Box3{Eigen::Vector3d::Constant(-1), Eigen::Vector3d::Constant(1)};
   const PhysicalScene physical(scene, display.displayableBox);
   long reflected = 0;
-  for (int module = 0; module < 2; ++module) {
-    const RayTextures textures = generateRayTextures(display, module);
-    const Frame frame = renderFrame(physical, textures, RenderOptions{});
-    for (int row = 0; row < textures.height(); ++row) {
-      for (int column = 0; column < textures.width(); ++column) {
-        const auto ray = worldRayOf(textures, column, row, physical.physicalFromWorld());
-        if (!ray) continue;
-        const auto tFloor = hitPlane(*ray, Eigen::Vector3d::UnitY(), -1.0);
-        const auto tWall = hitPlane(*ray, Eigen::Vector3d::UnitZ(), -1.0);
-        if (!tFloor || (tWall && *tWall < *tFloor)) continue;
-        const Eigen::Vector3d p = ray->origin + *tFloor * ray->direction;
-        if (std::abs(p.x()) > 0.98 || std::abs(p.z()) > 0.98) continue;
-        WorldRay bounced{p, Eigen::Vector3d(ray->direction.x(), -ray->direction.y(), ray->direction.z())};
-        const auto t2 = hitPlane(bounced, Eigen::Vector3d::UnitZ(), -1.0);
-        if (!t2) continue;
-        const Eigen::Vector3d q = bounced.origin + *t2 * bounced.direction;
-        if (std::abs(q.x()) > 0.98 || std::abs(q.y()) > 0.98) continue;
-        ++reflected;
-        const Rgb& c = frame.at(column, row);
-        ASSERT_GT(c.z(), 0.5f);
-        EXPECT_NEAR(c.x() / c.z(), q.x() + 2.0, kPathTolerance) << column << "," << row;
-        EXPECT_NEAR(c.y() / c.z(), q.y() + 2.0, kPathTolerance) << column << "," << row;
-      }
-    }
-  }
+  forEachRenderedPixel(display, 2, physical, RenderOptions{}, [&](const RenderedPixel& pixel) {
+    const WorldRay& ray = pixel.ray;
+    const auto tFloor = hitPlane(ray, Eigen::Vector3d::UnitY(), -1.0);
+    const auto tWall = hitPlane(ray, Eigen::Vector3d::UnitZ(), -1.0);
+    if (!tFloor || (tWall && *tWall < *tFloor)) return;
+    const Eigen::Vector3d p = ray.origin + *tFloor * ray.direction;
+    if (std::abs(p.x()) > 0.98 || std::abs(p.z()) > 0.98) return;
+    WorldRay bounced{p, Eigen::Vector3d(ray.direction.x(), -ray.direction.y(), ray.direction.z())};
+    const auto t2 = hitPlane(bounced, Eigen::Vector3d::UnitZ(), -1.0);
+    if (!t2) return;
+    const Eigen::Vector3d q = bounced.origin + *t2 * bounced.direction;
+    if (std::abs(q.x()) > 0.98 || std::abs(q.y()) > 0.98) return;
+    ++reflected;
+    EXPECT_GT(pixel.colour.z(), 0.5f);
+    expectPaintedAt(pixel, q.x(), q.y(), kPathTolerance);
+  });
   EXPECT_GT(reflected, 200);
 }
 
@@ -147,41 +141,32 @@ SlabResult checkSlab(float ior) {
   options.minWeight = 0.0f;
   SlabResult result;
   double shiftSum = 0.0;
-  for (int module = 0; module < 2; ++module) {
-    const RayTextures textures = generateRayTextures(display, module);
-    const Frame frame = renderFrame(physical, textures, options);
-    for (int row = 0; row < textures.height(); ++row) {
-      for (int column = 0; column < textures.width(); ++column) {
-        const auto ray = worldRayOf(textures, column, row, physical.physicalFromWorld());
-        if (!ray) continue;
-        const auto t0 = hitPlane(*ray, Eigen::Vector3d::UnitZ(), 0.2);
-        if (!t0) continue;
-        const Eigen::Vector3d p0 = ray->origin + *t0 * ray->direction;
-        const auto inside = snell(ray->direction, Eigen::Vector3d::UnitZ(), 1.0 / ior);
-        WorldRay in{p0, *inside};
-        const Eigen::Vector3d p1 = in.origin + *hitPlane(in, Eigen::Vector3d::UnitZ(), -0.2) * in.direction;
-        const auto out = snell(in.direction, Eigen::Vector3d::UnitZ(), ior);
-        if (!out) continue;
-        WorldRay leaving{p1, *out};
-        const Eigen::Vector3d q = leaving.origin + *hitPlane(leaving, Eigen::Vector3d::UnitZ(), -1.0) * leaving.direction;
-        if (std::abs(p0.x()) > 0.85 || std::abs(p0.y()) > 0.85 || std::abs(p1.x()) > 0.85 ||
-            std::abs(p1.y()) > 0.85 || std::abs(q.x()) > 0.98 || std::abs(q.y()) > 0.98) {
-          continue;
-        }
-        // Where the wall would be hit without the slab: the lateral shift is the difference.
-        const Eigen::Vector3d unbent = ray->origin + *hitPlane(*ray, Eigen::Vector3d::UnitZ(), -1.0) * ray->direction;
-        shiftSum += (q - unbent).head<2>().norm();
-        ++result.checked;
-        const Rgb& c = frame.at(column, row);
-        EXPECT_GT(c.z(), 0.8f) << "transmission through two faces near normal incidence";
-        EXPECT_NEAR(c.x() / c.z(), q.x() + 2.0, kPathTolerance) << column << "," << row;
-        EXPECT_NEAR(c.y() / c.z(), q.y() + 2.0, kPathTolerance) << column << "," << row;
-        if (ior == 1.0f) {
-          EXPECT_NEAR(c.z(), 1.0f, 1e-6f) << "an index-matched slab neither reflects nor absorbs";
-        }
-      }
+  forEachRenderedPixel(display, 2, physical, options, [&](const RenderedPixel& pixel) {
+    const WorldRay& ray = pixel.ray;
+    const auto t0 = hitPlane(ray, Eigen::Vector3d::UnitZ(), 0.2);
+    if (!t0) return;
+    const Eigen::Vector3d p0 = ray.origin + *t0 * ray.direction;
+    const auto inside = snell(ray.direction, Eigen::Vector3d::UnitZ(), 1.0 / ior);
+    WorldRay in{p0, *inside};
+    const Eigen::Vector3d p1 = in.origin + *hitPlane(in, Eigen::Vector3d::UnitZ(), -0.2) * in.direction;
+    const auto out = snell(in.direction, Eigen::Vector3d::UnitZ(), ior);
+    if (!out) return;
+    WorldRay leaving{p1, *out};
+    const Eigen::Vector3d q = leaving.origin + *hitPlane(leaving, Eigen::Vector3d::UnitZ(), -1.0) * leaving.direction;
+    if (std::abs(p0.x()) > 0.85 || std::abs(p0.y()) > 0.85 || std::abs(p1.x()) > 0.85 || std::abs(p1.y()) > 0.85 ||
+        std::abs(q.x()) > 0.98 || std::abs(q.y()) > 0.98) {
+      return;
     }
-  }
+    // Where the wall would be hit without the slab: the lateral shift is the difference.
+    const Eigen::Vector3d unbent = ray.origin + *hitPlane(ray, Eigen::Vector3d::UnitZ(), -1.0) * ray.direction;
+    shiftSum += (q - unbent).head<2>().norm();
+    ++result.checked;
+    EXPECT_GT(pixel.colour.z(), 0.8f) << "transmission through two faces near normal incidence";
+    expectPaintedAt(pixel, q.x(), q.y(), kPathTolerance);
+    if (ior == 1.0f) {
+      EXPECT_NEAR(pixel.colour.z(), 1.0f, 1e-6f) << "an index-matched slab neither reflects nor absorbs";
+    }
+  });
   result.meanLateralShift = result.checked ? shiftSum / static_cast<double>(result.checked) : 0.0;
   return result;
 }
@@ -226,37 +211,28 @@ TEST(WhittedIntegrator, TotalInternalReflectionInAPrism) {
   options.minWeight = 0.0f;
   const Eigen::Vector3d hypotenuseNormal = Eigen::Vector3d(0, 1, -1).normalized();  // outward
   long totallyReflected = 0;
-  for (int module = 0; module < 2; ++module) {
-    const RayTextures textures = generateRayTextures(display, module);
-    const Frame frame = renderFrame(physical, textures, options);
-    for (int row = 0; row < textures.height(); ++row) {
-      for (int column = 0; column < textures.width(); ++column) {
-        const auto ray = worldRayOf(textures, column, row, physical.physicalFromWorld());
-        if (!ray) continue;
-        const auto t0 = hitPlane(*ray, Eigen::Vector3d::UnitZ(), 0.5);
-        if (!t0) continue;
-        const Eigen::Vector3d p0 = ray->origin + *t0 * ray->direction;
-        if (std::abs(p0.x()) > 0.8 || p0.y() > 0.45 || p0.y() < -0.45) continue;
-        WorldRay in{p0, *snell(ray->direction, Eigen::Vector3d::UnitZ(), 1.0 / 1.5)};
-        const Eigen::Vector3d p1 = in.origin + *hitPlane(in, hypotenuseNormal, 0.0) * in.direction;
-        // Past the critical angle there is no refracted ray: the analytic answer is TIR.
-        ASSERT_FALSE(snell(in.direction, -hypotenuseNormal, 1.5).has_value()) << "expected TIR";
-        WorldRay down{p1, in.direction - 2.0 * in.direction.dot(hypotenuseNormal) * hypotenuseNormal};
-        const auto t2 = hitPlane(down, Eigen::Vector3d::UnitY(), -0.5);
-        if (!t2) continue;
-        const Eigen::Vector3d p2 = down.origin + *t2 * down.direction;
-        if (std::abs(p2.x()) > 0.8 || p2.z() > 0.45 || p2.z() < -0.45 || std::abs(p1.x()) > 0.8) continue;
-        WorldRay out{p2, *snell(down.direction, Eigen::Vector3d::UnitY(), 1.5)};
-        const Eigen::Vector3d q = out.origin + *hitPlane(out, Eigen::Vector3d::UnitY(), -1.0) * out.direction;
-        if (std::abs(q.x()) > 0.98 || std::abs(q.z()) > 0.98) continue;
-        ++totallyReflected;
-        const Rgb& c = frame.at(column, row);
-        ASSERT_GT(c.z(), 0.8f) << "TIR loses nothing; only the two refracting faces reflect a little";
-        EXPECT_NEAR(c.x() / c.z(), q.x() + 2.0, kPathTolerance) << column << "," << row;
-        EXPECT_NEAR(c.y() / c.z(), q.z() + 2.0, kPathTolerance) << column << "," << row;
-      }
-    }
-  }
+  forEachRenderedPixel(display, 2, physical, options, [&](const RenderedPixel& pixel) {
+    const WorldRay& ray = pixel.ray;
+    const auto t0 = hitPlane(ray, Eigen::Vector3d::UnitZ(), 0.5);
+    if (!t0) return;
+    const Eigen::Vector3d p0 = ray.origin + *t0 * ray.direction;
+    if (std::abs(p0.x()) > 0.8 || p0.y() > 0.45 || p0.y() < -0.45) return;
+    WorldRay in{p0, *snell(ray.direction, Eigen::Vector3d::UnitZ(), 1.0 / 1.5)};
+    const Eigen::Vector3d p1 = in.origin + *hitPlane(in, hypotenuseNormal, 0.0) * in.direction;
+    // Past the critical angle there is no refracted ray: the analytic answer is TIR.
+    EXPECT_FALSE(snell(in.direction, -hypotenuseNormal, 1.5).has_value()) << "expected TIR";
+    WorldRay down{p1, in.direction - 2.0 * in.direction.dot(hypotenuseNormal) * hypotenuseNormal};
+    const auto t2 = hitPlane(down, Eigen::Vector3d::UnitY(), -0.5);
+    if (!t2) return;
+    const Eigen::Vector3d p2 = down.origin + *t2 * down.direction;
+    if (std::abs(p2.x()) > 0.8 || p2.z() > 0.45 || p2.z() < -0.45 || std::abs(p1.x()) > 0.8) return;
+    WorldRay out{p2, *snell(down.direction, Eigen::Vector3d::UnitY(), 1.5)};
+    const Eigen::Vector3d q = out.origin + *hitPlane(out, Eigen::Vector3d::UnitY(), -1.0) * out.direction;
+    if (std::abs(q.x()) > 0.98 || std::abs(q.z()) > 0.98) return;
+    ++totallyReflected;
+    EXPECT_GT(pixel.colour.z(), 0.8f) << "TIR loses nothing; only the two refracting faces reflect a little";
+    expectPaintedAt(pixel, q.x(), q.z(), kPathTolerance);
+  });
   EXPECT_GT(totallyReflected, 500);
 }
 
@@ -300,32 +276,23 @@ TEST(WhittedIntegrator, MirrorSphereReflectsAsTheLawOfReflectionSays) {
   const SphereSetup setup = sphereBeforeWall(Material::makeMirror(Rgb::Ones()), 5);
   const PhysicalScene physical(setup.scene, display.displayableBox);
   long checked = 0;
-  for (int module = 0; module < 2; ++module) {
-    const RayTextures textures = generateRayTextures(display, module);
-    const Frame frame = renderFrame(physical, textures, RenderOptions{});
-    for (int row = 0; row < textures.height(); ++row) {
-      for (int column = 0; column < textures.width(); ++column) {
-        const auto ray = worldRayOf(textures, column, row, physical.physicalFromWorld());
-        if (!ray) continue;
-        const auto t = hitSphere(*ray, 0.5);
-        if (!t) continue;
-        const Eigen::Vector3d p = ray->origin + *t * ray->direction;
-        const Eigen::Vector3d n = p.normalized();
-        const double cosine = -ray->direction.dot(n);
-        if (cosine < std::cos(75.0 * 3.14159265358979 / 180.0)) continue;  // grazing: tessellation dominates
-        WorldRay bounced{p, ray->direction - 2.0 * ray->direction.dot(n) * n};
-        const auto t2 = hitPlane(bounced, Eigen::Vector3d::UnitZ(), -1.0);
-        if (!t2) continue;
-        const Eigen::Vector3d q = bounced.origin + *t2 * bounced.direction;
-        if (std::abs(q.x()) > 0.95 || std::abs(q.y()) > 0.95) continue;
-        ++checked;
-        const Rgb& c = frame.at(column, row);
-        ASSERT_GT(c.z(), 0.5f) << column << "," << row;
-        EXPECT_NEAR(c.x() / c.z(), q.x() + 2.0, kSphereTolerance) << column << "," << row;
-        EXPECT_NEAR(c.y() / c.z(), q.y() + 2.0, kSphereTolerance) << column << "," << row;
-      }
-    }
-  }
+  forEachRenderedPixel(display, 2, physical, RenderOptions{}, [&](const RenderedPixel& pixel) {
+    const WorldRay& ray = pixel.ray;
+    const auto t = hitSphere(ray, 0.5);
+    if (!t) return;
+    const Eigen::Vector3d p = ray.origin + *t * ray.direction;
+    const Eigen::Vector3d n = p.normalized();
+    const double cosine = -ray.direction.dot(n);
+    if (cosine < std::cos(75.0 * 3.14159265358979 / 180.0)) return;  // grazing: tessellation dominates
+    WorldRay bounced{p, ray.direction - 2.0 * ray.direction.dot(n) * n};
+    const auto t2 = hitPlane(bounced, Eigen::Vector3d::UnitZ(), -1.0);
+    if (!t2) return;
+    const Eigen::Vector3d q = bounced.origin + *t2 * bounced.direction;
+    if (std::abs(q.x()) > 0.95 || std::abs(q.y()) > 0.95) return;
+    ++checked;
+    EXPECT_GT(pixel.colour.z(), 0.5f) << pixel.column << "," << pixel.row;
+    expectPaintedAt(pixel, q.x(), q.y(), kSphereTolerance);
+  });
   EXPECT_GT(checked, 30) << "the 45°–75° ring that reflects onto the wall";
 }
 
@@ -338,35 +305,26 @@ TEST(WhittedIntegrator, GlassSphereRefractsAsSnellsLawSays) {
   RenderOptions options;
   options.minWeight = 0.0f;
   long checked = 0;
-  for (int module = 0; module < 2; ++module) {
-    const RayTextures textures = generateRayTextures(display, module);
-    const Frame frame = renderFrame(physical, textures, options);
-    for (int row = 0; row < textures.height(); ++row) {
-      for (int column = 0; column < textures.width(); ++column) {
-        const auto ray = worldRayOf(textures, column, row, physical.physicalFromWorld());
-        if (!ray) continue;
-        const auto t = hitSphere(*ray, 0.5);
-        if (!t) continue;
-        const Eigen::Vector3d p = ray->origin + *t * ray->direction;
-        const Eigen::Vector3d n = p.normalized();
-        if (-ray->direction.dot(n) < std::cos(50.0 * 3.14159265358979 / 180.0)) continue;
-        WorldRay inside{p, *snell(ray->direction, n, 1.0 / ior)};
-        const Eigen::Vector3d p1 = inside.origin + *hitSphere(inside, 0.5, true) * inside.direction;
-        const auto out = snell(inside.direction, -p1.normalized(), ior);
-        if (!out) continue;
-        WorldRay leaving{p1, *out};
-        const auto t2 = hitPlane(leaving, Eigen::Vector3d::UnitZ(), -1.0);
-        if (!t2) continue;
-        const Eigen::Vector3d q = leaving.origin + *t2 * leaving.direction;
-        if (std::abs(q.x()) > 0.95 || std::abs(q.y()) > 0.95) continue;
-        ++checked;
-        const Rgb& c = frame.at(column, row);
-        ASSERT_GT(c.z(), 0.5f) << column << "," << row;
-        EXPECT_NEAR(c.x() / c.z(), q.x() + 2.0, kSphereTolerance) << column << "," << row;
-        EXPECT_NEAR(c.y() / c.z(), q.y() + 2.0, kSphereTolerance) << column << "," << row;
-      }
-    }
-  }
+  forEachRenderedPixel(display, 2, physical, options, [&](const RenderedPixel& pixel) {
+    const WorldRay& ray = pixel.ray;
+    const auto t = hitSphere(ray, 0.5);
+    if (!t) return;
+    const Eigen::Vector3d p = ray.origin + *t * ray.direction;
+    const Eigen::Vector3d n = p.normalized();
+    if (-ray.direction.dot(n) < std::cos(50.0 * 3.14159265358979 / 180.0)) return;
+    WorldRay inside{p, *snell(ray.direction, n, 1.0 / ior)};
+    const Eigen::Vector3d p1 = inside.origin + *hitSphere(inside, 0.5, true) * inside.direction;
+    const auto out = snell(inside.direction, -p1.normalized(), ior);
+    if (!out) return;
+    WorldRay leaving{p1, *out};
+    const auto t2 = hitPlane(leaving, Eigen::Vector3d::UnitZ(), -1.0);
+    if (!t2) return;
+    const Eigen::Vector3d q = leaving.origin + *t2 * leaving.direction;
+    if (std::abs(q.x()) > 0.95 || std::abs(q.y()) > 0.95) return;
+    ++checked;
+    EXPECT_GT(pixel.colour.z(), 0.5f) << pixel.column << "," << pixel.row;
+    expectPaintedAt(pixel, q.x(), q.y(), kSphereTolerance);
+  });
   EXPECT_GT(checked, 500);
 }
 

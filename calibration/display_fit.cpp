@@ -200,6 +200,7 @@ class DisplayFitter {
     // Stage 0: camera poses (and k) from fiducials and tape alone, so the full problem starts
     // with cameras that see the screen where it is.
     solve(/*withModules=*/false, /*costTolerance=*/0.0, &result);
+    findFiducialOutliers();
     // Stage 1: the module-px residual. It is defined wherever a camera ray meets the screen,
     // so a bad start or a gross decoding error cannot stop the solve; its answer is biased
     // (the camera noise sits inside the model) but close, and it finds the outliers and σ.
@@ -253,13 +254,22 @@ class DisplayFitter {
     problem->SetParameterUpperBound(&state_.k, 0, kHalfLimit());
     if (!options_.fitCurvature) problem->SetParameterBlockConstant(&state_.k);
 
+    // Fiducials: robust while the cameras are placed by them alone (stage 0), which finds the
+    // misdetected ones; with the modules, the others enter without a loss. They are the
+    // gauge (the cylinder does not change along y: beyond the tape's 5 cm only they hold the
+    // height of everything):
+    // under a robust loss, a start far off at high noise let the correspondences (99.9% of
+    // the residuals) push them into the loss's flat tail, and the whole fit drifted (2 px
+    // noise, 160k correspondences on default: rays off by 10^27 px).
     for (size_t i = 0; i < obs_.fiducialSightings.size(); ++i) {
+      if (withModules && fiducialOutlier_[i]) continue;
       const FiducialSighting& f = obs_.fiducialSightings[i];
       const Eigen::Vector2d& xy = obs_.fiducials[static_cast<size_t>(f.fiducial)];
       auto* cost = new ceres::AutoDiffCostFunction<FiducialCost, 2, kCameraBlockSize, 1>(
           new FiducialCost{&obs_.intrinsics, xy.x(), xy.y(), f.cameraPx.x(), f.cameraPx.y(),
                            1.0 / sigmas_.fiducialPx});
-      problem->AddResidualBlock(cost, loss, state_.cameras[static_cast<size_t>(f.camera)].data(), &state_.k);
+      problem->AddResidualBlock(cost, withModules ? nullptr : loss,
+                                state_.cameras[static_cast<size_t>(f.camera)].data(), &state_.k);
     }
     for (size_t c = 0; c < obs_.stations.size(); ++c) {
       auto* cost = new ceres::AutoDiffCostFunction<TapeCost, 3, kCameraBlockSize>(
@@ -365,6 +375,19 @@ class DisplayFitter {
     }
     *uv = {out[0], out[1]};
     return uv->allFinite();
+  }
+
+  // Fiducial sightings more than kOutlierSigmas σ off once the cameras are placed.
+  void findFiducialOutliers() {
+    fiducialOutlier_.assign(obs_.fiducialSightings.size(), false);
+    for (size_t i = 0; i < obs_.fiducialSightings.size(); ++i) {
+      const FiducialSighting& f = obs_.fiducialSightings[i];
+      const Eigen::Vector2d& xy = obs_.fiducials[static_cast<size_t>(f.fiducial)];
+      const FiducialCost cost{&obs_.intrinsics, xy.x(), xy.y(), f.cameraPx.x(), f.cameraPx.y(), 1.0};
+      double r[2];
+      fiducialOutlier_[i] = !cost(state_.cameras[static_cast<size_t>(f.camera)].data(), &state_.k, r) ||
+                            std::hypot(r[0], r[1]) > kOutlierSigmas * sigmas_.fiducialPx;
+    }
   }
 
   // Correspondences more than kOutlierSigmas σ off after the module-px stage: gross decoding
@@ -725,6 +748,7 @@ class DisplayFitter {
   bool cameraResidual_ = false;       // the stage: correspondence residual in camera px
   std::vector<double> cameraScale_;   // per correspondence, for the camera-px stage
   std::vector<bool> excluded_;        // per correspondence, left out of the camera-px stage
+  std::vector<bool> fiducialOutlier_; // per sighting, left out once the modules are in
   std::unique_ptr<ceres::LossFunction> lossOwner_;
   std::unique_ptr<ceres::Problem> problem_;
 };

@@ -130,8 +130,28 @@ CalibrationObservations observationsFrame(const CameraMetadata& camera) {
   return obs;
 }
 
+CheckerboardCalibration calibrateCapturesCamera(CalibrationCaptures* captures,
+                                                const CheckerboardCalibrationOptions& options) {
+  if (!captures->checkerboard) fail("checkerboard", "the captures hold no checkerboard pictures");
+  const int width = captures->camera.intrinsics.width, height = captures->camera.intrinsics.height;
+  CheckerboardCalibration result =
+      calibrateFromCheckerboard(captures->checkerboard->pictures, captures->checkerboard->board, width, height, options);
+  captures->camera.intrinsics = result.intrinsics;
+  captures->camera.intrinsicsKnown = true;
+  return result;
+}
+
+void requireKnownIntrinsics(const CameraMetadata& camera, const std::string& file, const std::string& purpose) {
+  if (camera.intrinsicsKnown) return;
+  throw InputError({file, "intrinsics.focal_px", 0},
+                   fmt::format("missing: {} needs the camera's intrinsics (camera.json gives only the picture size; "
+                               "calibrate the camera from its checkerboard pictures first)",
+                               purpose));
+}
+
 CalibrationObservations decodeCaptures(const CalibrationCaptures& captures, const DisplayModel& nominal,
                                        const CaptureDecoderOptions& options) {
+  requireKnownIntrinsics(captures.camera, "", "decoding the pictures");
   captures.validate(nominal);
   CaptureDecoderOptions decoder = options;
   decoder.patterns = captures.patterns;
@@ -181,6 +201,10 @@ cv::Mat recorded8FromLinear(const cv::Mat& linear, double gamma) {
 
 void saveCameraMetadata(const CameraMetadata& camera, const std::string& path) {
   json j = cameraMetadataToJson(observationsFrame(camera));
+  if (!camera.intrinsicsKnown) {
+    // Only the picture size: the intrinsics are to be calibrated from the checkerboard.
+    for (const char* key : {"focal_px", "principal_px", "distortion"}) j["intrinsics"].erase(key);
+  }
   j["response_gamma"] = camera.responseGamma;
   writeFileAtomically(path, j.dump(2) + "\n");
 }
@@ -189,8 +213,8 @@ CameraMetadata loadCameraMetadata(const std::string& path) {
   try {
     const json j = readJsonFile(path);
     CalibrationObservations obs;
-    cameraMetadataFromJson(j, &obs);
     CameraMetadata camera;
+    cameraMetadataFromJson(j, &obs, &camera.intrinsicsKnown);
     camera.intrinsics = obs.intrinsics;
     camera.stations = obs.stations;
     camera.fiducials = obs.fiducials;
@@ -232,6 +256,7 @@ void saveCaptures(const CalibrationCaptures& captures, const std::string& direct
     }
     j["stations"].push_back(entry);
   }
+  if (captures.checkerboard) saveCheckerboardCaptures(*captures.checkerboard, directory);
   saveCameraMetadata(captures.camera, directory + "/camera.json");
   writeFileAtomically(directory + "/patterns.json", j.dump(2) + "\n");
 }
@@ -239,6 +264,14 @@ void saveCaptures(const CalibrationCaptures& captures, const std::string& direct
 CalibrationCaptures loadCaptures(const std::string& directory) {
   CalibrationCaptures captures;
   captures.camera = loadCameraMetadata(directory + "/camera.json");
+  if (hasCheckerboardCaptures(directory)) {
+    captures.checkerboard =
+        loadCheckerboardCaptures(directory, captures.camera.intrinsics.width, captures.camera.intrinsics.height);
+  } else if (!captures.camera.intrinsicsKnown) {
+    throw InputError({directory + "/camera.json", "intrinsics.focal_px", 0},
+                     fmt::format("missing, and there are no checkerboard pictures ({}) to calibrate the camera from",
+                                 kCheckerboardFileName));
+  }
   const std::string path = directory + "/patterns.json";
   try {
     const json j = readJsonFile(path);

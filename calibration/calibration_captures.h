@@ -13,13 +13,19 @@
 //                    stations: [{station, group: [modules], columns: [file, ...], rows: [file, ...]}]}
 //   NAME.png        the pictures as the camera recorded them (8-bit, its response curve);
 //                   converted to linear light when loaded.
+//   checkerboard.json, checkerboard/board_NN.png   (optional) the camera's pictures of a
+//                   checkerboard (checkerboard_captures.h). With them camera.json holds only
+//                   the picture size, and the intrinsics are calibrated from the board
+//                   (calibrateCapturesCamera) before decoding.
 
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "calibration/calibration_observations.h"
 #include "calibration/capture_decoder.h"
+#include "calibration/checkerboard_captures.h"
 #include "calibration/display_model.h"
 #include "calibration/structured_light.h"
 
@@ -27,6 +33,9 @@ namespace parallax {
 
 struct CameraMetadata {
   CameraIntrinsics intrinsics;            // from the camera's own (checkerboard) calibration
+  // false: camera.json gave only the picture size (fx, fy, cx, cy NaN); the intrinsics must
+  // come from the checkerboard pictures before anything is decoded.
+  bool intrinsicsKnown = true;
   double responseGamma = 1.0;             // recorded = linear^(1/gamma)
   std::vector<CameraStation> stations;    // tape-measured centres (cm accuracy)
   std::vector<Eigen::Vector2d> fiducials;  // marker places on the screen frame (x, y)
@@ -43,6 +52,7 @@ struct CalibrationCaptures {
   StructuredLightOptions patterns;
   int moduleWidth = 0, moduleHeight = 0;  // the pattern frames' size
   std::vector<StationCaptures> stations;
+  std::optional<CheckerboardCaptures> checkerboard;  // the camera's own calibration pictures
 
   // Throws InputError naming the field (frame counts, sizes, indices).
   void validate(const DisplayModel& nominal) const;
@@ -57,6 +67,16 @@ std::vector<std::vector<int>> moduleGroups(int modules, int stride);
 // replaced by the captures' own.
 CalibrationObservations decodeCaptures(const CalibrationCaptures& captures, const DisplayModel& nominal,
                                        const CaptureDecoderOptions& options);
+
+// The camera's intrinsics from the captures' checkerboard pictures (checkerboard_calibration.h)
+// into captures->camera (intrinsicsKnown becomes true); the picture size stays camera.json's.
+// Throws InputError naming the picture, or the field "pictures" when too few show the board.
+CheckerboardCalibration calibrateCapturesCamera(CalibrationCaptures* captures,
+                                                const CheckerboardCalibrationOptions& options = {});
+
+// Throws InputError naming `file` and intrinsics.focal_px when the camera's intrinsics are not
+// known (`purpose` says what needs them).
+void requireKnownIntrinsics(const CameraMetadata& camera, const std::string& file, const std::string& purpose);
 
 // The camera metadata in CalibrationObservations' camera fields (no decoded data yet).
 CalibrationObservations observationsFrame(const CameraMetadata& camera);

@@ -138,13 +138,21 @@ cv::Mat renderFrame(const StationView& view, const std::vector<cv::Mat>& moduleI
     }
   });
   if (!view.markers.empty()) linear += view.markers;
-  if (options.blurSigmaPx > 0.0) cv::GaussianBlur(linear, linear, cv::Size(0, 0), options.blurSigmaPx);
+  return recordThroughSensor(linear, options, random);
+}
+
+cv::Mat recordThroughSensor(const cv::Mat& light, const CameraRenderOptions& options, SeededRandom& random) {
+  cv::Mat linear = light;
+  if (options.blurSigmaPx > 0.0) {
+    linear = cv::Mat();  // a new buffer: the caller's light stays as it was
+    cv::GaussianBlur(light, linear, cv::Size(0, 0), options.blurSigmaPx);
+  }
   // Sensor: response curve, then noise (drawn serially from the seeded stream: deterministic).
-  cv::Mat recorded(view.height, view.width, CV_32F);
-  for (int y = 0; y < view.height; ++y) {
+  cv::Mat recorded(linear.rows, linear.cols, CV_32F);
+  for (int y = 0; y < linear.rows; ++y) {
     const float* in = linear.ptr<float>(y);
     float* out = recorded.ptr<float>(y);
-    for (int x = 0; x < view.width; ++x) {
+    for (int x = 0; x < linear.cols; ++x) {
       const double v = std::pow(std::clamp(static_cast<double>(in[x]), 0.0, 1.0), 1.0 / options.gamma) +
                        random.normal(options.noiseSigma);
       out[x] = static_cast<float>(std::clamp(v, 0.0, 1.0));

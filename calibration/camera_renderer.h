@@ -63,6 +63,11 @@ StationView viewFromStation(const DisplayModel& truth, const CameraIntrinsics& i
 cv::Mat renderFrame(const StationView& view, const std::vector<cv::Mat>& moduleImages,
                     const CameraRenderOptions& options, SeededRandom& random);
 
+// What the sensor makes of the light reaching it (CV_32F, linear): the lens blur, the response
+// curve, then the noise drawn from `random`; values in [0, 1]. renderFrame ends with it, and
+// so does every other picture the simulated camera takes (checkerboard_renderer.h).
+cv::Mat recordThroughSensor(const cv::Mat& linear, const CameraRenderOptions& options, SeededRandom& random);
+
 // The inverse of the sensor response: recorded → linear (decoders work in linear light).
 cv::Mat linearFromRecorded(const cv::Mat& recorded, double gamma);
 

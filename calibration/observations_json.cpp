@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include <fmt/format.h>
@@ -114,14 +115,9 @@ json decodedToJson(const CalibrationObservations& o) {
   return j;
 }
 
-void cameraMetadataFromJson(const json& j, CalibrationObservations* o) {
-  checkFormat(j, kCameraFormatName);
-  const json& in = member(j, "intrinsics", "");
-  const json& width = member(in, "width", "intrinsics");
-  const json& height = member(in, "height", "intrinsics");
-  o->intrinsics.width = index(width, "intrinsics.width", 65536);
-  o->intrinsics.height = index(height, "intrinsics.height", 65536);
-  if (o->intrinsics.width < 16 || o->intrinsics.height < 16) fail("intrinsics", "the image must be at least 16 px a side");
+namespace {
+
+void intrinsicsFromJson(const json& in, CalibrationObservations* o) {
   const auto focal = numberArray(member(in, "focal_px", "intrinsics"), "intrinsics.focal_px", 2);
   const auto principal = numberArray(member(in, "principal_px", "intrinsics"), "intrinsics.principal_px", 2);
   const auto distortion = numberArray(member(in, "distortion", "intrinsics"), "intrinsics.distortion", 2);
@@ -135,6 +131,9 @@ void cameraMetadataFromJson(const json& j, CalibrationObservations* o) {
   if (std::abs(o->intrinsics.k1) > 1.0 || std::abs(o->intrinsics.k2) > 1.0) {
     fail("intrinsics.distortion", "|k1|, |k2| must be <= 1 (a calibration camera, not a fisheye)");
   }
+}
+
+void stationsFromJson(const json& j, CalibrationObservations* o) {
   const json& stations = rows(j, "stations");
   if (stations.empty() || stations.size() > 64) fail("stations", "must hold 1..64 stations");
   o->stations.clear();
@@ -149,6 +148,29 @@ void cameraMetadataFromJson(const json& j, CalibrationObservations* o) {
     const auto f = numberArray(fiducials[i], fmt::format("fiducials[{}]", i), 2);
     o->fiducials.push_back({f[0], f[1]});
   }
+}
+
+}  // namespace
+
+void cameraMetadataFromJson(const json& j, CalibrationObservations* o, bool* intrinsicsKnown) {
+  checkFormat(j, kCameraFormatName);
+  const json& in = member(j, "intrinsics", "");
+  const json& width = member(in, "width", "intrinsics");
+  const json& height = member(in, "height", "intrinsics");
+  o->intrinsics.width = index(width, "intrinsics.width", 65536);
+  o->intrinsics.height = index(height, "intrinsics.height", 65536);
+  if (o->intrinsics.width < 16 || o->intrinsics.height < 16) fail("intrinsics", "the image must be at least 16 px a side");
+  // The picture size alone: the intrinsics come from the checkerboard pictures.
+  const bool sizeOnly = in.is_object() && !in.contains("focal_px") && !in.contains("principal_px") && !in.contains("distortion");
+  if (intrinsicsKnown) *intrinsicsKnown = !sizeOnly;
+  if (sizeOnly && intrinsicsKnown) {
+    // Not a camera yet: NaN, never a plausible default (decodeCaptures refuses unknown intrinsics).
+    const double unknown = std::numeric_limits<double>::quiet_NaN();
+    o->intrinsics = CameraIntrinsics{o->intrinsics.width, o->intrinsics.height, unknown, unknown, unknown, unknown, 0.0, 0.0};
+  } else {
+    intrinsicsFromJson(in, o);
+  }
+  stationsFromJson(j, o);
 }
 
 void decodedFromJson(const json& j, CalibrationObservations* o) {

@@ -52,6 +52,29 @@ CalibrationCaptures renderSession(const DisplayModel& truth, const CameraTruth& 
   return captures;
 }
 
+CheckerboardCaptures simulateCheckerboardCaptures(const CameraTruth& camera, const CheckerboardBoard& board,
+                                                  const CheckerboardShotOptions& options) {
+  SeededRandom random(camera.seed ^ 0x636865636b657273ULL);  // "checkers": its own stream
+  const std::vector<Eigen::Isometry3d> poses = checkerboardPoses(board, camera.intrinsics, options, random);
+  const std::vector<cv::Mat> pictures = photographCheckerboard(board, camera.intrinsics, poses, camera.sensor, options, random);
+  CheckerboardCaptures captures;
+  captures.board = board;
+  for (size_t i = 0; i < pictures.size(); ++i) captures.pictures.push_back({"board " + std::to_string(i), pictures[i]});
+  return captures;
+}
+
+CameraIntrinsics cameraAsBuilt(const CameraIntrinsics& datasheet, std::uint64_t seed) {
+  SeededRandom random(seed ^ 0x6c656e73ULL);  // "lens"
+  CameraIntrinsics in = datasheet;
+  in.fx = datasheet.fx * (1.0 + random.clippedNormal(0.01, 0.02));
+  in.fy = in.fx * (datasheet.fy / datasheet.fx) * (1.0 + random.clippedNormal(0.001, 0.003));
+  in.cx = datasheet.cx + random.clippedNormal(0.01 * datasheet.width, 0.02 * datasheet.width);
+  in.cy = datasheet.cy + random.clippedNormal(0.01 * datasheet.height, 0.02 * datasheet.height);
+  in.k1 = datasheet.k1 + random.clippedNormal(0.015, 0.03);
+  in.k2 = datasheet.k2 + random.clippedNormal(0.01, 0.02);
+  return in;
+}
+
 SimulatedRig makeSimulatedRig(const DisplayModel& truth, const CameraRigOptions& rig, std::uint64_t seed,
                               const CameraRenderOptions& sensor) {
   SyntheticOptions options;

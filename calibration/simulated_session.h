@@ -7,6 +7,8 @@
 
 #include "calibration/calibration_captures.h"
 #include "calibration/camera_truth.h"
+#include "calibration/checkerboard_captures.h"
+#include "calibration/checkerboard_renderer.h"
 #include "calibration/synthetic_observations.h"
 
 namespace parallax {
@@ -30,6 +32,16 @@ struct SimulatedRig {
 };
 SimulatedRig makeSimulatedRig(const DisplayModel& truth, const CameraRigOptions& rig, std::uint64_t seed,
                               const CameraRenderOptions& sensor = {});
+
+// The camera's checkerboard pictures (checkerboard_renderer.h): seeded poses in front of the
+// true camera, its sensor, noise from a stream of its own (the screen pictures stay the same).
+CheckerboardCaptures simulateCheckerboardCaptures(const CameraTruth& camera, const CheckerboardBoard& board,
+                                                  const CheckerboardShotOptions& options);
+
+// A camera as built: the datasheet's camera with a seeded manufacturing spread (focal length
+// ~1%, aspect ~0.1%, principal point ~1% of the picture, k1 ±0.015, a small k2), so that a
+// calibration from the checkerboard has something to find.
+CameraIntrinsics cameraAsBuilt(const CameraIntrinsics& datasheet, std::uint64_t seed);
 
 // The module pattern frames as a module shows them: 8-bit (quantised) values read back as linear.
 std::vector<cv::Mat> quantisedPatternFrames(int width, int height, PatternAxis axis,

@@ -1,16 +1,20 @@
 // parallax calibrate --captures DIR --nominal FILE|default|demo --out calib.json
 // parallax calibrate --link auto|simhw:SOCKET --camera camera.json --nominal ... --out calib.json
 //                    [--stations 0,2,4] [--save-captures DIR]
-//        common:     [--report] [--truth gt.json] [--transfer conical|linear] [--threads N] [--pixel-step N]
+//        common:     [--report] [--truth gt.json [--camera-truth camera_truth.json]] [--transfer conical|linear]
+//                    [--threads N] [--pixel-step N]
 // Fits the display to a calibration session — never its ground truth —, starting from the
 // nominal display. The session is either a captures folder (calibration_captures.h: the
 // pictures, patterns.json and camera.json, decoded here; or decoded.json from `parallax
 // simulate --synthetic`) or taken now through the link: the modules show the patterns, the
 // camera (described by camera.json: intrinsics, response, tape-measured stations) photographs
-// them at every station (hw/calibration_capture.h). The result is written
+// them at every station (hw/calibration_capture.h). A captures folder with checkerboard
+// pictures (checkerboard_captures.h) gives the camera's intrinsics first (cv::calibrateCamera);
+// without them camera.json's intrinsics are used. The result is written
 // atomically (temporary file, then rename) and the previous calibration is kept as
 // calib.json.previous; a calibration that fails its own quality checks is not installed.
-// --truth adds error-against-truth columns to the report; the fit never sees that file.
+// --truth adds error-against-truth columns to the report, and the camera's (camera_truth.json
+// beside it, or --camera-truth) to the checkerboard calibration's; the fit never sees them.
 
 #include <filesystem>
 #include <iostream>
@@ -19,6 +23,8 @@
 #include <fmt/format.h>
 
 #include "calibration/calibration_captures.h"
+#include "calibration/camera_truth.h"
+#include "calibration/checkerboard_calibration.h"
 #include "calibration/display_fit.h"
 #include "calibration/display_model_json.h"
 #include "calibration/display_presets.h"
@@ -47,13 +53,14 @@ struct CalibrateArgs {
   std::string out;
   bool report = false;
   std::string truth;
+  std::string cameraTruth;
   std::string transfer;
   int threads = 2;
 };
 
 // The observations of the session and the file to blame for bad data in them.
 CalibrationObservations sessionObservations(const CalibrateArgs& args, const DisplayModel& nominal,
-                                            std::string* source) {
+                                            const CameraIntrinsics* cameraTruth, std::string* source) {
   CaptureDecoderOptions decoder;
   decoder.pixelStep = args.pixelStep;
   namespace fs = std::filesystem;
@@ -64,7 +71,17 @@ CalibrationObservations sessionObservations(const CalibrateArgs& args, const Dis
       return loadObservations(args.captures);
     }
     *source = args.captures + "/patterns.json";
-    const CalibrationCaptures captures = loadCaptures(args.captures);
+    CalibrationCaptures captures = loadCaptures(args.captures);
+    if (captures.checkerboard) {
+      try {
+        const CheckerboardCalibration camera = calibrateCapturesCamera(&captures);
+        std::cout << formatCheckerboardCalibration(camera, cameraTruth);
+      } catch (const InputError& e) {
+        throw e.location().file.empty() ? e.inFile(args.captures + "/" + kCheckerboardFileName) : e;
+      }
+    } else {
+      std::cout << "camera intrinsics from camera.json (no checkerboard pictures)\n";
+    }
     std::cout << fmt::format("decoding {} picture sets from {}\n", captures.stations.size(), args.captures);
     try {
       return decodeCaptures(captures, nominal, decoder);
@@ -74,6 +91,7 @@ CalibrationObservations sessionObservations(const CalibrateArgs& args, const Dis
   }
   *source = args.camera;
   const CameraMetadata camera = loadCameraMetadata(args.camera);
+  requireKnownIntrinsics(camera, args.camera, "calibrating through the link");
   hw::LinkSelection selection;
   selection.spec = args.link;
   hw::SelectedLink chosen = hw::selectLink(selection);
@@ -105,8 +123,19 @@ void runCalibrate(const CalibrateArgs& args) {
     throw InputError({"", "--camera", 0}, "--link needs the camera's metadata (camera.json: intrinsics, stations)");
   }
   const DisplayModel nominal = resolveDisplay(args.nominal);
+  // The true camera, for the report only: --camera-truth, else camera_truth.json beside --truth.
+  std::optional<CameraIntrinsics> cameraTruth;
+  namespace fs = std::filesystem;
+  std::string cameraTruthPath = args.cameraTruth;
+  if (cameraTruthPath.empty() && !args.truth.empty()) {
+    const fs::path beside = fs::path(args.truth).parent_path() / "camera_truth.json";
+    std::error_code ec;
+    if (fs::exists(beside, ec)) cameraTruthPath = beside.string();
+  }
+  if (!cameraTruthPath.empty()) cameraTruth = loadCameraTruth(cameraTruthPath).intrinsics;
   std::string source;
-  const CalibrationObservations observations = sessionObservations(args, nominal, &source);
+  const CalibrationObservations observations =
+      sessionObservations(args, nominal, cameraTruth ? &*cameraTruth : nullptr, &source);
   std::cout << fmt::format("{} correspondences, {} stripe centres, {} fiducial sightings\n",
                            observations.correspondences.size(), observations.stripes.size(),
                            observations.fiducialSightings.size());
@@ -143,7 +172,6 @@ void runCalibrate(const CalibrateArgs& args) {
   if (!result.passesQualityChecks()) {
     throw std::runtime_error(fmt::format("the calibration failed its quality checks; {} was left untouched", args.out));
   }
-  namespace fs = std::filesystem;
   std::error_code ec;
   if (fs::exists(args.out, ec)) {
     fs::copy_file(args.out, args.out + ".previous", fs::copy_options::overwrite_existing, ec);
@@ -169,6 +197,8 @@ void addCalibrateCommand(CLI::App& app) {
   command->add_option("--out", args->out, "calibrated display JSON to write")->required();
   command->add_flag("--report", args->report, "print the per-module table");
   command->add_option("--truth", args->truth, "ground truth JSON: adds error columns to the report (never used by the fit)");
+  command->add_option("--camera-truth", args->cameraTruth,
+                      "the camera's truth (camera_truth.json; default: beside --truth): adds its error to the camera report");
   command->add_option("--transfer", args->transfer, "assumed screen transfer (default: the nominal's)");
   command->add_option("--threads", args->threads, "solver threads");
   command->callback([args] { runCalibrate(*args); });

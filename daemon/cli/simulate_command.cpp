@@ -1,14 +1,19 @@
 // parallax simulate [--display FILE|default|demo] --seed S --out DIR
 //                   [--stations N] [--span M] [--camera-resolution WxH] [--noise-px P]
-//                   [--truth-transfer T] [--truth-curvature K] [--synthetic]
+//                   [--truth-transfer T] [--truth-curvature K] [--synthetic] [--boards N]
 // Makes a seeded ground truth from the nominal display and what a calibration session would
 // record of it, into DIR:
 //   nominal.json        the nominal display the session starts from
-//   camera.json         camera intrinsics and response, tape-measured stations, fiducial places
+//   camera.json         the camera's picture size and response, tape-measured stations, fiducial
+//                       places — and its intrinsics only when there are no checkerboard pictures
+//   checkerboard.json, checkerboard/board_NN.png   the camera's pictures of a checkerboard
+//                       (--boards N, default 12; 0 = none), what its intrinsics are calibrated from
 //   patterns.json, set*.png   the pictures of every station and module group (calibration_captures.h)
 // and, for the simulator and tests only (a calibration never opens them):
 //   ground_truth.json   the perturbed display
-//   camera_truth.json   the camera's true station poses and sensor (parallax-simhw --camera)
+//   camera_truth.json   the camera's true intrinsics, station poses and sensor (parallax-simhw --camera)
+// The true camera is the datasheet's (cameraOfSize) with a seeded manufacturing spread
+// (cameraAsBuilt), so the checkerboard calibration has something to find.
 // --synthetic writes decoded.json instead of pictures: correspondences straight from the
 // truth with --noise-px of camera noise (synthetic_observations.h), for fast experiments on
 // large displays. --noise-px only applies there; the pictures carry sensor noise instead.
@@ -43,6 +48,7 @@ struct SimulateArgs {
   std::string truthTransfer;
   std::optional<double> truthCurvature;
   bool synthetic = false;
+  int boards = 12;
 };
 
 // A camera of the given size with the default's field of view (fx = 2100 at 1920 px wide).
@@ -82,8 +88,9 @@ void runSimulate(const SimulateArgs& args) {
   CameraRigOptions rig;
   rig.stations = args.stations;
   rig.spanM = args.spanM;
-  rig.intrinsics = cameraOfSize(args.cameraResolution);
   const std::uint64_t rigSeed = args.seed * 7919 + 1;  // independent of the truth's stream
+  rig.intrinsics = cameraAsBuilt(cameraOfSize(args.cameraResolution), rigSeed);
+  if (args.boards < 0 || args.boards > 200) throw InputError({"", "--boards", 0}, "must be 0..200");
   const SimulatedRig camera = makeSimulatedRig(truth, rig, rigSeed);
 
   std::error_code ec;
@@ -111,14 +118,22 @@ void runSimulate(const SimulateArgs& args) {
                              data.observations.fiducialSightings.size(), where);
     return;
   }
-  const CalibrationCaptures captures = renderSession(truth, camera.truth, camera.metadata, {});
+  CalibrationCaptures captures = renderSession(truth, camera.truth, camera.metadata, {});
+  if (args.boards > 0) {
+    CheckerboardShotOptions shots;
+    shots.pictures = args.boards;
+    captures.checkerboard = simulateCheckerboardCaptures(camera.truth, CheckerboardBoard{}, shots);
+    captures.camera.intrinsicsKnown = false;  // a real installation learns them from the board
+  }
   saveCaptures(captures, args.out);
   size_t pictures = 0;
   for (const StationCaptures& s : captures.stations) pictures += s.columnFrames.size() + s.rowFrames.size();
   std::cout << header
-            << fmt::format("  {} pictures ({} station × group sets)\n"
-                           "  written to {}: nominal.json, camera.json, patterns.json, set*.png; ground_truth.json, camera_truth.json (simulator and tests only)\n",
-                           pictures, captures.stations.size(), where);
+            << fmt::format("  {} pictures ({} station × group sets){}\n"
+                           "  written to {}: nominal.json, camera.json, patterns.json, set*.png{}; ground_truth.json, camera_truth.json (simulator and tests only)\n",
+                           pictures, captures.stations.size(),
+                           args.boards > 0 ? fmt::format(", {} checkerboard pictures (camera.json without intrinsics)", args.boards) : "",
+                           where, args.boards > 0 ? ", checkerboard.json, checkerboard/" : "");
 }
 
 }  // namespace
@@ -137,6 +152,8 @@ void addSimulateCommand(CLI::App& app) {
   command->add_option("--truth-transfer", args->truthTransfer, "screen transfer of the ground truth (conical, linear)");
   command->add_option("--truth-curvature", args->truthCurvature, "curvature k of the ground truth's screen (1/m)");
   command->add_flag("--synthetic", args->synthetic, "write decoded.json (synthetic correspondences) instead of pictures");
+  command->add_option("--boards", args->boards,
+                      "checkerboard pictures for the camera's intrinsics (0: none, camera.json then carries them)");
   command->callback([args] { runSimulate(*args); });
 }
 

@@ -20,6 +20,7 @@ CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& no
     throw InputError({"", "calibration.camera", 0}, "calibrating needs the camera's metadata (camera.json)");
   }
   const CameraMetadata camera = loadCameraMetadata(config.camera);
+  requireKnownIntrinsics(camera, config.camera, "calibrating through the link");
   // The camera behind the link: parallax-simhw's, or a real one answering capture requests.
   hw::SimulatedCamera device(link);
   hw::CalibrationCaptureOptions capture;

@@ -22,6 +22,8 @@
 
 #include "calibration/calibration_captures.h"
 #include "calibration/camera_truth.h"
+#include "calibration/checkerboard_calibration.h"
+#include "calibration/checkerboard_captures.h"
 #include "calibration/display_model_json.h"
 #include "calibration/ground_truth.h"
 #include "calibration/simulated_session.h"
@@ -67,8 +69,22 @@ SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardwa
   rig.intrinsics.cx = 320.0;
   rig.intrinsics.cy = 180.0;
   rig.intrinsics.k1 = -0.04;
-  const SimulatedRig camera = makeSimulatedRig(truth, rig, static_cast<std::uint64_t>(hardware.seed) * 7919 + 1);
+  SimulatedRig camera = makeSimulatedRig(truth, rig, static_cast<std::uint64_t>(hardware.seed) * 7919 + 1);
   std::filesystem::create_directories(folder_);
+  // The daemon gets what an installer gives it: camera.json with the intrinsics the camera's
+  // own checkerboard pictures give (kept beside it), never its truth. The link carries no
+  // checkerboard pictures, so the camera is calibrated here, once, before the daemon uses it.
+  CheckerboardShotOptions shots;
+  shots.pictures = 12;
+  const CheckerboardCaptures board = simulateCheckerboardCaptures(camera.truth, CheckerboardBoard{}, shots);
+  saveCheckerboardCaptures(board, folder_);
+  const CheckerboardCalibration cameraFit =
+      calibrateFromCheckerboard(board.pictures, board.board, rig.intrinsics.width, rig.intrinsics.height);
+  camera.metadata.intrinsics = cameraFit.intrinsics;
+  spdlog::info("simulated camera calibrated from {} checkerboard pictures: fx {:.2f} fy {:.2f} cx {:.2f} cy {:.2f} "
+               "k1 {:.4f} k2 {:.4f}, {:.3f} px RMS",
+               cameraFit.used.size(), cameraFit.intrinsics.fx, cameraFit.intrinsics.fy, cameraFit.intrinsics.cx,
+               cameraFit.intrinsics.cy, cameraFit.intrinsics.k1, cameraFit.intrinsics.k2, cameraFit.rmsPx);
   saveDisplayModel(truth, groundTruthPath());
   saveCameraTruth(camera.truth, folder_ + "/camera_truth.json");
   saveCameraMetadata(camera.metadata, cameraMetadataPath());

@@ -3,9 +3,11 @@
 // `parallax-simhw` child (found next to the parallaxd binary) on a socket in the daemon's
 // runtime folder, photographing a seeded ground truth (calibration/ground_truth.h) with a
 // seeded camera rig (calibration/simulated_session.h). The daemon is given only the camera's
-// metadata (camera.json: intrinsics, tape-measured stations), never the truth; the truth files
-// are written beside it for tests and reports:
-//   <cache_dir>/simulated-display/seed-N/{ground_truth,camera_truth,camera}.json
+// metadata (camera.json: intrinsics calibrated from the camera's own checkerboard pictures,
+// tape-measured stations), never the truth; the truth files are written beside it for tests
+// and reports:
+//   <cache_dir>/simulated-display/seed-N/{ground_truth,camera_truth,camera,checkerboard}.json
+//   <cache_dir>/simulated-display/seed-N/checkerboard/board_NN.png
 // If it dies (a crash fault, a kill), it is
 // started again on the same socket — the simulated equivalent of a module rebooting — and the
 // link reconnects by itself. Stopped with SIGTERM (then SIGKILL after a grace period).

@@ -135,6 +135,32 @@ class ProgressCallback : public ceres::IterationCallback {
   const std::function<void(int, double)>& f_;
 };
 
+// Stops a solve once a successful step lowers the cost by less than `tolerance`. The cost is
+// ½ Σ (r/σ)², so near the minimum a step that lowers it by ΔC moved the parameters by
+// √(2 ΔC) standard deviations (Mahalanobis): 0.01 is 0.14 σ, and the steps still to come
+// (each ~10× smaller here) would not change the rays. Ceres' relative tolerance cannot say
+// this: the cost grows with the number of observations (1e-10 of it took 2–3 more Jacobians).
+class CostChangeTolerance : public ceres::IterationCallback {
+ public:
+  explicit CostChangeTolerance(double tolerance) : tolerance_(tolerance) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    if (s.iteration > 0 && s.step_is_successful && s.cost_change < tolerance_) {
+      return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+    }
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  double tolerance_;
+};
+
+// Cost-change tolerances: a first solve only has to bring a start close enough for the
+// camera-px residual and the outlier test (within a σ or so); the final one to 0.14 σ.
+constexpr double kStartCostTolerance = 1.0;
+constexpr double kFinalCostTolerance = 0.01;
+// Correspondences in the first solve (more cost time, not a better start); the final one uses all.
+constexpr size_t kStartCorrespondences = 40000;
+
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   const size_t mid = v.size() / 2;
@@ -173,14 +199,38 @@ class DisplayFitter {
     FitResult result;
     // Stage 0: camera poses (and k) from fiducials and tape alone, so the full problem starts
     // with cameras that see the screen where it is.
-    solve(/*withModules=*/false, &result);
-    solve(true, &result);
-    if (options_.reestimateNoise) {
-      reestimateSigmas();
-      solve(true, &result);
+    solve(/*withModules=*/false, /*costTolerance=*/0.0, &result);
+    findFiducialOutliers();
+    // Stage 1: the module-px residual. It is defined wherever a camera ray meets the screen,
+    // so a bad start or a gross decoding error cannot stop the solve; its answer is biased
+    // (the camera noise sits inside the model) but close, and it finds the outliers and σ.
+    // When a final solve follows, this is a start: it needs no more than
+    // kStartCorrespondences, beyond that one in `stride_` (observations come in scan order,
+    // so every module and station keeps its share).
+    const bool finalSolveFollows = options_.residualInCameraPx || options_.reestimateNoise;
+    stride_ = finalSolveFollows ? std::max<size_t>(1, obs_.correspondences.size() / kStartCorrespondences) : 1;
+    solve(true, finalSolveFollows ? kStartCostTolerance : kFinalCostTolerance, &result);
+    stride_ = 1;
+    if (options_.reestimateNoise) reestimateSigmas();
+    if (options_.residualInCameraPx) {
+      // Stage 2: the camera-px residual from that start, without the gross outliers (a wrong
+      // module pixel can light a point the camera never saw, where this residual is not
+      // defined and would stall the solver).
+      fixCameraScales();
+      excludeOutliers();
+      cameraResidual_ = true;
+      solve(true, kFinalCostTolerance, &result);
+      if (options_.reestimateNoise) {
+        reestimateSigmas();
+        problem_ = build(true);  // the covariance is read with the final σ
+      }
+    } else if (options_.reestimateNoise) {
+      solve(true, kFinalCostTolerance, &result);
     }
     result.solveSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const auto diagnosticsStart = std::chrono::steady_clock::now();
     report(&result);
+    result.diagnosticsSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - diagnosticsStart).count();
     return result;
   }
 
@@ -204,13 +254,22 @@ class DisplayFitter {
     problem->SetParameterUpperBound(&state_.k, 0, kHalfLimit());
     if (!options_.fitCurvature) problem->SetParameterBlockConstant(&state_.k);
 
+    // Fiducials: robust while the cameras are placed by them alone (stage 0), which finds the
+    // misdetected ones; with the modules, the others enter without a loss. They are the
+    // gauge (the cylinder does not change along y: beyond the tape's 5 cm only they hold the
+    // height of everything):
+    // under a robust loss, a start far off at high noise let the correspondences (99.9% of
+    // the residuals) push them into the loss's flat tail, and the whole fit drifted (2 px
+    // noise, 160k correspondences on default: rays off by 10^27 px).
     for (size_t i = 0; i < obs_.fiducialSightings.size(); ++i) {
+      if (withModules && fiducialOutlier_[i]) continue;
       const FiducialSighting& f = obs_.fiducialSightings[i];
       const Eigen::Vector2d& xy = obs_.fiducials[static_cast<size_t>(f.fiducial)];
       auto* cost = new ceres::AutoDiffCostFunction<FiducialCost, 2, kCameraBlockSize, 1>(
           new FiducialCost{&obs_.intrinsics, xy.x(), xy.y(), f.cameraPx.x(), f.cameraPx.y(),
                            1.0 / sigmas_.fiducialPx});
-      problem->AddResidualBlock(cost, loss, state_.cameras[static_cast<size_t>(f.camera)].data(), &state_.k);
+      problem->AddResidualBlock(cost, withModules ? nullptr : loss,
+                                state_.cameras[static_cast<size_t>(f.camera)].data(), &state_.k);
     }
     for (size_t c = 0; c < obs_.stations.size(); ++c) {
       auto* cost = new ceres::AutoDiffCostFunction<TapeCost, 3, kCameraBlockSize>(
@@ -226,8 +285,8 @@ class DisplayFitter {
                                                             ceres::EuclideanManifold<9>>());
       if (held_[m]) problem->SetParameterBlockConstant(state_.modules[m].data());
     }
-    if (options_.residualInCameraPx && cameraScale_.empty()) fixCameraScales();
     for (size_t i = 0; i < obs_.correspondences.size(); ++i) {
+      if (i % stride_ != 0 || (cameraResidual_ && excluded_[i])) continue;
       const Correspondence& c = obs_.correspondences[i];
       const OpticalModule& m = nominal_.modules[static_cast<size_t>(c.module)];
       ceres::CostFunction* cost;
@@ -236,7 +295,7 @@ class DisplayFitter {
       // such a correspondence (a module pixel whose starting ray misses the screen, at the
       // rim of a strongly curved one) is left out of this solve.
       if (!correspondenceResidual(i, &startResidual)) continue;
-      if (options_.residualInCameraPx) {
+      if (cameraResidual_) {
         cost = new ceres::AutoDiffCostFunction<CameraCorrespondenceCost, 2, kModuleBlockSize, kCameraBlockSize, 1>(
             new CameraCorrespondenceCost{&obs_.intrinsics, c.modulePx.x(), c.modulePx.y(), c.cameraPx.x(),
                                          c.cameraPx.y(), static_cast<double>(m.width), m.mirror ? -1.0 : 1.0,
@@ -262,7 +321,7 @@ class DisplayFitter {
     return problem;
   }
 
-  void solve(bool withModules, FitResult* result) {
+  void solve(bool withModules, double costTolerance, FitResult* result) {
     problem_.reset();
     problem_ = build(withModules);
     ceres::Solver::Options so;
@@ -288,11 +347,18 @@ class DisplayFitter {
     }
     ProgressCallback callback(options_.onIteration);
     if (options_.onIteration) so.callbacks.push_back(&callback);
+    CostChangeTolerance tolerance(costTolerance);
+    so.callbacks.push_back(&tolerance);
     ceres::Solver::Summary summary;
+    // The bounds on k make Ceres follow every trust-region step with a projected line search
+    // that evaluates the full Jacobian a second time (half the solve time). The bounds are
+    // still kept: Ceres clamps each step into them.
+    so.max_num_line_search_step_size_iterations = 0;
     ceres::Solve(so, problem_.get(), &summary);
     result->iterations += static_cast<int>(summary.iterations.size());
     if (withModules) {
-      result->converged = summary.termination_type == ceres::CONVERGENCE;
+      result->converged = summary.termination_type == ceres::CONVERGENCE ||
+                          summary.termination_type == ceres::USER_SUCCESS;
     }
   }
 
@@ -309,6 +375,29 @@ class DisplayFitter {
     }
     *uv = {out[0], out[1]};
     return uv->allFinite();
+  }
+
+  // Fiducial sightings more than kOutlierSigmas σ off once the cameras are placed.
+  void findFiducialOutliers() {
+    fiducialOutlier_.assign(obs_.fiducialSightings.size(), false);
+    for (size_t i = 0; i < obs_.fiducialSightings.size(); ++i) {
+      const FiducialSighting& f = obs_.fiducialSightings[i];
+      const Eigen::Vector2d& xy = obs_.fiducials[static_cast<size_t>(f.fiducial)];
+      const FiducialCost cost{&obs_.intrinsics, xy.x(), xy.y(), f.cameraPx.x(), f.cameraPx.y(), 1.0};
+      double r[2];
+      fiducialOutlier_[i] = !cost(state_.cameras[static_cast<size_t>(f.camera)].data(), &state_.k, r) ||
+                            std::hypot(r[0], r[1]) > kOutlierSigmas * sigmas_.fiducialPx;
+    }
+  }
+
+  // Correspondences more than kOutlierSigmas σ off after the module-px stage: gross decoding
+  // errors, left out of the camera-px stage (the report still counts them as outliers).
+  void excludeOutliers() {
+    excluded_.assign(obs_.correspondences.size(), false);
+    for (size_t i = 0; i < obs_.correspondences.size(); ++i) {
+      Eigen::Vector2d r;
+      excluded_[i] = !correspondenceResidual(i, &r) || r.norm() > kOutlierSigmas * sigmas_.correspondencePx;
+    }
   }
 
   // Module px per camera px at every correspondence, √|det| of the local 2 × 2 map, from the
@@ -341,7 +430,7 @@ class DisplayFitter {
 
   bool correspondenceResidual(size_t i, Eigen::Vector2d* r) const {
     const Correspondence& c = obs_.correspondences[i];
-    if (options_.residualInCameraPx && !cameraScale_.empty()) {
+    if (cameraResidual_) {
       const OpticalModule& m = nominal_.modules[static_cast<size_t>(c.module)];
       const CameraCorrespondenceCost cost{&obs_.intrinsics, c.modulePx.x(), c.modulePx.y(), c.cameraPx.x(),
                                           c.cameraPx.y(), static_cast<double>(m.width), m.mirror ? -1.0 : 1.0,
@@ -595,15 +684,22 @@ class DisplayFitter {
         mf.stdDev[static_cast<size_t>(p)] = sd;
       }
       mf.worstPixelStdDevPx = worstPixelStdDev(moduleOf[j], d.moduleCovariance[j]);
-      if (d.modules[j].state != Conditioning::kRankDeficient && !(mf.worstPixelStdDevPx <= options_.maxPixelStdDevPx)) {
+      const double limit = std::max(options_.maxPixelStdDevPx, options_.maxPixelDilution * sigmas_.correspondencePx);
+      if (d.modules[j].state != Conditioning::kRankDeficient && !(mf.worstPixelStdDevPx <= limit)) {
         // Well conditioned but too little data: the covariance says the rays are unknown.
         Deficiency def;
         def.module = static_cast<int>(moduleOf[j]);
         def.state = Conditioning::kUndetermined;
         def.reciprocalCondition = d.modules[j].reciprocalCondition;
         def.parameters = {fmt::format("its rays (pixel σ up to {:.2f} px > {:.2f} px allowed)",
-                                      mf.worstPixelStdDevPx, options_.maxPixelStdDevPx)};
+                                      mf.worstPixelStdDevPx, limit)};
         result->deficiencies.push_back(def);
+      } else if (mf.worstPixelStdDevPx > options_.maxPixelStdDevPx) {
+        result->notes.push_back(fmt::format(
+            "module {}: pixel σ up to {:.2f} px, {:.1f}× the correspondences' noise ({:.3f} module px): "
+            "the camera's noise, not the setup, limits its rays",
+            moduleOf[j], mf.worstPixelStdDevPx, mf.worstPixelStdDevPx / sigmas_.correspondencePx,
+            sigmas_.correspondencePx));
       }
       if (d.modules[j].state != Conditioning::kGood) {
         Deficiency def;
@@ -648,7 +744,11 @@ class DisplayFitter {
   Prepared prepared_;
   State state_;
   Sigmas sigmas_;
-  std::vector<double> cameraScale_;  // per correspondence, with residualInCameraPx
+  size_t stride_ = 1;                 // every stride_-th correspondence in the solve
+  bool cameraResidual_ = false;       // the stage: correspondence residual in camera px
+  std::vector<double> cameraScale_;   // per correspondence, for the camera-px stage
+  std::vector<bool> excluded_;        // per correspondence, left out of the camera-px stage
+  std::vector<bool> fiducialOutlier_; // per sighting, left out once the modules are in
   std::unique_ptr<ceres::LossFunction> lossOwner_;
   std::unique_ptr<ceres::Problem> problem_;
 };
@@ -701,6 +801,7 @@ void FitOptions::validate() const {
   positive(robustScale, "robust_scale");
   positive(transferMismatchRatio, "transfer_mismatch_ratio");
   positive(maxPixelStdDevPx, "max_pixel_std_dev_px");
+  positive(maxPixelDilution, "max_pixel_dilution");
   if (maxIterations < 1 || maxIterations > 10000) throw InputError({"", "max_iterations", 0}, "must be 1..10000");
   if (threads < 1 || threads > 256) throw InputError({"", "threads", 0}, "must be 1..256");
   conditioning.validate();

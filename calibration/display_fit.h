@@ -6,17 +6,23 @@
 // fit_geometry.h); every camera station's pose (started from its tape-measured centre, aimed at
 // the screen centre); the screen curvature k (never R: k = 0 is an ordinary value).
 // Residuals, each divided by its noise level σ so they are comparable:
-//   correspondence (2): the camera pixel back-projects to a screen point s(k, camera); its
-//       projection into the module minus the decoded module pixel (module px). Forward
-//       direction only: no undistortion inside the solver.
+//   correspondence (2), in two stages (FitOptions::residualInCameraPx):
+//       first, the camera pixel back-projects to a screen point s(k, camera); its projection
+//       into the module minus the decoded module pixel (module px). Defined wherever the
+//       camera sees the screen, so robust from a poor start, but the camera's noise sits
+//       inside the model (an errors-in-variables bias);
+//       then, from that start and without its gross outliers, the decoded module pixel lights
+//       a screen point s(module, k) whose camera pixel is predicted and compared with the
+//       measured one, scaled to module px. The noise stays on the measured side.
 //   stripe (1): at a stripe centre seen by a camera the transfer sends module light exactly to
 //       the camera; the mismatch (fit_geometry.h's stripeMismatch, mm on the screen). This is
 //       what separates a module's focal length from its distance.
 //   fiducial (2): the markers on the screen frame reprojected into the camera (camera px).
 //   tape (3): each camera centre near its tape-measured place (σ = the tape's accuracy).
 // A Cauchy loss guards against decoding outliers. The noise levels start from the options and
-// are then re-estimated from the residuals (median absolute deviation) for a second solve, so
-// the standard deviations reported afterwards mean what they say.
+// are re-estimated from the first stage's residuals (median absolute deviation) for the
+// second, and again from its residuals for the covariance, so the standard deviations
+// reported afterwards mean what they say.
 
 #include <functional>
 #include <optional>
@@ -37,12 +43,11 @@ struct FitOptions {
   double tapeSigmaM = 0.05;
   double robustScale = 3.0;                // Cauchy scale, in units of σ
   // Correspondence residual: true — the camera pixel predicted from the module pixel (the
-  // noise stays on the measured side); false — the camera pixel back-projected into the module
-  // (noise inside the model: errors-in-variables bias). Both in module px. Off by default for
-  // now: on `default` it halves the ray error (bench --experiment), but with main's widened
-  // module row it loses robustness to 10% gross outliers and 2 px noise (the stability suite);
-  // see /work/notes/calib2.md.
-  bool residualInCameraPx = false;
+  // noise stays on the measured side), after a first solve with the other form for a robust
+  // start and to find the gross outliers; false — only the camera pixel back-projected into
+  // the module (the noise inside the model: an errors-in-variables bias that nearly doubles
+  // the ray error on `default`, bench --experiment). Both in module px.
+  bool residualInCameraPx = true;
   bool reestimateNoise = true;
   bool fitCurvature = true;
   bool fitDistortion = true;
@@ -61,6 +66,14 @@ struct FitOptions {
   // conditioning. Catches well-conditioned but data-starved setups (two stations: each module
   // seen in two stripes, its image corners extrapolated by tens of pixels).
   double maxPixelStdDevPx = 1.5;
+  // ... unless the camera's noise explains it: the limit is max(maxPixelStdDevPx,
+  // maxPixelDilution × the re-estimated correspondence σ). The ratio of a module's worst pixel
+  // σ to its measurements' σ depends on the setup alone, not on the noise: measured 2.5–5
+  // with five stations (demo, default), ~14 with three or four, 60–280 with two. A module
+  // within the ratio is determined as well as its camera allows; refusing it for a noisy
+  // camera (2 px: pixel σ ~1.6 px at 2.6× the noise) would keep a worse calibration in
+  // place. The fit says so in a note.
+  double maxPixelDilution = 10.0;
   // Modules held at their starting values (the `nominal` argument, which for a refit is the
   // current calibration): constant in the solve, their correspondences still placing the
   // cameras. Refitting one replaced module holds all the others (`calibrate --module N`);
@@ -116,7 +129,8 @@ struct FitResult {
   std::optional<double> otherTransferStripeRmsMm;  // when the other transfer was tried
   std::vector<std::string> notes;  // findings a user must read (mismatch, unseen modules, ...)
   int iterations = 0;
-  double solveSeconds = 0.0;
+  double solveSeconds = 0.0;        // the solves (the fit)
+  double diagnosticsSeconds = 0.0;  // residual statistics, covariance and conditioning after it
   bool converged = false;
   int outliers = 0;
 

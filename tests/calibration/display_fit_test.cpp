@@ -14,6 +14,8 @@
 #include <cstdio>
 #include <numbers>
 
+#include <fmt/format.h>
+
 #include "calibration/display_presets.h"
 #include "calibration/ground_truth.h"
 #include "calibration/ray_error.h"
@@ -265,6 +267,14 @@ TEST_P(NoiseLevel, RayErrorGrowsWithCameraNoise) {
   // The re-estimated noise (module px) tracks the camera noise (≈ 0.27 module px per camera px
   // on the demo display).
   EXPECT_NEAR(o.fit.correspondenceSigmaPx / noise, 0.27, 0.08);
+  // A module let through above the absolute pixel-σ limit because the noise explains it
+  // (FitOptions::maxPixelDilution) is named in a note.
+  for (const ModuleFit& m : o.fit.modules) {
+    if (!(m.worstPixelStdDevPx > c.fit.maxPixelStdDevPx)) continue;
+    bool said = false;
+    for (const std::string& n : o.fit.notes) said |= n.find(fmt::format("module {}: pixel σ", m.module)) == 0;
+    EXPECT_TRUE(said) << "module " << m.module;
+  }
 }
 
 // Tolerances ~2× the measured RMS ray error.
@@ -372,6 +382,19 @@ TEST(DisplayFit, TooFewStationsAreRefused) {
   const Outcome o = run("2 stations (too few)", c);
   EXPECT_FALSE(o.fit.passesQualityChecks());
   EXPECT_FALSE(o.fit.deficiencies.empty());
+}
+
+TEST(DisplayFit, TooFewStationsAreRefusedAtAnyNoise) {
+  // The pixel-σ limit grows with the camera's noise (FitOptions::maxPixelDilution), but only
+  // as far as a sound setup's rays spread: two stations at 2 px noise are still refused.
+  Case c = demoCase(27);
+  c.sim.rig.stations = 2;
+  c.sim.noisePx = 2.0;
+  const Outcome o = run("2 stations, 2 px noise", c);
+  EXPECT_FALSE(o.fit.passesQualityChecks());
+  bool undetermined = false;
+  for (const Deficiency& d : o.fit.deficiencies) undetermined |= d.state == Conditioning::kUndetermined;
+  EXPECT_TRUE(undetermined);
 }
 
 TEST(DisplayFit, StandardDeviationsMatchTheActualErrors) {

@@ -201,6 +201,70 @@ struct TestCost {
   }
 };
 
+// The screen point a module pixel lights (mm), the camera-px residual's first half: its
+// undistortion is iterated on plain values and differentiated by one Newton step in Jets.
+struct ModulePixelScreenCost {
+  double u, v, width, mirrorSign;
+
+  template <typename T>
+  bool operator()(const T* module, const T* k, T* r) const {
+    Vec3<T> s;
+    if (!screenPointOfModulePixel(module, width, mirrorSign, k[0], u, v, &s)) return false;
+    for (int i = 0; i < 3; ++i) r[i] = T(1000) * s[i];
+    return true;
+  }
+};
+
+TEST(FitGeometry, UndistortionDerivativesMatchNumeric) {
+  // Strong barrel and pincushion terms and a pixel near the image corner, where the Newton
+  // step's derivatives differ most from a single fixed-point step's.
+  const DisplayModel model = makeGroundTruth(resolveDisplay("demo"), {});
+  const OpticalModule& optics = model.modules[6];
+  auto module0 = packModule(optics);
+  module0[11] = -0.12;
+  module0[12] = 0.03;
+  const ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<9>> manifold;
+  for (double k0 : {0.0, 0.4}) {
+    for (const auto& [u, v] : {std::pair{60.0, 40.0}, std::pair{256.0, 192.0}, std::pair{450.0, 340.0}}) {
+      ceres::AutoDiffCostFunction<ModulePixelScreenCost, 3, kModuleBlockSize, 1> cost(
+          new ModulePixelScreenCost{u, v, static_cast<double>(optics.width), optics.mirror ? -1.0 : 1.0});
+      double k = k0;
+      const double* params[] = {module0.data(), &k};
+      double r[3];
+      Eigen::Matrix<double, 3, kModuleBlockSize, Eigen::RowMajor> jm;
+      Eigen::Matrix<double, 3, 1> jk;
+      double* jacobians[] = {jm.data(), jk.data()};
+      ASSERT_TRUE(cost.Evaluate(params, r, jacobians));
+      Eigen::Matrix<double, kModuleBlockSize, kModuleTangentSize, Eigen::RowMajor> pm;
+      ASSERT_TRUE(manifold.PlusJacobian(module0.data(), pm.data()));
+      Eigen::Matrix<double, 3, kModuleTangentSize + 1> analytic;
+      analytic << jm * pm, jk;
+      for (int column = 0; column < analytic.cols(); ++column) {
+        constexpr double kStep = 1e-6;
+        Eigen::Vector3d plus, minus;
+        for (double sign : {1.0, -1.0}) {
+          auto m = module0;
+          double kk = k0;
+          if (column < kModuleTangentSize) {
+            double delta[kModuleTangentSize] = {};
+            delta[column] = sign * kStep;
+            manifold.Plus(module0.data(), delta, m.data());
+          } else {
+            kk += sign * kStep;
+          }
+          const double* p[] = {m.data(), &kk};
+          ASSERT_TRUE(cost.Evaluate(p, (sign > 0 ? plus : minus).data(), nullptr));
+        }
+        const Eigen::Vector3d numeric = (plus - minus) / (2.0 * kStep);
+        const double scale = std::max(1.0, numeric.norm());
+        EXPECT_LT((numeric - analytic.col(column)).norm() / scale, 1e-5)
+            << "k = " << k0 << ", pixel (" << u << ", " << v << "), tangent column " << column
+            << "\nnumeric " << numeric.transpose() << "\nautodiff " << analytic.col(column).transpose();
+      }
+    }
+  }
+}
+
 TEST(FitGeometry, AutodiffJacobianMatchesNumericIncludingFlatScreen) {
   // Autodiff Jacobian mapped to the tangent spaces (what the solver uses) against central
   // differences taken through the manifolds' Plus, at k = 0 and on a curved screen.

@@ -10,6 +10,43 @@ void validLanes(size_t packet, size_t size, int* valid) {
   for (size_t lane = 0; lane < 16; ++lane) valid[lane] = packet * 16 + lane < size ? -1 : 0;
 }
 
+// The one loop behind both queries: ray by ray, packet by packet (the last packet's unused
+// lanes masked off) or as one stream (unused lanes made empty, tnear > tfar). `lanes` gives a
+// packet's ray part (RTCRay16 of an RTCRayHit16, or the RTCRay16 itself).
+template <class Packets, class One, class Sixteen, class Stream, class Lanes>
+void traceBatch(Packets& rays, Traversal traversal, One traceOne, Sixteen traceSixteen, Stream traceStream,
+                Lanes lanes) {
+  if (rays.empty()) return;
+  const size_t count = rays.packetCount();
+  switch (traversal) {
+    case Traversal::kSingle:
+      for (size_t i = 0; i < rays.size(); ++i) {
+        auto r = rays.get(i);
+        traceOne(&r);
+        rays.set(i, r);
+      }
+      break;
+    case Traversal::kPacket16: {
+      alignas(64) int valid[16];
+      validLanes(0, 16, valid);
+      for (size_t p = 0; p < count; ++p) {
+        if (p + 1 == count) validLanes(p, rays.size(), valid);
+        traceSixteen(valid, &rays.packets()[p]);
+      }
+      break;
+    }
+    case Traversal::kStream: {
+      RTCRay16& last = lanes(rays.packets()[count - 1]);
+      for (size_t lane = rays.size() % 16; lane != 0 && lane < 16; ++lane) {
+        last.tnear[lane] = 1.0f;
+        last.tfar[lane] = 0.0f;
+      }
+      traceStream(rays.packets(), static_cast<unsigned>(count));
+      break;
+    }
+  }
+}
+
 }  // namespace
 
 void RayHitPackets::grow() { packets_.emplace_back(); }
@@ -77,47 +114,6 @@ RTCRay OcclusionPackets::get(size_t i) const {
 }
 
 void OcclusionPackets::set(size_t i, const RTCRay& r) { packets_[i / 16].tfar[i % 16] = r.tfar; }
-
-namespace {
-
-// The one loop behind both queries: ray by ray, packet by packet (the last packet's unused
-// lanes masked off) or as one stream (unused lanes made empty, tnear > tfar). `lanes` gives a
-// packet's ray part (RTCRay16 of an RTCRayHit16, or the RTCRay16 itself).
-template <class Packets, class One, class Sixteen, class Stream, class Lanes>
-void traceBatch(Packets& rays, Traversal traversal, One traceOne, Sixteen traceSixteen, Stream traceStream,
-                Lanes lanes) {
-  if (rays.empty()) return;
-  const size_t count = rays.packetCount();
-  switch (traversal) {
-    case Traversal::kSingle:
-      for (size_t i = 0; i < rays.size(); ++i) {
-        auto r = rays.get(i);
-        traceOne(&r);
-        rays.set(i, r);
-      }
-      break;
-    case Traversal::kPacket16: {
-      alignas(64) int valid[16];
-      validLanes(0, 16, valid);
-      for (size_t p = 0; p < count; ++p) {
-        if (p + 1 == count) validLanes(p, rays.size(), valid);
-        traceSixteen(valid, &rays.packets()[p]);
-      }
-      break;
-    }
-    case Traversal::kStream: {
-      RTCRay16& last = lanes(rays.packets()[count - 1]);
-      for (size_t lane = rays.size() % 16; lane != 0 && lane < 16; ++lane) {
-        last.tnear[lane] = 1.0f;
-        last.tfar[lane] = 0.0f;
-      }
-      traceStream(rays.packets(), static_cast<unsigned>(count));
-      break;
-    }
-  }
-}
-
-}  // namespace
 
 void intersectPackets(RTCScene scene, RayHitPackets& rays, Traversal traversal, bool coherent) {
   RTCIntersectContext context = intersectContext(coherent);

@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "calibration/camera_picture.h"
 #include "calibration/fiducial_detector.h"
 #include "calibration/json_fields.h"
 #include "calibration/json_file.h"
@@ -37,17 +38,8 @@ std::string frameName(size_t set, char axis, size_t frame) {
 }
 
 cv::Mat loadPicture(const std::string& path, const CameraMetadata& camera) {
-  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
-  if (image.empty()) throw InputError({path, "", 0}, "cannot read the picture (missing or not an image)");
-  if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
-    throw InputError({path, "", 0}, "must be an 8-bit grey or colour picture, as the camera recorded it");
-  }
-  if (image.cols != camera.intrinsics.width || image.rows != camera.intrinsics.height) {
-    throw InputError({path, "", 0}, fmt::format("is {}x{}, the camera's pictures are {}x{}", image.cols,
-                                                image.rows, camera.intrinsics.width, camera.intrinsics.height));
-  }
-  if (image.channels() == 3) cv::cvtColor(image, image, cv::COLOR_BGR2GRAY);
-  return linearFromRecorded8(image, camera.responseGamma);
+  return linearFromRecorded8(readCameraPicture(path, camera.intrinsics.width, camera.intrinsics.height),
+                             camera.responseGamma);
 }
 
 }  // namespace
@@ -250,13 +242,7 @@ CalibrationCaptures loadCaptures(const std::string& directory) {
   const std::string path = directory + "/patterns.json";
   try {
     const json j = readJsonFile(path);
-    const json& format = member(j, "format", "");
-    if (!format.is_string() || format.get<std::string>() != kPatternsFormatName) {
-      fail("format", fmt::format("must be \"{}\", got {}", kPatternsFormatName, format.dump()));
-    }
-    if (integer(member(j, "version", ""), "version", 0, 1 << 20) != kPatternsFormatVersion) {
-      fail("version", fmt::format("must be {}", kPatternsFormatVersion));
-    }
+    jsonfield::requireFormat(j, kPatternsFormatName, kPatternsFormatVersion);
     captures.patterns.periodPx = static_cast<int>(integer(member(j, "period_px", ""), "period_px", 2, 4096));
     captures.patterns.phaseSteps = static_cast<int>(integer(member(j, "phase_steps", ""), "phase_steps", 3, 64));
     captures.patterns.minContrast = number(member(j, "min_contrast", ""), "min_contrast");

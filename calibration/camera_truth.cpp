@@ -50,14 +50,7 @@ void saveCameraTruth(const CameraTruth& truth, const std::string& path) {
 CameraTruth loadCameraTruth(const std::string& path) {
   try {
     const json j = readJsonFile(path);
-    const json& format = member(j, "format", "");
-    if (!format.is_string() || format.get<std::string>() != kFormatName) {
-      fail("format", fmt::format("must be \"{}\", got {}", kFormatName, format.dump()));
-    }
-    const json& version = member(j, "version", "");
-    if (!version.is_number_integer() || version.get<long long>() != kFormatVersion) {
-      fail("version", fmt::format("must be {}", kFormatVersion));
-    }
+    jsonfield::requireFormat(j, kFormatName, kFormatVersion);
     CameraTruth truth;
     const json& seed = member(j, "seed", "");
     if (!seed.is_number_unsigned()) fail("seed", "must be a non-negative integer");

@@ -5,8 +5,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
+#include "calibration/camera_picture.h"
 #include "calibration/json_fields.h"
 #include "calibration/json_file.h"
 #include "common/atomic_file.h"
@@ -27,20 +27,6 @@ constexpr size_t kMaxPictures = 1000;
 bool insideFolder(const std::string& name) {
   return !name.empty() && name.front() != '/' && name.find("..") == std::string::npos &&
          name.find('\\') == std::string::npos;
-}
-
-cv::Mat loadBoardPicture(const std::string& path, int width, int height) {
-  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
-  if (image.empty()) throw InputError({path, "", 0}, "cannot read the checkerboard picture (missing or not an image)");
-  if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
-    throw InputError({path, "", 0}, "must be an 8-bit grey or colour picture, as the camera recorded it");
-  }
-  if (image.cols != width || image.rows != height) {
-    throw InputError({path, "", 0}, fmt::format("is {}x{}, the camera's pictures are {}x{} (camera.json)", image.cols,
-                                                image.rows, width, height));
-  }
-  if (image.channels() == 3) cv::cvtColor(image, image, cv::COLOR_BGR2GRAY);
-  return image;
 }
 
 }  // namespace
@@ -76,25 +62,12 @@ CheckerboardCaptures loadCheckerboardCaptures(const std::string& directory, int 
   CheckerboardCaptures captures;
   try {
     const json j = readJsonFile(path);
-    const json& format = member(j, "format");
-    if (!format.is_string() || format.get<std::string>() != kFormatName) {
-      fail("format", fmt::format("must be \"{}\", got {}", kFormatName, format.dump()));
-    }
-    const json& version = member(j, "version");
-    if (!version.is_number_integer() || version.get<long long>() != kFormatVersion) {
-      fail("version", fmt::format("must be {}, got {}", kFormatVersion, version.dump()));
-    }
+    jsonfield::requireFormat(j, kFormatName, kFormatVersion);
     const json& inner = member(j, "inner_corners");
-    if (!inner.is_array() || inner.size() != 2 || !inner[0].is_number_integer() || !inner[1].is_number_integer()) {
-      fail("inner_corners", "must be [columns, rows], two integers");
-    }
-    const long long columns = inner[0].get<long long>(), rows = inner[1].get<long long>();
-    if (columns < 3 || rows < 3 || columns > 100 || rows > 100) fail("inner_corners", "must be 3..100 each way");
-    captures.board.innerColumns = static_cast<int>(columns);
-    captures.board.innerRows = static_cast<int>(rows);
-    const json& square = member(j, "square_m");
-    if (!square.is_number()) fail("square_m", fmt::format("must be a number, got {}", square.type_name()));
-    captures.board.squareM = square.get<double>();
+    if (!inner.is_array() || inner.size() != 2) fail("inner_corners", "must be [columns, rows], two integers");
+    captures.board.innerColumns = static_cast<int>(jsonfield::integer(inner[0], "inner_corners", 3, 100));
+    captures.board.innerRows = static_cast<int>(jsonfield::integer(inner[1], "inner_corners", 3, 100));
+    captures.board.squareM = jsonfield::number(member(j, "square_m"), "square_m");
     captures.board.validate();  // names inner_corners / square_m
     const json& pictures = member(j, "pictures");
     if (!pictures.is_array() || pictures.empty() || pictures.size() > kMaxPictures) {
@@ -111,7 +84,7 @@ CheckerboardCaptures loadCheckerboardCaptures(const std::string& directory, int 
     throw e.location().file.empty() ? e.inFile(path) : e;
   }
   // The pictures themselves: their errors name the picture's file.
-  for (CheckerboardPicture& p : captures.pictures) p.recorded = loadBoardPicture(p.name, width, height);
+  for (CheckerboardPicture& p : captures.pictures) p.recorded = readCameraPicture(p.name, width, height);
   return captures;
 }
 

@@ -102,15 +102,7 @@ json displayModelToJson(const DisplayModel& model) {
 
 DisplayModel displayModelFromJson(const json& j) {
   if (!j.is_object()) fail("", fmt::format("the document must be an object, got {}", j.type_name()));
-  const json& format = member(j, "format", "");
-  if (!format.is_string() || format.get<std::string>() != kDisplayFormatName) {
-    fail("format", fmt::format("must be \"{}\", got {}", kDisplayFormatName, format.dump()));
-  }
-  const json& version = member(j, "version", "");
-  if (!version.is_number_integer() || version.get<long long>() != kDisplayFormatVersion) {
-    fail("version", fmt::format("unknown version {} (this build reads version {})", version.dump(),
-                                kDisplayFormatVersion));
-  }
+  jsonfield::requireFormat(j, kDisplayFormatName, kDisplayFormatVersion);
   DisplayModel model;
   if (j.contains("name")) {
     if (!j["name"].is_string()) fail("name", "must be a string");

@@ -51,4 +51,15 @@ const json& array(const json& j, const std::string& field, size_t maxSize) {
   return j;
 }
 
+void requireFormat(const json& document, const std::string& name, int version) {
+  const json& format = member(document, "format");
+  if (!format.is_string() || format.get<std::string>() != name) {
+    fail("format", fmt::format("must be \"{}\", got {}", name, format.dump()));
+  }
+  const json& v = member(document, "version");
+  if (!v.is_number_integer() || v.get<long long>() != version) {
+    fail("version", fmt::format("unknown version {} (this build reads version {})", v.dump(), version));
+  }
+}
+
 }  // namespace parallax::jsonfield

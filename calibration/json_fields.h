@@ -24,4 +24,7 @@ long long integer(const json& j, const std::string& field, long long lo, long lo
 std::vector<double> numbers(const json& j, const std::string& field, size_t size);  // exactly `size`, finite
 const json& array(const json& j, const std::string& field, size_t maxSize);
 
+// The document's "format" is `name` and its "version" is `version` (the files this build reads).
+void requireFormat(const json& document, const std::string& name, int version);
+
 }  // namespace parallax::jsonfield

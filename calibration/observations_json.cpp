@@ -33,21 +33,7 @@ int index(const json& j, const std::string& field, int limit) {
 }
 
 const json& rows(const json& object, const std::string& key) {
-  const json& j = member(object, key, "");
-  if (!j.is_array()) fail(key, fmt::format("must be an array, got {}", j.type_name()));
-  if (j.size() > kMaxObservations) fail(key, fmt::format("at most {} entries", kMaxObservations));
-  return j;
-}
-
-void checkFormat(const json& j, const char* name) {
-  const json& format = member(j, "format", "");
-  if (!format.is_string() || format.get<std::string>() != name) {
-    fail("format", fmt::format("must be \"{}\", got {}", name, format.dump()));
-  }
-  const json& version = member(j, "version", "");
-  if (!version.is_number_integer() || version.get<int>() != kObservationsFormatVersion) {
-    fail("version", fmt::format("must be {}, got {}", kObservationsFormatVersion, version.dump()));
-  }
+  return jsonfield::array(member(object, key, ""), key, kMaxObservations);
 }
 
 // Module and camera indices are bounded generously here; the fit checks them against the
@@ -132,7 +118,7 @@ void stationsFromJson(const json& j, CalibrationObservations* o) {
 }  // namespace
 
 void cameraMetadataFromJson(const json& j, CalibrationObservations* o, bool* intrinsicsKnown) {
-  checkFormat(j, kCameraFormatName);
+  jsonfield::requireFormat(j, kCameraFormatName, kObservationsFormatVersion);
   const json& in = member(j, "intrinsics", "");
   const json& width = member(in, "width", "intrinsics");
   const json& height = member(in, "height", "intrinsics");
@@ -153,7 +139,7 @@ void cameraMetadataFromJson(const json& j, CalibrationObservations* o, bool* int
 }
 
 void decodedFromJson(const json& j, CalibrationObservations* o) {
-  checkFormat(j, kDecodedFormatName);
+  jsonfield::requireFormat(j, kDecodedFormatName, kObservationsFormatVersion);
   const json& corr = rows(j, "correspondences");
   o->correspondences.clear();
   o->correspondences.reserve(corr.size());

@@ -49,9 +49,28 @@ void traceBatch(Packets& rays, Traversal traversal, One traceOne, Sixteen traceS
 
 }  // namespace
 
-void RayHitPackets::grow() { packets_.emplace_back(); }
+void RayHitPackets::grow() {
+  RTCRayHit16& p = packets_.emplace_back();
+  for (size_t lane = 0; lane < 16; ++lane) {
+    p.ray.time[lane] = 0.0f;
+    p.ray.mask[lane] = 0xFFFFFFFFu;
+    p.ray.id[lane] = 0;
+    p.ray.flags[lane] = 0;
+    p.hit.primID[lane] = RTC_INVALID_GEOMETRY_ID;
+    p.hit.instID[0][lane] = RTC_INVALID_GEOMETRY_ID;  // scenes are flattened: Embree never sets it
+  }
+}
 
-void OcclusionPackets::grow() { packets_.emplace_back(); }
+void OcclusionPackets::grow() {
+  const auto first = static_cast<unsigned>(16 * packets_.size());
+  RTCRay16& p = packets_.emplace_back();
+  for (unsigned lane = 0; lane < 16; ++lane) {
+    p.time[lane] = 0.0f;
+    p.mask[lane] = 0xFFFFFFFFu;
+    p.id[lane] = first + lane;
+    p.flags[lane] = 0;
+  }
+}
 
 RTCRayHit RayHitPackets::get(size_t i) const {
   const RTCRayHit16& p = packets_[i / 16];

@@ -28,26 +28,32 @@ class RayHitPackets {
   void push(const Eigen::Vector3f& origin, const Eigen::Vector3f& direction,
             float tfar = std::numeric_limits<float>::infinity()) {
     if (size_ == 16 * packets_.size()) grow();
-    const size_t lane = size_ % 16;
-    RTCRayHit16& p = packets_[size_ / 16];
+    write(size_, origin, direction, tfar);
+    ++size_;
+  }
+
+  // Branch-free filling: make room for n rays, write() any slot below n (a slot may be written
+  // again), then setSize() to the number kept. The fields no ray changes (time, mask, id,
+  // flags) were set when the packet was made, so a write stores only what differs per ray.
+  void reserveRays(size_t n) {
+    while (16 * packets_.size() < n) grow();
+  }
+  void write(size_t slot, const Eigen::Vector3f& origin, const Eigen::Vector3f& direction,
+             float tfar = std::numeric_limits<float>::infinity()) {
+    const size_t lane = slot % 16;
+    RTCRayHit16& p = packets_[slot / 16];
     p.ray.org_x[lane] = origin.x();
     p.ray.org_y[lane] = origin.y();
     p.ray.org_z[lane] = origin.z();
     p.ray.dir_x[lane] = direction.x();
     p.ray.dir_y[lane] = direction.y();
     p.ray.dir_z[lane] = direction.z();
-    p.ray.tnear[lane] = 0.0f;
+    p.ray.tnear[lane] = 0.0f;  // the stream traversal parks unused lanes with tnear > tfar
     p.ray.tfar[lane] = tfar;
-    p.ray.time[lane] = 0.0f;
-    p.ray.mask[lane] = 0xFFFFFFFFu;
-    p.ray.id[lane] = 0;
-    p.ray.flags[lane] = 0;
-    // Embree writes the hit record only on a hit; these mark a miss.
+    // Embree writes the hit record only on a hit; this marks a miss.
     p.hit.geomID[lane] = RTC_INVALID_GEOMETRY_ID;
-    p.hit.primID[lane] = RTC_INVALID_GEOMETRY_ID;
-    p.hit.instID[0][lane] = RTC_INVALID_GEOMETRY_ID;
-    ++size_;
   }
+  void setSize(size_t n) { size_ = n; }
 
   // Lane i (in push order).
   unsigned geomID(size_t i) const { return packets_[i / 16].hit.geomID[i % 16]; }
@@ -81,8 +87,18 @@ class OcclusionPackets {
 
   void push(const Eigen::Vector3f& origin, const Eigen::Vector3f& direction, float tfar) {
     if (size_ == 16 * packets_.size()) grow();
-    const size_t lane = size_ % 16;
-    RTCRay16& p = packets_[size_ / 16];
+    write(size_, origin, direction, tfar);
+    ++size_;
+  }
+
+  // As RayHitPackets: reserveRays(n), write() slots below n, setSize(kept). A slot's id is its
+  // index (the glass filter's index into its states), set when the packet was made.
+  void reserveRays(size_t n) {
+    while (16 * packets_.size() < n) grow();
+  }
+  void write(size_t slot, const Eigen::Vector3f& origin, const Eigen::Vector3f& direction, float tfar) {
+    const size_t lane = slot % 16;
+    RTCRay16& p = packets_[slot / 16];
     p.org_x[lane] = origin.x();
     p.org_y[lane] = origin.y();
     p.org_z[lane] = origin.z();
@@ -91,12 +107,8 @@ class OcclusionPackets {
     p.dir_z[lane] = direction.z();
     p.tnear[lane] = 0.0f;
     p.tfar[lane] = tfar;
-    p.time[lane] = 0.0f;
-    p.mask[lane] = 0xFFFFFFFFu;
-    p.id[lane] = static_cast<unsigned>(size_);  // the glass filter's index into its states
-    p.flags[lane] = 0;
-    ++size_;
   }
+  void setSize(size_t n) { size_ = n; }
 
   // Embree sets tfar to -inf on an occluded ray.
   bool occluded(size_t i) const { return !(packets_[i / 16].tfar[i % 16] >= 0.0f); }

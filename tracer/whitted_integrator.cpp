@@ -41,6 +41,22 @@ struct PendingShadow {
   Rgb contribution;
 };
 
+// A diffuse hit waiting for its shadow rays: what every light's test needs, with the path's
+// weight folded into the colours. Shading gathers these, then each light's rays are made in
+// one tight loop over them (no per-hit branching on the light, no per-light indexing).
+struct LitSurface {
+  Eigen::Vector3f position;   // on the surface (point lights measure from here)
+  Eigen::Vector3f above;      // offset off the surface: the shadow rays' origin
+  Eigen::Vector3f normal;     // shading normal
+  Eigen::Vector3f geometric;  // geometric normal (light from behind the face is cut)
+  Eigen::Vector3f reflected;  // the view direction mirrored about the normal (highlights only)
+  Rgb diffuse;                // weight × albedo
+  Rgb specular;               // weight × specular colour (highlights only)
+  float shininess;
+  int pixel;
+  bool highlight;
+};
+
 // Slab test: does o + t d (t > 0) meet the box? If so, *entry is the t where it comes in.
 bool hitsBox(const Eigen::Vector3f& o, const Eigen::Vector3f& d, const Eigen::Vector3f& lo,
              const Eigen::Vector3f& hi, float* entry) {
@@ -76,12 +92,13 @@ inline float phongPower(float x, float e) {
 struct TileBuffers {
   std::vector<Path> paths, nextPaths;
   RayHitPackets rays, nextRays;
-  // Shadow rays are gathered per light, then traced light after light: a packet then holds
-  // neighbouring pixels' rays toward the same light, which traverse the BVH together.
-  std::vector<OcclusionPackets> shadowRaysByLight;
-  std::vector<std::vector<PendingShadow>> shadowsByLight;
-  // Per light, per shadow ray: what glass let through (only in scenes with glass shadows).
-  std::vector<std::vector<ShadowTransmittance>> transmittanceByLight;
+  std::vector<LitSurface> lit;
+  // Shadow rays are made and traced light after light: a packet then holds neighbouring
+  // pixels' rays toward the same light, which traverse the BVH together.
+  OcclusionPackets shadowRays;
+  std::vector<PendingShadow> shadows;
+  // Per shadow ray: what glass let through (only in scenes with glass shadows).
+  std::vector<ShadowTransmittance> transmittance;
 };
 
 class TileRenderer {
@@ -92,8 +109,8 @@ class TileRenderer {
         texturesUsed_(scene.features().texturePass()),
         boxMargin_(0.01f * (scene.boundsMax() - scene.boundsMin()).norm()), glassShadows_(scene.glassShadows()),
         paths_(buffers->paths), nextPaths_(buffers->nextPaths), rays_(buffers->rays), nextRays_(buffers->nextRays),
-        shadowRaysByLight_(buffers->shadowRaysByLight),
-        shadowsByLight_(buffers->shadowsByLight), transmittanceByLight_(buffers->transmittanceByLight) {}
+        lit_(buffers->lit), shadowRays_(buffers->shadowRays), shadows_(buffers->shadows),
+        transmittance_(buffers->transmittance) {}
 
   void render(int x0, int x1, int y0, int y1, RenderCounters* c);
 
@@ -101,6 +118,9 @@ class TileRenderer {
   void initialRays(int x0, int x1, int y0, int y1, RenderCounters* c);
   void cone(int pixel, Path* path) const;
   void shade(size_t i, int generation, RenderCounters* c);
+  template <bool kPoint>
+  size_t makeShadowRays(const PhysicalLight& light);
+  void traceShadowRays(bool coherent, int generation, RenderCounters* c);
   Rgb textureColor(const Material& m, const HitInfo& h, const Path& path, float t, const Eigen::Vector3f& d,
                    RenderCounters* c) const;
   void pushBranch(const Path& parent, const Rgb& weight, const Eigen::Vector3f& origin, const Eigen::Vector3f& dir,
@@ -123,9 +143,10 @@ class TileRenderer {
   std::vector<Path>& nextPaths_;
   RayHitPackets& rays_;
   RayHitPackets& nextRays_;
-  std::vector<OcclusionPackets>& shadowRaysByLight_;
-  std::vector<std::vector<PendingShadow>>& shadowsByLight_;
-  std::vector<std::vector<ShadowTransmittance>>& transmittanceByLight_;
+  std::vector<LitSurface>& lit_;
+  OcclusionPackets& shadowRays_;
+  std::vector<PendingShadow>& shadows_;
+  std::vector<ShadowTransmittance>& transmittance_;
 };
 
 // o and s − o of a compact ray. A flat screen (the common case) needs no sag and its square root.
@@ -221,9 +242,6 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
 
 void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
   initialRays(x0, x1, y0, y1, c);
-  shadowRaysByLight_.resize(scene_.lights().size());
-  shadowsByLight_.resize(scene_.lights().size());
-  transmittanceByLight_.resize(glassShadows_ ? scene_.lights().size() : 0);
   for (int generation = 0; generation < depth_ && !rays_.empty(); ++generation) {
     c->deepest = std::max(c->deepest, generation + 1);
     const bool coherent = generation == 0;
@@ -231,38 +249,93 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
     intersectPackets(scene_.handle(), rays_, options_.traversal, coherent);
     nextPaths_.clear();
     nextRays_.clear();
+    lit_.clear();
     for (size_t i = 0; i < rays_.size(); ++i) shade(i, generation, c);
-    // One batch per light: no copying into a common array, and each batch is coherent.
-    for (size_t l = 0; l < shadowRaysByLight_.size(); ++l) {
-      OcclusionPackets& rays = shadowRaysByLight_[l];
-      const std::vector<PendingShadow>& pending = shadowsByLight_[l];
-      if (rays.empty()) continue;
-      if (log_) logBatch(generation, rays);
-      if (glassShadows_) {
-        std::vector<ShadowTransmittance>& states = transmittanceByLight_[l];
-        ShadowQueryContext query = shadowQueryContext(coherent, &scene_, states.data(), &c->glassShadowHits);
-        occludedPackets(scene_.handle(), rays, options_.traversal, &query);
-        for (size_t i = 0; i < rays.size(); ++i) {
-          if (rays.occluded(i)) continue;
-          Rgb& out = frame_->pixels[static_cast<size_t>(pending[i].pixel)];
-          // Most shadow rays cross no glass: no exp() for them.
-          out += states[i].crossings == 0 ? pending[i].contribution
-                                          : Rgb(pending[i].contribution.cwiseProduct(states[i].factor()));
-        }
-      } else {
-        // No glass: the plain query, no per-ray state.
-        occludedPackets(scene_.handle(), rays, options_.traversal, coherent);
-        for (size_t i = 0; i < rays.size(); ++i) {
-          if (!rays.occluded(i)) frame_->pixels[static_cast<size_t>(pending[i].pixel)] += pending[i].contribution;
-        }
+    if (!lit_.empty()) {
+      for (const PhysicalLight& light : scene_.lights()) {
+        const size_t count = light.kind == LightKind::kPoint ? makeShadowRays<true>(light) : makeShadowRays<false>(light);
+        shadowRays_.setSize(count);
+        traceShadowRays(coherent, generation, c);
       }
-      c->shadow += static_cast<long>(rays.size());
-      rays.clear();
-      shadowsByLight_[l].clear();
     }
     std::swap(paths_, nextPaths_);
     std::swap(rays_, nextRays_);
   }
+}
+
+// Every lit surface's shadow ray toward `light`, written branch-free: each surface's ray goes
+// into the next free slot and the slot is kept only if the light reaches the surface's front
+// and contributes (a lit/unlit test per surface mispredicts often on curved geometry).
+template <bool kPoint>
+size_t TileRenderer::makeShadowRays(const PhysicalLight& light) {
+  const size_t n = lit_.size();
+  shadowRays_.reserveRays(n);
+  if (shadows_.size() < n) shadows_.resize(n);
+  if (glassShadows_ && transmittance_.size() < n) transmittance_.resize(n);
+  const float worldPerPhysical = scene_.worldPerPhysical();
+  size_t kept = 0;
+  for (size_t j = 0; j < n; ++j) {
+    const LitSurface& s = lit_[j];
+    Eigen::Vector3f l = light.toLight;
+    float tfar = kInf;
+    Rgb irradiance = light.intensity;
+    bool reaches = true;
+    if constexpr (kPoint) {
+      const Eigen::Vector3f toLight = light.position - s.position;
+      const float distance = toLight.norm();
+      reaches = distance > 0.0f;
+      l = toLight / distance;
+      tfar = distance;
+      const float worldDistance = distance * worldPerPhysical;
+      irradiance /= worldDistance * worldDistance;
+    }
+    const float cosine = s.normal.dot(l);
+    // Light from behind the geometric face cannot reach this side.
+    reaches = reaches & (cosine > 0.0f) & (s.geometric.dot(l) > 0.0f);
+    Rgb response = s.diffuse * cosine;
+    if (s.highlight) {
+      // phongPower(0, s) = 0 for s > 0, as a facing-away highlight (most of them) should be.
+      response += s.specular * phongPower(std::max(0.0f, s.reflected.dot(l)), s.shininess);
+    }
+    const Rgb contribution = response.cwiseProduct(irradiance);
+    reaches = reaches & (contribution.maxCoeff() > 0.0f);
+    shadowRays_.write(kept, s.above, l, tfar);
+    shadows_[kept] = {s.pixel, contribution};
+    if (glassShadows_) {
+      // Indexed like the ray (its id is its slot); only the running fields are reset.
+      transmittance_[kept].fresnel = 1.0f;
+      transmittance_[kept].opticalDepth.setZero();
+      transmittance_[kept].crossings = 0;
+    }
+    kept += reaches ? 1 : 0;
+  }
+  return kept;
+}
+
+void TileRenderer::traceShadowRays(bool coherent, int generation, RenderCounters* c) {
+  OcclusionPackets& rays = shadowRays_;
+  if (rays.empty()) return;
+  if (log_) logBatch(generation, rays);
+  Rgb* pixels = frame_->pixels.data();
+  const PendingShadow* pending = shadows_.data();
+  if (glassShadows_) {
+    ShadowQueryContext query = shadowQueryContext(coherent, &scene_, transmittance_.data(), &c->glassShadowHits);
+    occludedPackets(scene_.handle(), rays, options_.traversal, &query);
+    for (size_t i = 0; i < rays.size(); ++i) {
+      if (rays.occluded(i)) continue;
+      const ShadowTransmittance& state = transmittance_[i];
+      // Most shadow rays cross no glass: no exp() for them.
+      pixels[pending[i].pixel] += state.crossings == 0 ? pending[i].contribution
+                                                       : Rgb(pending[i].contribution.cwiseProduct(state.factor()));
+    }
+  } else {
+    // No glass: the plain query, no per-ray state.
+    occludedPackets(scene_.handle(), rays, options_.traversal, coherent);
+    for (size_t i = 0; i < rays.size(); ++i) {
+      if (!rays.occluded(i)) pixels[pending[i].pixel] += pending[i].contribution;
+    }
+  }
+  c->shadow += static_cast<long>(rays.size());
 }
 
 void TileRenderer::logBatch(int generation, const RayHitPackets& rays) {
@@ -358,44 +431,21 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
     case MaterialKind::kEmissive: return;
     case MaterialKind::kDiffuse: {
       const Rgb albedo = m.diffuse.cwiseProduct(h.vertexColor).cwiseProduct(textureColor(m, h, path, t, d, c));
-      out += weight.cwiseProduct(albedo).cwiseProduct(scene_.ambient());
-      const bool highlight = m.specular.maxCoeff() > 0.0f;
-      for (size_t lightIndex = 0; lightIndex < scene_.lights().size(); ++lightIndex) {
-        const PhysicalLight& light = scene_.lights()[lightIndex];
-        Eigen::Vector3f l = light.toLight;
-        float tfar = kInf;
-        Rgb irradiance = light.intensity;
-        if (light.kind == LightKind::kPoint) {
-          const Eigen::Vector3f toLight = light.position - h.position;
-          const float distance = toLight.norm();
-          if (!(distance > 0.0f)) continue;
-          l = toLight / distance;
-          tfar = distance;
-          const float worldDistance = distance * scene_.worldPerPhysical();
-          irradiance /= worldDistance * worldDistance;
-        }
-        const float cosine = h.shadingNormal.dot(l);
-        // Light from behind the geometric face cannot reach this side.
-        if (cosine <= 0.0f || h.geometricNormal.dot(l) <= 0.0f) continue;
-        Rgb response = albedo * cosine;
-        if (highlight) {
-          // pow(0, s) = 0 for s > 0: no pow call for a highlight facing away (most of them).
-          const float alignment = std::max(0.0f, reflect(d, h.shadingNormal).dot(l));
-          if (alignment > 0.0f || m.shininess == 0.0f) response += m.specular * phongPower(alignment, m.shininess);
-        }
-        const Rgb contribution = weight.cwiseProduct(response).cwiseProduct(irradiance);
-        if (contribution.maxCoeff() <= 0.0f) continue;
-        if (glassShadows_) {
-          // Indexed like the ray (its id is its push order); only the running fields are reset.
-          std::vector<ShadowTransmittance>& states = transmittanceByLight_[lightIndex];
-          const size_t index = shadowsByLight_[lightIndex].size();
-          if (states.size() <= index) states.resize(2 * index + 16);
-          states[index].fresnel = 1.0f;
-          states[index].opticalDepth.setZero();
-          states[index].crossings = 0;
-        }
-        shadowsByLight_[lightIndex].push_back({path.pixel, contribution});
-        shadowRaysByLight_[lightIndex].push(above, l, tfar);
+      const Rgb weightedAlbedo = weight.cwiseProduct(albedo);
+      out += weightedAlbedo.cwiseProduct(scene_.ambient());
+      if (scene_.lights().empty()) return;
+      LitSurface& s = lit_.emplace_back();
+      s.position = h.position;
+      s.above = above;
+      s.normal = h.shadingNormal;
+      s.geometric = h.geometricNormal;
+      s.diffuse = weightedAlbedo;
+      s.pixel = path.pixel;
+      s.highlight = m.specular.maxCoeff() > 0.0f;
+      if (s.highlight) {
+        s.reflected = reflect(d, h.shadingNormal);
+        s.specular = weight.cwiseProduct(m.specular);
+        s.shininess = m.shininess;
       }
       return;
     }

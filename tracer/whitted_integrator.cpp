@@ -87,6 +87,25 @@ inline float phongPower(float x, float e) {
   return result;
 }
 
+// Adds the time since the previous lap to the phase that just ended (when timing is on).
+class PhaseClock {
+ public:
+  PhaseClock(bool on, RenderCounters* counters) : on_(on), counters_(counters) {
+    if (on_) last_ = std::chrono::steady_clock::now();
+  }
+  void lap(RenderPhase ended) {
+    if (!on_) return;
+    const auto now = std::chrono::steady_clock::now();
+    counters_->phaseCpuMs[static_cast<int>(ended)] += std::chrono::duration<double, std::milli>(now - last_).count();
+    last_ = now;
+  }
+
+ private:
+  bool on_;
+  RenderCounters* counters_;
+  std::chrono::steady_clock::time_point last_;
+};
+
 // A worker thread's ray arrays, kept from frame to frame (thread_local below): after the first
 // frame a tile allocates nothing.
 struct TileBuffers {
@@ -120,7 +139,7 @@ class TileRenderer {
   void shade(size_t i, int generation, RenderCounters* c);
   template <bool kPoint>
   size_t makeShadowRays(const PhysicalLight& light);
-  void traceShadowRays(bool coherent, int generation, RenderCounters* c);
+  void traceShadowRays(bool coherent, int generation, RenderCounters* c, PhaseClock* clock);
   Rgb textureColor(const Material& m, const HitInfo& h, const Path& path, float t, const Eigen::Vector3f& d,
                    RenderCounters* c) const;
   void pushBranch(const Path& parent, const Rgb& weight, const Eigen::Vector3f& origin, const Eigen::Vector3f& dir,
@@ -241,12 +260,15 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
 }
 
 void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
+  PhaseClock clock(options_.timePhases, c);
   initialRays(x0, x1, y0, y1, c);
+  clock.lap(RenderPhase::kGenerate);
   for (int generation = 0; generation < depth_ && !rays_.empty(); ++generation) {
     c->deepest = std::max(c->deepest, generation + 1);
     const bool coherent = generation == 0;
     if (log_) logBatch(generation, rays_);
     intersectPackets(scene_.handle(), rays_, options_.traversal, coherent);
+    clock.lap(RenderPhase::kIntersect);
     nextPaths_.clear();
     nextRays_.clear();
     lit_.clear();
@@ -255,9 +277,10 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
       for (const PhysicalLight& light : scene_.lights()) {
         const size_t count = light.kind == LightKind::kPoint ? makeShadowRays<true>(light) : makeShadowRays<false>(light);
         shadowRays_.setSize(count);
-        traceShadowRays(coherent, generation, c);
+        traceShadowRays(coherent, generation, c, &clock);
       }
     }
+    clock.lap(RenderPhase::kShade);
     std::swap(paths_, nextPaths_);
     std::swap(rays_, nextRays_);
   }
@@ -312,15 +335,17 @@ size_t TileRenderer::makeShadowRays(const PhysicalLight& light) {
   return kept;
 }
 
-void TileRenderer::traceShadowRays(bool coherent, int generation, RenderCounters* c) {
+void TileRenderer::traceShadowRays(bool coherent, int generation, RenderCounters* c, PhaseClock* clock) {
   OcclusionPackets& rays = shadowRays_;
   if (rays.empty()) return;
   if (log_) logBatch(generation, rays);
+  clock->lap(RenderPhase::kShade);
   Rgb* pixels = frame_->pixels.data();
   const PendingShadow* pending = shadows_.data();
   if (glassShadows_) {
     ShadowQueryContext query = shadowQueryContext(coherent, &scene_, transmittance_.data(), &c->glassShadowHits);
     occludedPackets(scene_.handle(), rays, options_.traversal, &query);
+    clock->lap(RenderPhase::kOcclude);
     for (size_t i = 0; i < rays.size(); ++i) {
       if (rays.occluded(i)) continue;
       const ShadowTransmittance& state = transmittance_[i];
@@ -331,10 +356,12 @@ void TileRenderer::traceShadowRays(bool coherent, int generation, RenderCounters
   } else {
     // No glass: the plain query, no per-ray state.
     occludedPackets(scene_.handle(), rays, options_.traversal, coherent);
+    clock->lap(RenderPhase::kOcclude);
     for (size_t i = 0; i < rays.size(); ++i) {
       if (!rays.occluded(i)) pixels[pending[i].pixel] += pending[i].contribution;
     }
   }
+  clock->lap(RenderPhase::kGather);
   c->shadow += static_cast<long>(rays.size());
 }
 
@@ -503,6 +530,17 @@ void RenderOptions::validate() const {
   }
 }
 
+const char* renderPhaseName(RenderPhase phase) {
+  switch (phase) {
+    case RenderPhase::kGenerate: return "generate";
+    case RenderPhase::kIntersect: return "intersect";
+    case RenderPhase::kShade: return "shade";
+    case RenderPhase::kOcclude: return "occlude";
+    case RenderPhase::kGather: return "gather";
+  }
+  return "?";
+}
+
 RenderCounters& RenderCounters::operator+=(const RenderCounters& o) {
   pixels += o.pixels;
   masked += o.masked;
@@ -515,6 +553,7 @@ RenderCounters& RenderCounters::operator+=(const RenderCounters& o) {
   glassShadowHits += o.glassShadowHits;
   textureLookups += o.textureLookups;
   deepest = std::max(deepest, o.deepest);
+  for (int i = 0; i < kRenderPhases; ++i) phaseCpuMs[i] += o.phaseCpuMs[i];
   return *this;
 }
 

@@ -33,10 +33,24 @@ struct RenderOptions {
   // from the ray function, so anything above 1 needs the display model: renderFrame of
   // supersampled_render.h. 1 is the plain ray textures, unchanged.
   int samplesPerPixel = 1;
+  // Time each phase of the render (RenderCounters::phaseCpuMs): a clock read at every phase
+  // change of every tile, about 2% of a frame, so only the bench asks for it.
+  bool timePhases = false;
 
   // Throws InputError naming the option.
   void validate() const;
 };
+
+// Where a frame's CPU time goes (RenderOptions::timePhases).
+enum class RenderPhase : int {
+  kGenerate,   // primary rays from the ray textures, box test
+  kIntersect,  // Embree: primary and secondary rays
+  kShade,      // hit records, materials, branches, shadow rays made
+  kOcclude,    // Embree: shadow rays (the glass filter included)
+  kGather,     // unoccluded shadow rays added to their pixels
+};
+inline constexpr int kRenderPhases = 5;
+const char* renderPhaseName(RenderPhase phase);
 
 struct RenderCounters {
   long pixels = 0;
@@ -52,6 +66,7 @@ struct RenderCounters {
   long glassShadowHits = 0;
   long textureLookups = 0;
   int deepest = 0;        // highest ray generation traced (1 = primary only)
+  double phaseCpuMs[kRenderPhases] = {};  // time in each phase, summed over the rendering threads (timePhases)
 
   RenderCounters& operator+=(const RenderCounters& o);
   long rays() const { return primary + shadow + reflection + refraction; }

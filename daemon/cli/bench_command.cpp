@@ -82,6 +82,51 @@ Timing timeReplay(const PhysicalScene& scene, const RayLog& log, Traversal trave
   return {median(wall), median(cpu)};
 }
 
+// The chosen traversal's full frame and the raw replay of its rays, alternating frame by frame:
+// on a shared machine a slow minute then slows both, and the ratio of each pair stays honest
+// (timed one after the other, the two medians came from different minutes and the ratio of
+// the same binary moved between 2.0 and 2.6).
+struct Paired {
+  Timing full, raw;
+  double ratioWall = 0.0, ratioCpu = 0.0;  // median of the per-frame ratios
+};
+
+Paired timePaired(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options,
+                  const RayLog& log, int frames, long* rays) {
+  const double cores = std::max(1u, std::thread::hardware_concurrency());
+  std::vector<double> fullWall, fullCpu, rawWall, rawCpu, ratioWall, ratioCpu;
+  Frame frame;
+  renderFrameInto(scene, textures, options, &frame);
+  for (int i = 0; i < frames; ++i) {
+    const double cpu0 = cpuMs();
+    const auto start = std::chrono::steady_clock::now();
+    renderFrameInto(scene, textures, options, &frame);
+    fullWall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    fullCpu.push_back((cpuMs() - cpu0) / cores);
+    double traceCpu = 0.0;
+    rawWall.push_back(replayRayLog(scene, log, Traversal::kPacket16, RayKind::kAll, rays, &traceCpu));
+    rawCpu.push_back(traceCpu / cores);
+    ratioWall.push_back(fullWall.back() / rawWall.back());
+    ratioCpu.push_back(fullCpu.back() / rawCpu.back());
+  }
+  return {{median(fullWall), median(fullCpu)}, {median(rawWall), median(rawCpu)}, median(ratioWall), median(ratioCpu)};
+}
+
+// Per phase, ms a frame on the rendering threads divided by their number.
+std::vector<double> phaseBreakdown(const PhysicalScene& scene, const RayTextures& textures, RenderOptions options,
+                                   int frames) {
+  options.timePhases = true;
+  const double cores = std::max(1u, std::thread::hardware_concurrency());
+  std::vector<double> ms(kRenderPhases, 0.0);
+  Frame frame;
+  for (int i = 0; i < frames; ++i) {
+    RenderCounters counters;
+    renderFrameInto(scene, textures, options, &frame, &counters);
+    for (int p = 0; p < kRenderPhases; ++p) ms[static_cast<size_t>(p)] += counters.phaseCpuMs[p] / cores / frames;
+  }
+  return ms;
+}
+
 void runBenchTracer(const BenchArgs& args) {
   if (args.frames < 1 || args.frames > 1000) throw InputError({"", "--frames", 0}, "must be in 1..1000");
   const DisplayModel model = resolveDisplay(args.display);
@@ -113,6 +158,7 @@ void runBenchTracer(const BenchArgs& args) {
     double ms[3];
   };
   std::vector<PerKind> kinds;
+  std::vector<std::pair<std::string, std::vector<double>>> phases;
   std::vector<std::string> explains;
   for (const std::string& name : names) {
     const Scene scene = resolveScene(name);
@@ -132,14 +178,16 @@ void runBenchTracer(const BenchArgs& args) {
     RayLog log;
     renderFrame(physical, textures, options, nullptr, &log);
     long rays = 0;
-    const Timing raw = timeReplay(physical, log, Traversal::kPacket16, RayKind::kAll, args.frames, &rays);
-    const Timing& chosen = timing[options.traversal];
+    const Paired paired = timePaired(physical, textures, options, log, args.frames, &rays);
+    const Timing& chosen = paired.full;
+    const Timing& raw = paired.raw;
+    phases.push_back({name, phaseBreakdown(physical, textures, options, args.frames)});
     const auto paper = paperMs.find(name);
     std::cout << fmt::format(
         "{:<8} {:>5} {:>6}k | {:>7.1f} {:>7.1f} {:>7.1f} | {:>7.1f} {:>7.1f} | {:>7.1f} {:>7.1f} | {:>5.2f} {:>5.2f} | {:>6}\n",
         name, physical.counters().trianglesBuilt, rays / 1000, timing[Traversal::kSingle].cpuMsPerCore,
         timing[Traversal::kPacket16].cpuMsPerCore, timing[Traversal::kStream].cpuMsPerCore, chosen.wallMs, chosen.cpuMsPerCore,
-        raw.wallMs, raw.cpuMsPerCore, chosen.wallMs / raw.wallMs, chosen.cpuMsPerCore / raw.cpuMsPerCore,
+        raw.wallMs, raw.cpuMsPerCore, paired.ratioWall, paired.ratioCpu,
         paper == paperMs.end() ? std::string("-") : fmt::format("{:.0f}", paper->second));
     PerKind k{name, {0, 0, 0}, {0, 0, 0}};
     int i = 0;
@@ -155,7 +203,8 @@ void runBenchTracer(const BenchArgs& args) {
   }
   std::cout << fmt::format(
       "\nchosen traversal: {}. ratio = chosen full frame / raw packet16 intersection of the same rays (no shading;\n"
-      "each logged batch copied into packets right before its Embree call, the copy timed alone and subtracted).\n",
+      "each logged batch copied into packets right before its Embree call, the copy timed alone and subtracted),\n"
+      "the median of per-frame ratios, full frame and replay alternating. chosen and raw16: medians of those frames.\n",
       traversalName(RenderOptions{}.traversal));
   std::cout << fmt::format("\nMrays/s by ray type (raw {} replay of one frame's rays, CPU time per core):\n",
                            traversalName(RenderOptions{}.traversal));
@@ -168,6 +217,19 @@ void runBenchTracer(const BenchArgs& args) {
                                               k.rays[i] / 1000);
     }
     std::cout << fmt::format("{:<8} {:>20} {:>20} {:>20}\n", k.scene, cells[0], cells[1], cells[2]);
+  }
+  std::cout << "\nwhere a frame's time goes (chosen traversal, ms a frame: time on the rendering threads / their\n"
+               "number; timed in separate frames, the phase clock itself adds about 2%):\n";
+  std::cout << fmt::format("{:<8}", "scene");
+  for (int p = 0; p < kRenderPhases; ++p) std::cout << fmt::format(" {:>9}", renderPhaseName(static_cast<RenderPhase>(p)));
+  std::cout << fmt::format(" | {:>7} {:>7}\n", "Embree", "other");
+  for (const auto& [scene, ms] : phases) {
+    std::cout << fmt::format("{:<8}", scene);
+    for (double v : ms) std::cout << fmt::format(" {:>9.1f}", v);
+    const double embree = ms[static_cast<size_t>(RenderPhase::kIntersect)] + ms[static_cast<size_t>(RenderPhase::kOcclude)];
+    double total = 0.0;
+    for (double v : ms) total += v;
+    std::cout << fmt::format(" | {:>7.1f} {:>7.1f}\n", embree, total - embree);
   }
   std::cout << "\nper-frame counters:\n";
   for (const std::string& e : explains) std::cout << e;

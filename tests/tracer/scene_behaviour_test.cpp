@@ -277,6 +277,25 @@ TEST(LeaveOut, DiffuseSceneWithoutLightsTracesPrimaryRaysOnly) {
   EXPECT_EQ(c.masked + c.missedBounds + c.primary, c.pixels) << "every pixel is accounted for";
 }
 
+TEST(LeaveOut, PhaseTimesShowTheShadowPassesNeverRanAndTimingLeavesTheImageAlone) {
+  const DisplayModel display = smallDisplay(1, 160, 120);
+  const PhysicalScene physical(diffuseQuadScene(), display.displayableBox);
+  const RayTextures textures = generateRayTextures(display, 0);
+  RenderOptions timed;
+  timed.timePhases = true;
+  RenderCounters plain, withTimes;
+  const Frame a = renderFrame(physical, textures, RenderOptions{}, &plain);
+  const Frame b = renderFrame(physical, textures, timed, &withTimes);
+  EXPECT_EQ(a.pixels, b.pixels);
+  for (int p = 0; p < kRenderPhases; ++p) EXPECT_EQ(plain.phaseCpuMs[p], 0.0) << "not timed unless asked";
+  for (RenderPhase ran : {RenderPhase::kGenerate, RenderPhase::kIntersect, RenderPhase::kShade}) {
+    EXPECT_GT(withTimes.phaseCpuMs[static_cast<int>(ran)], 0.0) << renderPhaseName(ran);
+  }
+  for (RenderPhase leftOut : {RenderPhase::kOcclude, RenderPhase::kGather}) {
+    EXPECT_EQ(withTimes.phaseCpuMs[static_cast<int>(leftOut)], 0.0) << renderPhaseName(leftOut) << ": no lights";
+  }
+}
+
 TEST(LeaveOut, AMirrorAddsReflectionRaysOnlyWhereItIsSeen) {
   const DisplayModel display = smallDisplay(1, 160, 120);
   Scene scene = diffuseQuadScene();

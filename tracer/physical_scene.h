@@ -26,6 +26,7 @@ struct SceneBuildCounters {
   long trianglesOutside = 0;     // wholly outside B_P: dropped
   long trianglesClipped = 0;     // crossing B_P's faces: replaced by their inside part
   long trianglesBuilt = 0;       // in the BVH
+  int flatNormalMeshes = 0;      // vertex normals equal to the face normals: dropped, never interpolated
   int texturesLoaded = 0;
   int texturesFailed = 0;        // unreadable: warned, replaced by their fallback colour
   int texturesSkipped = 0;       // nothing samples them: never read

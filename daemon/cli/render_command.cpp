@@ -109,6 +109,8 @@ void runRender(const RenderArgs& args) {
   std::cout << fmt::format(
       "geometry: {} triangles drawn, {} in the BVH; {} degenerate dropped, {} outside B_P dropped, {} clipped to B_P\n",
       b.trianglesIn, b.trianglesBuilt, b.trianglesDegenerate, b.trianglesOutside, b.trianglesClipped);
+  std::cout << fmt::format("vertex normals left out on {} flat mesh(es): they equal the face normals\n",
+                           b.flatNormalMeshes);
   std::cout << fmt::format("textures: {} loaded, {} failed (fallback colour), {} never read (unused)\n",
                            b.texturesLoaded, b.texturesFailed, b.texturesSkipped);
   std::cout << fmt::format("counters over {} frame(s):\n", indices.size());

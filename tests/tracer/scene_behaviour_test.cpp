@@ -296,6 +296,37 @@ TEST(LeaveOut, PhaseTimesShowTheShadowPassesNeverRanAndTimingLeavesTheImageAlone
   }
 }
 
+TEST(LeaveOut, FlatVertexNormalsAreDroppedWithoutChangingTheImageAndSmoothOnesKept) {
+  const DisplayModel display = smallDisplay(1, 160, 120);
+  const RayTextures textures = generateRayTextures(display, 0);
+  Scene withNormals = floorUnderHoveringBox(Material::makeDiffuse({0.2f, 0.6f, 0.3f}), {-0.3, -1.0, -0.4});
+  withNormals.materials[0].specular = {0.5f, 0.5f, 0.5f};  // a highlight uses the normal too
+  withNormals.materials[0].shininess = 32.0f;
+  Scene withoutNormals = withNormals;
+  for (Mesh& mesh : withoutNormals.meshes) mesh.normals.clear();
+  ASSERT_FALSE(withNormals.meshes[1].normals.empty()) << "the box comes with its (flat) normals";
+  const PhysicalScene flat(withNormals, display.displayableBox);
+  const PhysicalScene none(withoutNormals, display.displayableBox);
+  EXPECT_GE(flat.counters().flatNormalMeshes, 1);
+  const Frame a = renderFrame(flat, textures, RenderOptions{});
+  const Frame b = renderFrame(none, textures, RenderOptions{});
+  ASSERT_EQ(a.pixels.size(), b.pixels.size());
+  float worst = 0.0f;
+  for (size_t i = 0; i < a.pixels.size(); ++i) worst = std::max(worst, (a.pixels[i] - b.pixels[i]).cwiseAbs().maxCoeff());
+  EXPECT_LT(worst, 1e-5f);
+
+  Scene smooth;
+  Mesh sphere = makeSphere(0.5, 24, 12);
+  sphere.material = smooth.addMaterial(Material::makeDiffuse({0.5f, 0.5f, 0.5f}));
+  smooth.addMesh(sphere);
+  smooth.addLight(Light::makeDirectional({0, -1, 0}, Rgb::Ones()));
+  smooth.worldBox = Box3{Eigen::Vector3d::Constant(-1), Eigen::Vector3d::Constant(1)};
+  const PhysicalScene kept(smooth, display.displayableBox);
+  EXPECT_EQ(kept.counters().flatNormalMeshes, 0);
+  ASSERT_EQ(kept.meshes().size(), 1u);
+  EXPECT_FALSE(kept.meshes()[0].normals.empty()) << "a sphere's normals vary across each triangle";
+}
+
 TEST(LeaveOut, AMirrorAddsReflectionRaysOnlyWhereItIsSeen) {
   const DisplayModel display = smallDisplay(1, 160, 120);
   Scene scene = diffuseQuadScene();

@@ -246,14 +246,17 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
       // (and the attributes interpolated there) exact to float precision of the scene's size,
       // where a far one loses digits in proportion to the distance (the outer modules' rays
       // start up to several metres to the side).
-      const float advance = std::max(0.0f, entry - boxMargin_ / toScreen.norm());
+      // One square root and one division for the three uses of the length.
+      const float length = toScreen.norm();
+      const float inverseLength = 1.0f / length;
+      const float advance = std::max(0.0f, entry - boxMargin_ * inverseLength);
       o += advance * toScreen;
       // The footprint is computed when a texture or a branch needs it (cone()); until then
       // coneWidth holds the distance skipped, which it grows over.
-      path.coneWidth = advance * toScreen.norm();
+      path.coneWidth = advance * length;
       path.coneSpread = kConeUnknown;
       paths_.push_back(path);
-      rays_.push(o, toScreen.normalized());
+      rays_.push(o, toScreen * inverseLength);
     }
   }
   c->pixels += static_cast<long>(capacity);

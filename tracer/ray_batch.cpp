@@ -131,22 +131,4 @@ void occludedBatch(RTCScene scene, std::span<RTCRay> rays, Traversal traversal, 
   }
 }
 
-Eigen::Vector3f offsetRayOrigin(const Eigen::Vector3f& p, const Eigen::Vector3f& n) {
-  // Within kNearOrigin of 0 a coordinate's ulp is tiny, so a fixed small step is used there;
-  // elsewhere kUlpSteps·|n_i| ulps of the coordinate itself. The constants follow Wächter and
-  // Binder ("A fast and robust method for avoiding self-intersection", Ray Tracing Gems, 2019),
-  // sized for coordinates of order 1 (physical space is always about a metre across).
-  constexpr float kNearOrigin = 1.0f / 32.0f;
-  constexpr float kNearStep = 1.0f / 65536.0f;
-  constexpr float kUlpSteps = 256.0f;
-  Eigen::Vector3f out;
-  for (int i = 0; i < 3; ++i) {
-    const int steps = static_cast<int>(kUlpSteps * n[i]);
-    const std::int32_t bits = std::bit_cast<std::int32_t>(p[i]);
-    const float moved = std::bit_cast<float>(bits + (p[i] < 0.0f ? -steps : steps));
-    out[i] = std::abs(p[i]) < kNearOrigin ? p[i] + kNearStep * n[i] : moved;
-  }
-  return out;
-}
-
 }  // namespace parallax

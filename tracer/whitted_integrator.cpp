@@ -464,7 +464,8 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
   switch (m.kind) {
     case MaterialKind::kEmissive: return;
     case MaterialKind::kDiffuse: {
-      const Rgb albedo = m.diffuse.cwiseProduct(h.vertexColor).cwiseProduct(textureColor(m, h, path, t, d, c));
+      Rgb albedo = m.diffuse.cwiseProduct(h.vertexColor);
+      if (m.diffuseTexture >= 0) albedo = albedo.cwiseProduct(textureColor(m, h, path, t, d, c));
       const Rgb weightedAlbedo = weight.cwiseProduct(albedo);
       out += weightedAlbedo.cwiseProduct(scene_.ambient());
       if (scene_.lights().empty()) return;

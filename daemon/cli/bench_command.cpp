@@ -53,19 +53,25 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+// One frame into `frame` (allocated by an earlier, untimed render, as a display loop reuses it).
+Timing timeOneFrame(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options,
+                    Frame* frame) {
+  const double cores = std::max(1u, std::thread::hardware_concurrency());
+  const double cpu0 = cpuMs();
+  const auto start = std::chrono::steady_clock::now();
+  renderFrameInto(scene, textures, options, frame);
+  return {std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count(),
+          (cpuMs() - cpu0) / cores};
+}
+
 Timing timeFrames(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options, int frames) {
   std::vector<double> wall, cpu;
-  const double cores = std::max(1u, std::thread::hardware_concurrency());
-  // One frame buffer for all frames, as a display loop renders: the first (untimed) render
-  // allocates it.
   Frame frame;
   renderFrameInto(scene, textures, options, &frame);
   for (int i = 0; i < frames; ++i) {
-    const double cpu0 = cpuMs();
-    const auto start = std::chrono::steady_clock::now();
-    renderFrameInto(scene, textures, options, &frame);
-    wall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
-    cpu.push_back((cpuMs() - cpu0) / cores);
+    const Timing t = timeOneFrame(scene, textures, options, &frame);
+    wall.push_back(t.wallMs);
+    cpu.push_back(t.cpuMsPerCore);
   }
   return {median(wall), median(cpu)};
 }
@@ -98,11 +104,9 @@ Paired timePaired(const PhysicalScene& scene, const RayTextures& textures, const
   Frame frame;
   renderFrameInto(scene, textures, options, &frame);
   for (int i = 0; i < frames; ++i) {
-    const double cpu0 = cpuMs();
-    const auto start = std::chrono::steady_clock::now();
-    renderFrameInto(scene, textures, options, &frame);
-    fullWall.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
-    fullCpu.push_back((cpuMs() - cpu0) / cores);
+    const Timing full = timeOneFrame(scene, textures, options, &frame);
+    fullWall.push_back(full.wallMs);
+    fullCpu.push_back(full.cpuMsPerCore);
     double traceCpu = 0.0;
     rawWall.push_back(replayRayLog(scene, log, Traversal::kPacket16, RayKind::kAll, rays, &traceCpu));
     rawCpu.push_back(traceCpu / cores);

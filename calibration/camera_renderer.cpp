@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 #include <tbb/parallel_for.h>
 
+#include "calibration/conventions.h"
 #include "calibration/fit_geometry.h"
 #include "calibration/synthetic_observations.h"
 #include "common/input_error.h"
@@ -91,7 +92,7 @@ StationView viewFromStation(const DisplayModel& truth, const CameraIntrinsics& i
   std::vector<ModuleOptics> optics;
   for (const OpticalModule& m : truth.modules) optics.emplace_back(m);
   // FWHM = diffusion width ⇒ σ = FWHM / (2 √(2 ln 2)).
-  const double sigma = truth.screen.diffusionDeg * std::numbers::pi / 180.0 / 2.354820045;
+  const double sigma = radians(truth.screen.diffusionDeg) / 2.354820045;
   const auto camera = packCamera(pose);
   tbb::parallel_for(0, view.height, [&](int y) {
     for (int x = 0; x < view.width; ++x) {

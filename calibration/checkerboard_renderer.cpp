@@ -6,14 +6,13 @@
 
 #include <tbb/parallel_for.h>
 
+#include "calibration/conventions.h"
 #include "common/input_error.h"
 
 namespace parallax {
 namespace {
 
 constexpr int kSamplesPerSide = 8;  // supersampling of a pixel that crosses a cell edge
-
-double radians(double deg) { return deg * std::numbers::pi / 180.0; }
 
 // Does the whole sheet project inside the picture, with a margin, and face the camera?
 bool sheetFits(const CheckerboardBoard& board, const CameraIntrinsics& in, const Eigen::Isometry3d& cameraFromBoard) {

@@ -38,7 +38,13 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <numbers>
+
 namespace parallax {
+
+// Angles are degrees in files, options and reports, radians in the code.
+inline constexpr double radians(double degrees) { return degrees * std::numbers::pi / 180.0; }
+inline constexpr double degrees(double radians) { return radians * 180.0 / std::numbers::pi; }
 
 // OpenCV pixel coordinates (centres on integers) → ours (centres on half integers).
 inline Eigen::Vector2d pixelFromOpenCv(const Eigen::Vector2d& opencv) {

@@ -22,9 +22,6 @@ constexpr double kDisplayableDepth = 0.5;
 constexpr double kCoverMargin = 1.02;
 constexpr double kDiffusionPerPitch = 1.5;
 
-double radians(double deg) { return deg * std::numbers::pi / 180.0; }
-double degrees(double rad) { return rad * 180.0 / std::numbers::pi; }
-
 // Largest focal length (square pixels, centred principal point) for which every point of the
 // screen's outline projects inside the image with the cover margin.
 double coveringFocalLength(const OpticalModule& m, const Screen& screen) {

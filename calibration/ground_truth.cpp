@@ -1,4 +1,3 @@
-#include "calibration/conventions.h"
 #include "calibration/ground_truth.h"
 
 #include <algorithm>
@@ -7,13 +6,12 @@
 
 #include <fmt/format.h>
 
+#include "calibration/conventions.h"
 #include "calibration/seeded_random.h"
 #include "common/input_error.h"
 
 namespace parallax {
 namespace {
-
-double radians(double deg) { return deg * std::numbers::pi / 180.0; }
 
 void requireNonNegative(double value, const char* name) {
   if (!(std::isfinite(value) && value >= 0.0)) {

@@ -6,14 +6,13 @@
 
 #include <fmt/format.h>
 
+#include "calibration/conventions.h"
 #include "calibration/fit_geometry.h"
 #include "calibration/seeded_random.h"
 #include "common/input_error.h"
 
 namespace parallax {
 namespace {
-
-double radians(double deg) { return deg * std::numbers::pi / 180.0; }
 
 // Screen point lit by module pixel (u, v) in the truth, or false.
 bool screenPointOf(const Screen& screen, const ModuleOptics& optics, double u, double v,

@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "calibration/conventions.h"
 #include "calibration/optical_module.h"
 #include "calibration/screen_transfer.h"
 #include "common/check.h"
@@ -79,7 +80,7 @@ Frame synthesizeObserverView(const DisplayModel& model, const std::vector<Frame>
   // ends; uncompensated, the middle of the screen would look darker). Where the diffusion is
   // too narrow for the pitch the sum still dips between modules: the dark gaps stay visible.
   // A single module has no neighbours: its lobe peaks at 1.
-  const double fwhm = model.screen.diffusionDeg * std::numbers::pi / 180.0;
+  const double fwhm = radians(model.screen.diffusionDeg);
   const double sigma = fwhm / (2.0 * std::sqrt(2.0 * std::numbers::ln2));
   const double lobeIntegral = sigma * std::sqrt(2.0 * std::numbers::pi);
   const double cutoff = 5.0 * sigma;  // beyond it the lobe is below 4e-6 of its peak

@@ -25,23 +25,13 @@ class RayHitPackets {
   size_t size() const { return size_; }
   bool empty() const { return size_ == 0; }
 
+  // The fields no ray changes (time, mask, id, flags) were set when the packet was made, so a
+  // push stores only what differs per ray.
   void push(const Eigen::Vector3f& origin, const Eigen::Vector3f& direction,
             float tfar = std::numeric_limits<float>::infinity()) {
     if (size_ == 16 * packets_.size()) grow();
-    write(size_, origin, direction, tfar);
-    ++size_;
-  }
-
-  // Branch-free filling: make room for n rays, write() any slot below n (a slot may be written
-  // again), then setSize() to the number kept. The fields no ray changes (time, mask, id,
-  // flags) were set when the packet was made, so a write stores only what differs per ray.
-  void reserveRays(size_t n) {
-    while (16 * packets_.size() < n) grow();
-  }
-  void write(size_t slot, const Eigen::Vector3f& origin, const Eigen::Vector3f& direction,
-             float tfar = std::numeric_limits<float>::infinity()) {
-    const size_t lane = slot % 16;
-    RTCRayHit16& p = packets_[slot / 16];
+    const size_t lane = size_ % 16;
+    RTCRayHit16& p = packets_[size_ / 16];
     p.ray.org_x[lane] = origin.x();
     p.ray.org_y[lane] = origin.y();
     p.ray.org_z[lane] = origin.z();
@@ -52,8 +42,8 @@ class RayHitPackets {
     p.ray.tfar[lane] = tfar;
     // Embree writes the hit record only on a hit; this marks a miss.
     p.hit.geomID[lane] = RTC_INVALID_GEOMETRY_ID;
+    ++size_;
   }
-  void setSize(size_t n) { size_ = n; }
 
   // Lane i (in push order).
   unsigned geomID(size_t i) const { return packets_[i / 16].hit.geomID[i % 16]; }
@@ -91,8 +81,10 @@ class OcclusionPackets {
     ++size_;
   }
 
-  // As RayHitPackets: reserveRays(n), write() slots below n, setSize(kept). A slot's id is its
-  // index (the glass filter's index into its states), set when the packet was made.
+  // Branch-free filling: make room for n rays, write() any slot below n (a slot may be written
+  // again), then setSize() to the number kept. The fields no ray changes (time, mask, flags)
+  // and a slot's id (its index: the glass filter's index into its states) were set when the
+  // packet was made, so a write stores only what differs per ray.
   void reserveRays(size_t n) {
     while (16 * packets_.size() < n) grow();
   }

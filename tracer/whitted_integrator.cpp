@@ -293,9 +293,10 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
   }
 }
 
-// Every lit surface's shadow ray toward `light`, written branch-free: each surface's ray goes
-// into the next free slot and the slot is kept only if the light reaches the surface's front
-// and contributes (a lit/unlit test per surface mispredicts often on curved geometry).
+// Every lit surface's shadow ray toward `light`: each surface's ray goes into the next free
+// slot, and the slot is kept only if the light reaches the surface's front and contributes.
+// (Measured no faster than skipping unlit surfaces with a branch, but one loop per light over
+// the surfaces needs no per-light buffers.)
 template <bool kPoint>
 size_t TileRenderer::makeShadowRays(const PhysicalLight& light) {
   const size_t n = litCount_;
@@ -324,8 +325,9 @@ size_t TileRenderer::makeShadowRays(const PhysicalLight& light) {
     reaches = reaches & (cosine > 0.0f) & (s.geometric.dot(l) > 0.0f);
     Rgb response = s.diffuse * cosine;
     if (s.highlight) {
-      // phongPower(0, s) = 0 for s > 0, as a facing-away highlight (most of them) should be.
-      response += s.specular * phongPower(std::max(0.0f, s.reflected.dot(l)), s.shininess);
+      // pow(0, s) = 0 for s > 0: no pow call for a highlight facing away (most of them).
+      const float alignment = std::max(0.0f, s.reflected.dot(l));
+      if (alignment > 0.0f || s.shininess == 0.0f) response += s.specular * phongPower(alignment, s.shininess);
     }
     const Rgb contribution = response.cwiseProduct(irradiance);
     reaches = reaches & (contribution.maxCoeff() > 0.0f);

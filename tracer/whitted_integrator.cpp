@@ -96,7 +96,7 @@ class PhaseClock {
   void lap(RenderPhase ended) {
     if (!on_) return;
     const auto now = std::chrono::steady_clock::now();
-    counters_->phaseCpuMs[static_cast<int>(ended)] += std::chrono::duration<double, std::milli>(now - last_).count();
+    counters_->phaseThreadMs[static_cast<int>(ended)] += std::chrono::duration<double, std::milli>(now - last_).count();
     last_ = now;
   }
 
@@ -563,7 +563,7 @@ RenderCounters& RenderCounters::operator+=(const RenderCounters& o) {
   glassShadowHits += o.glassShadowHits;
   textureLookups += o.textureLookups;
   deepest = std::max(deepest, o.deepest);
-  for (int i = 0; i < kRenderPhases; ++i) phaseCpuMs[i] += o.phaseCpuMs[i];
+  for (int i = 0; i < kRenderPhases; ++i) phaseThreadMs[i] += o.phaseThreadMs[i];
   return *this;
 }
 

@@ -33,7 +33,7 @@ struct RenderOptions {
   // from the ray function, so anything above 1 needs the display model: renderFrame of
   // supersampled_render.h. 1 is the plain ray textures, unchanged.
   int samplesPerPixel = 1;
-  // Time each phase of the render (RenderCounters::phaseCpuMs): a clock read at every phase
+  // Time each phase of the render (RenderCounters::phaseThreadMs): a clock read at every phase
   // change of every tile, about 2% of a frame, so only the bench asks for it.
   bool timePhases = false;
 
@@ -66,7 +66,9 @@ struct RenderCounters {
   long glassShadowHits = 0;
   long textureLookups = 0;
   int deepest = 0;        // highest ray generation traced (1 = primary only)
-  double phaseCpuMs[kRenderPhases] = {};  // time in each phase, summed over the rendering threads (timePhases)
+  // Wall-clock time each thread spent in each phase, summed over the threads (timePhases):
+  // close to CPU time while the threads are not preempted.
+  double phaseThreadMs[kRenderPhases] = {};
 
   RenderCounters& operator+=(const RenderCounters& o);
   long rays() const { return primary + shadow + reflection + refraction; }

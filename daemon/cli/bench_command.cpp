@@ -126,7 +126,7 @@ std::vector<double> phaseBreakdown(const PhysicalScene& scene, const RayTextures
   for (int i = 0; i < frames; ++i) {
     RenderCounters counters;
     renderFrameInto(scene, textures, options, &frame, &counters);
-    for (int p = 0; p < kRenderPhases; ++p) ms[static_cast<size_t>(p)] += counters.phaseCpuMs[p] / cores / frames;
+    for (int p = 0; p < kRenderPhases; ++p) ms[static_cast<size_t>(p)] += counters.phaseThreadMs[p] / cores / frames;
   }
   return ms;
 }

@@ -287,12 +287,12 @@ TEST(LeaveOut, PhaseTimesShowTheShadowPassesNeverRanAndTimingLeavesTheImageAlone
   const Frame a = renderFrame(physical, textures, RenderOptions{}, &plain);
   const Frame b = renderFrame(physical, textures, timed, &withTimes);
   EXPECT_EQ(a.pixels, b.pixels);
-  for (int p = 0; p < kRenderPhases; ++p) EXPECT_EQ(plain.phaseCpuMs[p], 0.0) << "not timed unless asked";
+  for (int p = 0; p < kRenderPhases; ++p) EXPECT_EQ(plain.phaseThreadMs[p], 0.0) << "not timed unless asked";
   for (RenderPhase ran : {RenderPhase::kGenerate, RenderPhase::kIntersect, RenderPhase::kShade}) {
-    EXPECT_GT(withTimes.phaseCpuMs[static_cast<int>(ran)], 0.0) << renderPhaseName(ran);
+    EXPECT_GT(withTimes.phaseThreadMs[static_cast<int>(ran)], 0.0) << renderPhaseName(ran);
   }
   for (RenderPhase leftOut : {RenderPhase::kOcclude, RenderPhase::kGather}) {
-    EXPECT_EQ(withTimes.phaseCpuMs[static_cast<int>(leftOut)], 0.0) << renderPhaseName(leftOut) << ": no lights";
+    EXPECT_EQ(withTimes.phaseThreadMs[static_cast<int>(leftOut)], 0.0) << renderPhaseName(leftOut) << ": no lights";
   }
 }
 

@@ -32,6 +32,7 @@ struct BenchArgs {
   std::string scenes = "cornell,shapes,statue";
   int tileWidth = RenderOptions{}.tileWidth;
   int tileHeight = RenderOptions{}.tileHeight;
+  bool renderOnly = false;
 };
 
 // Process CPU time (all threads), ms. On a machine shared with other builds, wall-clock
@@ -131,6 +132,31 @@ std::vector<double> phaseBreakdown(const PhysicalScene& scene, const RayTextures
   return ms;
 }
 
+// The renderer's defaults with the tile size asked for.
+RenderOptions benchOptions(const BenchArgs& args) {
+  RenderOptions options;
+  options.tileWidth = args.tileWidth;
+  options.tileHeight = args.tileHeight;
+  options.validate();
+  return options;
+}
+
+// --render-only: the chosen traversal's frames and nothing else (no replay, no other traversal),
+// so that a sampling profiler run over it (tools/profile_tracer.sh) splits a frame's time between
+// Embree and the rest. On a VM whose speed drifts from minute to minute that split is steadier
+// than any pair of ms figures: both sides are sampled over the same seconds.
+void renderOnly(const BenchArgs& args, const DisplayModel& model, const RayTextures& textures,
+                const std::vector<std::string>& names) {
+  for (const std::string& name : names) {
+    const Scene scene = resolveScene(name);
+    const PhysicalScene physical(scene, model.displayableBox);
+    const RenderOptions options = benchOptions(args);
+    const Timing t = timeFrames(physical, textures, options, args.frames);
+    std::cout << fmt::format("{:<8} {} frames, {} traversal: median {:.1f} ms wall, {:.1f} ms cpu per core\n", name,
+                             args.frames, traversalName(options.traversal), t.wallMs, t.cpuMsPerCore);
+  }
+}
+
 void runBenchTracer(const BenchArgs& args) {
   if (args.frames < 1 || args.frames > 1000) throw InputError({"", "--frames", 0}, "must be in 1..1000");
   const DisplayModel model = resolveDisplay(args.display);
@@ -148,6 +174,10 @@ void runBenchTracer(const BenchArgs& args) {
                            "{} threads\n",
                            model.name, module, textures.width(), textures.height(), textures.validCount(),
                            args.frames, std::thread::hardware_concurrency());
+  if (args.renderOnly) {
+    renderOnly(args, model, textures, names);
+    return;
+  }
   std::cout << "(wall-clock on a shared machine: other builds running at the same time make these noisy)\n\n";
   std::cout << "wall = median wall-clock ms a frame; cpu = process CPU ms / cores (what two idle cores would take)\n";
   std::cout << fmt::format("{:<8} {:>5} {:>7} | {:>7} {:>7} {:>7} | {:>7} {:>7} | {:>7} {:>7} | {:>5} {:>5} | {:>6}\n",
@@ -167,10 +197,7 @@ void runBenchTracer(const BenchArgs& args) {
   for (const std::string& name : names) {
     const Scene scene = resolveScene(name);
     const PhysicalScene physical(scene, model.displayableBox);
-    RenderOptions options;
-    options.tileWidth = args.tileWidth;
-    options.tileHeight = args.tileHeight;
-    options.validate();
+    const RenderOptions options = benchOptions(args);
     RenderCounters counters;
     renderFrame(physical, textures, options, &counters);  // warm-up (caches, TBB workers, textures)
     std::map<Traversal, Timing> timing;
@@ -252,6 +279,8 @@ void addBenchCommand(CLI::App& app) {
   tracer->add_option("--scenes", args->scenes, "comma-separated scene names or model files");
   tracer->add_option("--tile-width", args->tileWidth, "tile width in pixels (TBB task size)");
   tracer->add_option("--tile-height", args->tileHeight, "tile height in pixels");
+  tracer->add_flag("--render-only", args->renderOnly,
+                   "only render the frames with the chosen traversal (for a profiler: tools/profile_tracer.sh)");
   tracer->callback([args] { runBenchTracer(*args); });
   addBenchTextureSubcommand(bench);
   addBenchDaemonSubcommand(bench);

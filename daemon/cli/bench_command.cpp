@@ -13,6 +13,7 @@
 #include <thread>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "calibration/display_presets.h"
 #include "calibration/ray_textures.h"
@@ -75,6 +76,34 @@ Timing timeFrames(const PhysicalScene& scene, const RayTextures& textures, const
     cpu.push_back(t.cpuMsPerCore);
   }
   return {median(wall), median(cpu)};
+}
+
+// The three traversals' full frames, one frame of each in turn (round-robin), so that a slow
+// minute slows all three alike. Timed one traversal after the other, their columns came from
+// different minutes and the winner changed from run to run. Returns each traversal's median and,
+// in *streamOverPacket, the median over rounds of stream / packet16 (CPU time): the figure that
+// chooses between the two.
+std::map<Traversal, Timing> timeTraversals(const PhysicalScene& scene, const RayTextures& textures,
+                                           const RenderOptions& options, int frames, double* streamOverPacket) {
+  constexpr Traversal kAll[] = {Traversal::kSingle, Traversal::kPacket16, Traversal::kStream};
+  std::map<Traversal, std::vector<double>> wall, cpu;
+  std::vector<double> ratio;
+  Frame frame;
+  renderFrameInto(scene, textures, options, &frame);
+  for (int i = 0; i < frames; ++i) {
+    for (Traversal t : kAll) {
+      RenderOptions o = options;
+      o.traversal = t;
+      const Timing timing = timeOneFrame(scene, textures, o, &frame);
+      wall[t].push_back(timing.wallMs);
+      cpu[t].push_back(timing.cpuMsPerCore);
+    }
+    ratio.push_back(cpu[Traversal::kStream].back() / cpu[Traversal::kPacket16].back());
+  }
+  *streamOverPacket = median(ratio);
+  std::map<Traversal, Timing> timing;
+  for (Traversal t : kAll) timing[t] = {median(wall[t]), median(cpu[t])};
+  return timing;
 }
 
 Timing timeReplay(const PhysicalScene& scene, const RayLog& log, Traversal traversal, RayKind kind, int frames,
@@ -194,18 +223,16 @@ void runBenchTracer(const BenchArgs& args) {
   std::vector<PerKind> kinds;
   std::vector<std::pair<std::string, std::vector<double>>> phases;
   std::vector<std::string> explains;
+  std::vector<std::string> choices;  // per scene: stream / packet16
   for (const std::string& name : names) {
     const Scene scene = resolveScene(name);
     const PhysicalScene physical(scene, model.displayableBox);
     const RenderOptions options = benchOptions(args);
     RenderCounters counters;
     renderFrame(physical, textures, options, &counters);  // warm-up (caches, TBB workers, textures)
-    std::map<Traversal, Timing> timing;
-    for (Traversal t : {Traversal::kSingle, Traversal::kPacket16, Traversal::kStream}) {
-      RenderOptions o = options;
-      o.traversal = t;
-      timing[t] = timeFrames(physical, textures, o, args.frames);
-    }
+    double streamOverPacket = 0.0;
+    const std::map<Traversal, Timing> timing = timeTraversals(physical, textures, options, args.frames, &streamOverPacket);
+    choices.push_back(fmt::format("{} {:.2f}", name, streamOverPacket));
     RayLog log;
     renderFrame(physical, textures, options, nullptr, &log);
     long rays = 0;
@@ -216,8 +243,9 @@ void runBenchTracer(const BenchArgs& args) {
     const auto paper = paperMs.find(name);
     std::cout << fmt::format(
         "{:<8} {:>5} {:>6}k | {:>7.1f} {:>7.1f} {:>7.1f} | {:>7.1f} {:>7.1f} | {:>7.1f} {:>7.1f} | {:>5.2f} {:>5.2f} | {:>6}\n",
-        name, physical.counters().trianglesBuilt, rays / 1000, timing[Traversal::kSingle].cpuMsPerCore,
-        timing[Traversal::kPacket16].cpuMsPerCore, timing[Traversal::kStream].cpuMsPerCore, chosen.wallMs, chosen.cpuMsPerCore,
+        name, physical.counters().trianglesBuilt, rays / 1000, timing.at(Traversal::kSingle).cpuMsPerCore,
+        timing.at(Traversal::kPacket16).cpuMsPerCore, timing.at(Traversal::kStream).cpuMsPerCore, chosen.wallMs,
+        chosen.cpuMsPerCore,
         raw.wallMs, raw.cpuMsPerCore, paired.ratioWall, paired.ratioCpu,
         paper == paperMs.end() ? std::string("-") : fmt::format("{:.0f}", paper->second));
     PerKind k{name, {0, 0, 0}, {0, 0, 0}};
@@ -235,8 +263,9 @@ void runBenchTracer(const BenchArgs& args) {
   std::cout << fmt::format(
       "\nchosen traversal: {}. ratio = chosen full frame / raw packet16 intersection of the same rays (no shading;\n"
       "each logged batch copied into packets right before its Embree call, the copy timed alone and subtracted),\n"
-      "the median of per-frame ratios, full frame and replay alternating. chosen and raw16: medians of those frames.\n",
-      traversalName(RenderOptions{}.traversal));
+      "the median of per-frame ratios, full frame and replay alternating. chosen and raw16: medians of those frames.\n"
+      "single, pack16, stream: one frame of each in turn; stream / pack16 CPU time, median over those rounds: {}\n",
+      traversalName(RenderOptions{}.traversal), fmt::join(choices, ", "));
   std::cout << fmt::format("\nMrays/s by ray type (raw {} replay of one frame's rays, CPU time per core):\n",
                            traversalName(RenderOptions{}.traversal));
   std::cout << fmt::format("{:<8} {:>20} {:>20} {:>20}\n", "scene", "primary", "shadow", "reflect+refract");

@@ -135,6 +135,18 @@ class ProgressCallback : public ceres::IterationCallback {
   const std::function<void(int, double)>& f_;
 };
 
+// Ends a solve when the caller asks (FitOptions::stopRequested).
+class StopCallback : public ceres::IterationCallback {
+ public:
+  explicit StopCallback(const std::function<bool()>& stopRequested) : stopRequested_(stopRequested) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return stopRequested_() ? ceres::SOLVER_ABORT : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::function<bool()>& stopRequested_;
+};
+
 // Stops a solve once a successful step lowers the cost by less than `tolerance`. The cost is
 // ½ Σ (r/σ)², so near the minimum a step that lowers it by ΔC moved the parameters by
 // √(2 ΔC) standard deviations (Mahalanobis): 0.01 is 0.14 σ, and the steps still to come
@@ -200,6 +212,7 @@ class DisplayFitter {
     // Stage 0: camera poses (and k) from fiducials and tape alone, so the full problem starts
     // with cameras that see the screen where it is.
     solve(/*withModules=*/false, /*costTolerance=*/0.0, &result);
+    if (result.stopped) return result;
     findFiducialOutliers();
     // Stage 1: the module-px residual. It is defined wherever a camera ray meets the screen,
     // so a bad start or a gross decoding error cannot stop the solve; its answer is biased
@@ -211,6 +224,7 @@ class DisplayFitter {
     stride_ = finalSolveFollows ? std::max<size_t>(1, obs_.correspondences.size() / kStartCorrespondences) : 1;
     solve(true, finalSolveFollows ? kStartCostTolerance : kFinalCostTolerance, &result);
     stride_ = 1;
+    if (result.stopped) return result;
     if (options_.reestimateNoise) reestimateSigmas();
     if (options_.residualInCameraPx) {
       // Stage 2: the camera-px residual from that start, without the gross outliers (a wrong
@@ -220,6 +234,7 @@ class DisplayFitter {
       excludeOutliers();
       cameraResidual_ = true;
       solve(true, kFinalCostTolerance, &result);
+      if (result.stopped) return result;
       if (options_.reestimateNoise) {
         reestimateSigmas();
         problem_ = build(true);  // the covariance is read with the final σ
@@ -349,6 +364,8 @@ class DisplayFitter {
     if (options_.onIteration) so.callbacks.push_back(&callback);
     CostChangeTolerance tolerance(costTolerance);
     so.callbacks.push_back(&tolerance);
+    StopCallback stop(options_.stopRequested);
+    if (options_.stopRequested) so.callbacks.push_back(&stop);
     ceres::Solver::Summary summary;
     // The bounds on k make Ceres follow every trust-region step with a projected line search
     // that evaluates the full Jacobian a second time (half the solve time). The bounds are
@@ -356,6 +373,7 @@ class DisplayFitter {
     so.max_num_line_search_step_size_iterations = 0;
     ceres::Solve(so, problem_.get(), &summary);
     result->iterations += static_cast<int>(summary.iterations.size());
+    if (summary.termination_type == ceres::USER_FAILURE) result->stopped = true;
     if (withModules) {
       result->converged = summary.termination_type == ceres::CONVERGENCE ||
                           summary.termination_type == ceres::USER_SUCCESS;
@@ -816,7 +834,7 @@ std::string Deficiency::describe() const {
 }
 
 bool FitResult::passesQualityChecks() const {
-  if (!converged || transferMismatch) return false;
+  if (stopped || !converged || transferMismatch) return false;
   for (const Deficiency& d : deficiencies) {
     if (d.state == Conditioning::kRankDeficient || d.state == Conditioning::kUndetermined) return false;
   }
@@ -842,7 +860,7 @@ FitResult fitDisplay(const DisplayModel& nominal, const CalibrationObservations&
   }
   const ScreenTransfer transfer = options.transfer.value_or(nominal.screen.transfer);
   FitResult result = DisplayFitter(nominal, observations, options, transfer).run();
-  if (result.transferMismatch && options.tryOtherTransfer) {
+  if (result.transferMismatch && options.tryOtherTransfer && !result.stopped) {
     FitOptions other = options;
     other.tryOtherTransfer = false;
     other.transfer = transfer == ScreenTransfer::kConical ? ScreenTransfer::kLinear : ScreenTransfer::kConical;

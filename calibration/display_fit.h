@@ -80,6 +80,9 @@ struct FitOptions {
   // hold the curvature too (fitCurvature = false) when the screen did not change.
   std::vector<int> heldModules;
   std::function<void(int iteration, double cost)> onIteration;  // progress, optional
+  // Polled at every solver iteration, optional: true ends the fit there (FitResult::stopped).
+  // A daemon's `cancel` need not wait for a solve of many modules to finish.
+  std::function<bool()> stopRequested;
 
   void validate() const;
 };
@@ -132,9 +135,11 @@ struct FitResult {
   double solveSeconds = 0.0;        // the solves (the fit)
   double diagnosticsSeconds = 0.0;  // residual statistics, covariance and conditioning after it
   bool converged = false;
+  // FitOptions::stopRequested ended it: no model and no statistics, only `iterations`.
+  bool stopped = false;
   int outliers = 0;
 
-  // The quality gate: converged, no NaN, every observed module determined (conditioning and
+  // The quality gate: not stopped, converged, no NaN, every observed module determined (conditioning and
   // position σ), no transfer mismatch. A calibration that fails it is not installed.
   bool passesQualityChecks() const;
 };

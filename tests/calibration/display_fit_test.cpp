@@ -420,6 +420,23 @@ TEST(DisplayFit, StandardDeviationsMatchTheActualErrors) {
   EXPECT_LT(rms, 2.5);
 }
 
+TEST(DisplayFit, AStopRequestEndsTheFitAtOnceAndFailsTheQualityGate) {
+  Case c = demoCase(17);
+  const SyntheticCalibration data = simulateObservations(c.truth, c.sim);
+  int polls = 0;
+  c.fit.stopRequested = [&polls] { return ++polls > 3; };
+  const FitResult stopped = fitDisplay(c.nominal, data.observations, c.fit);
+  EXPECT_TRUE(stopped.stopped);
+  EXPECT_FALSE(stopped.passesQualityChecks());
+  EXPECT_LE(stopped.iterations, 4);  // the poll that said stop is the last iteration
+  EXPECT_EQ(polls, 4);               // nothing ran after it (not the other transfer either)
+  c.fit.stopRequested = [] { return false; };
+  const FitResult full = fitDisplay(c.nominal, data.observations, c.fit);
+  EXPECT_FALSE(full.stopped);
+  EXPECT_TRUE(full.passesQualityChecks());
+  EXPECT_GT(full.iterations, stopped.iterations);
+}
+
 TEST(DisplayFit, RejectsObservationsThatReferToNothing) {
   Case c = demoCase(26);
   SyntheticCalibration data = simulateObservations(c.truth, c.sim);

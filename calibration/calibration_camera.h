@@ -26,6 +26,19 @@ struct CameraIntrinsics {
   bool contains(const Eigen::Vector2d& pixel) const {
     return pixel.x() >= 0.0 && pixel.y() >= 0.0 && pixel.x() < width && pixel.y() < height;
   }
+
+  // A width × height sensor with square pixels of focal length `focalPx`, the principal point
+  // at the image centre, radial distortion k1 (simulated cameras and tests).
+  static CameraIntrinsics centred(int width, int height, double focalPx, double k1 = 0.0) {
+    CameraIntrinsics c;
+    c.width = width;
+    c.height = height;
+    c.fx = c.fy = focalPx;
+    c.cx = 0.5 * width;
+    c.cy = 0.5 * height;
+    c.k1 = k1;
+    return c;
+  }
 };
 
 struct CameraPose {

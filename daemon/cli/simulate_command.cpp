@@ -58,17 +58,11 @@ CameraIntrinsics cameraOfSize(const std::string& resolution) {
   if (!std::regex_match(resolution, m, kPattern)) {
     throw InputError({"", "--camera-resolution", 0}, "expected WIDTHxHEIGHT such as 1280x720");
   }
-  CameraIntrinsics in;
-  in.width = std::stoi(m[1]);
-  in.height = std::stoi(m[2]);
-  if (in.width < 64 || in.height < 64 || in.width > 8192 || in.height > 8192) {
+  const int width = std::stoi(m[1]), height = std::stoi(m[2]);
+  if (width < 64 || height < 64 || width > 8192 || height > 8192) {
     throw InputError({"", "--camera-resolution", 0}, "sides must be 64..8192");
   }
-  in.fx = in.fy = 2100.0 * in.width / 1920.0;
-  in.cx = 0.5 * in.width;
-  in.cy = 0.5 * in.height;
-  in.k1 = -0.04;
-  return in;
+  return CameraIntrinsics::centred(width, height, 2100.0 * width / 1920.0, -0.04);
 }
 
 void runSimulate(const SimulateArgs& args) {

@@ -63,12 +63,7 @@ SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardwa
   for (const OpticalModule& m : nominal.modules) rowHalfWidth = std::max(rowHalfWidth, std::abs(m.position.x()));
   rig.stations = 5;
   rig.spanM = std::max(1.0, 4.0 * rowHalfWidth);
-  rig.intrinsics.width = 640;
-  rig.intrinsics.height = 360;
-  rig.intrinsics.fx = rig.intrinsics.fy = 2100.0 * 640.0 / 1920.0;
-  rig.intrinsics.cx = 320.0;
-  rig.intrinsics.cy = 180.0;
-  rig.intrinsics.k1 = -0.04;
+  rig.intrinsics = CameraIntrinsics::centred(640, 360, 2100.0 * 640.0 / 1920.0, -0.04);
   SimulatedRig camera = makeSimulatedRig(truth, rig, static_cast<std::uint64_t>(hardware.seed) * 7919 + 1);
   std::filesystem::create_directories(folder_);
   // The daemon gets what an installer gives it: camera.json with the intrinsics the camera's

@@ -37,11 +37,7 @@ Small small() {
   CameraRigOptions rig;
   rig.stations = 2;
   rig.spanM = 1.0;
-  rig.intrinsics.width = 200;
-  rig.intrinsics.height = 112;
-  rig.intrinsics.fx = rig.intrinsics.fy = 220.0;
-  rig.intrinsics.cx = 100.0;
-  rig.intrinsics.cy = 56.0;
+  rig.intrinsics = CameraIntrinsics::centred(200, 112, 220.0);
   s.rig = makeSimulatedRig(s.truth, rig, 3);
   SimulatedSessionOptions session;
   session.groupStride = 2;

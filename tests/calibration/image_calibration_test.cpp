@@ -31,12 +31,7 @@ TEST(ImageCalibration, DemoDisplayFromRenderedPatterns) {
 
   CameraRigOptions rig;
   rig.spanM = 4.0;  // the module row spans ±(W/2)(1+D/Z): outer stations see the outer modules
-  rig.intrinsics.width = 640;
-  rig.intrinsics.height = 360;
-  rig.intrinsics.fx = rig.intrinsics.fy = 700.0;
-  rig.intrinsics.cx = 320.0;
-  rig.intrinsics.cy = 180.0;
-  rig.intrinsics.k1 = -0.04;
+  rig.intrinsics = CameraIntrinsics::centred(640, 360, 700.0, -0.04);
   const SimulatedRig camera = makeSimulatedRig(truth, rig, 32);
   CalibrationCaptures captures = renderSession(truth, camera.truth, camera.metadata, {});
   // The camera's intrinsics from twelve pictures of the board, as `parallax calibrate` gets them

@@ -46,13 +46,7 @@ TEST(StructuredLight, ThroughTheSimulatedCameraDecodesWhereTheLightComesFrom) {
   // Demo display, one station at the centre of the observer line, every third module showing
   // its patterns (neighbouring lobes overlap at 1.5× the module pitch; every third one does not).
   const DisplayModel truth = makeGroundTruth(resolveDisplay("demo"), {});
-  CameraIntrinsics intrinsics;
-  intrinsics.width = 480;  // a small sensor keeps the test fast
-  intrinsics.height = 270;
-  intrinsics.fx = intrinsics.fy = 525.0;
-  intrinsics.cx = 240.0;
-  intrinsics.cy = 135.0;
-  intrinsics.k1 = -0.05;
+  const CameraIntrinsics intrinsics = CameraIntrinsics::centred(480, 270, 525.0, -0.05);  // small: a fast test
   CameraPose pose;
   pose.centre = {0.03, 0.01, 2.0};
   pose.physicalFromCamera = aimCameraAt(pose.centre, Eigen::Vector3d::Zero());

@@ -47,11 +47,7 @@ SmallSession smallSession() {
   CameraRigOptions rig;
   rig.stations = 2;
   rig.spanM = 1.0;
-  rig.intrinsics.width = 240;
-  rig.intrinsics.height = 136;
-  rig.intrinsics.fx = rig.intrinsics.fy = 262.0;
-  rig.intrinsics.cx = 120.0;
-  rig.intrinsics.cy = 68.0;
+  rig.intrinsics = CameraIntrinsics::centred(240, 136, 262.0);
   s.rig = makeSimulatedRig(s.truth, rig, 6);
   return s;
 }

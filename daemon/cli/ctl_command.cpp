@@ -4,7 +4,7 @@
 // Without --socket it finds the daemon that `parallaxd` with no config started
 // ($XDG_RUNTIME_DIR/parallax/parallaxd.sock, else /tmp/parallax-$UID/parallaxd.sock).
 //
-//   parallax ctl status | stats | play | pause | reload | shutdown | testcard | rollback
+//   parallax ctl status | stats | play | pause | reload | shutdown | testcard | rollback | cancel
 //   parallax ctl load cornell            parallax ctl set radius=0.2   (or: set radius 0.2)
 //   parallax ctl frame 3 [--path f.png]  parallax ctl view 0.5 [--path v.png]
 //   parallax ctl identify [3]            parallax ctl calibrate [--module 3]
@@ -45,7 +45,7 @@ const char* positionalKey(const std::string& request) {
 }
 
 nlohmann::json requestFromWords(const std::vector<std::string>& words) {
-  if (words.empty()) throw InputError({"", "REQUEST", 0}, "name a request: status, stats, load, play, pause, set, frame, view, calibrate, reload, shutdown, identify, testcard, rollback");
+  if (words.empty()) throw InputError({"", "REQUEST", 0}, "name a request: status, stats, load, play, pause, set, frame, view, calibrate, cancel, reload, shutdown, identify, testcard, rollback");
   nlohmann::json request = {{"request", words[0]}};
   bool positionalUsed = false;
   for (size_t i = 1; i < words.size(); ++i) {

@@ -27,6 +27,11 @@ CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& no
   const CalibrationCaptures captures = hw::captureCalibration(
       link, device, nominal, camera, capture,
       [&progress](int done, int total) { progress(fmt::format("pictures: {} of {}", done, total)); }, cancel);
+  // Decoding takes seconds and is not interrupted: a `cancel` meanwhile is seen after it.
+  auto stopIfCancelled = [cancel] {
+    if (cancel && cancel->load()) throw hw::CalibrationCancelled();
+  };
+  stopIfCancelled();
   progress("decoding the pictures");
   CaptureDecoderOptions decoder;
   decoder.patterns = capture.patterns;
@@ -35,6 +40,7 @@ CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& no
   progress(fmt::format("fitting ({} correspondences)", observations.correspondences.size()));
   FitOptions fit;
   fit.threads = 2;
+  fit.stopRequested = [cancel] { return cancel && cancel->load(); };
   if (onlyModule) {
     // One replaced module: the others and the screen stay as calibrated.
     for (int m = 0; m < static_cast<int>(start.modules.size()); ++m) {
@@ -42,7 +48,9 @@ CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& no
     }
     fit.fitCurvature = false;
   }
+  stopIfCancelled();
   const FitResult result = fitDisplay(start, observations, fit);
+  stopIfCancelled();
   CalibrationRun run{result.model, formatFitSummary(result), formatFitReport(result)};
   if (!result.passesQualityChecks()) {
     throw std::runtime_error("the fit failed its quality checks, nothing installed: " + run.summary);

@@ -23,7 +23,8 @@ struct CalibrationRun {
 
 // `start` is the model the fit starts from (the nominal, or the current calibration for a
 // refit of one module: `onlyModule`, every other module held). Throws std::runtime_error
-// (or InputError for bad camera metadata) with a one-line reason.
+// (or InputError for bad camera metadata) with a one-line reason, and hw::CalibrationCancelled
+// once *cancel is true (seen between pictures, between stages and at every solver iteration).
 CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& nominal, const DisplayModel& start,
                                     const CalibrationConfig& config, std::optional<int> onlyModule,
                                     const std::function<void(const std::string&)>& progress,

@@ -13,6 +13,7 @@
 #include "daemon/parallaxd/calibration_stage.h"
 #include "daemon/parallaxd/installer_patterns.h"
 #include "daemon/parallaxd/module_renderer.h"
+#include "hw/calibration_capture.h"
 #include "hw/link_transport.h"
 #include "scripts/scene_argument.h"
 #include "tracer/observer_view.h"
@@ -151,11 +152,13 @@ DaemonState Conductor::showingState() const {
 
 void Conductor::calibrate(std::optional<int> onlyModule) {
   const DaemonState back = script_ ? showingState() : DaemonState::kStarting;
+  // Reset before the state says "calibrating", which is when a `cancel` is accepted.
+  cancel_ = shutdown_.load();
+  calibrationCancelled_ = false;
   state_.enter(DaemonState::kCalibrating, onlyModule ? fmt::format("module {}", *onlyModule) : "all modules");
   publish();
   try {
     if (!link_) throw std::runtime_error("no link to the modules: " + linkError_);
-    cancel_ = false;
     const CalibrationRun run = calibrateThroughLink(
         *link_, nominal_, onlyModule ? calibration_ : nominal_, options_.config.calibration, onlyModule,
         [this](const std::string& stage) {
@@ -178,6 +181,11 @@ void Conductor::calibrate(std::optional<int> onlyModule) {
     // Whatever the modules showed during the patterns is gone: show the scene again.
     needsPush_ = true;
     renderedTexturesVersion_ = 0;
+  } catch (const hw::CalibrationCancelled& e) {
+    // Asked for (`cancel`): not a failure, so no last_error; the scene comes back.
+    spdlog::info("{}; the installed calibration stays ({})", e.what(), calibrationSource_);
+    calibrationCancelled_ = true;
+    needsPush_ = !currentImages_.empty();
   } catch (const std::exception& e) {
     state_.fail("calibrating", e.what(), back);
     needsPush_ = !currentImages_.empty();  // the patterns may have replaced our frames
@@ -396,6 +404,15 @@ nlohmann::json Conductor::handle(const nlohmann::json& request) {
     jobsChanged_.notify_all();
     return {{"ok", true}, {"message", "stopping"}};
   }
+  if (name == "cancel") {
+    // Answered at once: the conductor thread is inside the calibration. It stops at the next
+    // picture, stage or solver iteration; the installed calibration stays.
+    if (state_.snapshot().state != DaemonState::kCalibrating) {
+      return {{"ok", false}, {"error", "nothing to cancel: the daemon is not calibrating"}};
+    }
+    cancel_ = true;
+    return {{"ok", true}, {"message", "cancelling the calibration; the installed one stays"}};
+  }
   auto job = std::make_shared<Job>();
   job->request = request;
   std::future<nlohmann::json> reply = job->reply.get_future();
@@ -541,6 +558,9 @@ nlohmann::json Conductor::dispatch(const nlohmann::json& request) {
     calibrate(module);
     if (texturesHash_ == hashBefore) {
       const StateSnapshot s = state_.snapshot();
+      if (calibrationCancelled_) {
+        return {{"ok", false}, {"error", "calibration cancelled; the installed one stays: " + calibrationSource_}};
+      }
       return {{"ok", false}, {"error", s.lastError.empty() || s.lastError == before ? "calibration not installed" : s.lastError}};
     }
     return ok({{"calibration", calibrationSource_}, {"hash", hashHex(texturesHash_)}, {"summary", lastCalibrationSummary_}});
@@ -607,7 +627,7 @@ nlohmann::json Conductor::dispatch(const nlohmann::json& request) {
     return ok({{"message", "`play` returns to the scene"}});
   }
   throw InputError({"", "request", 0},
-                   fmt::format("unknown request \"{}\" (status, calibrate, load, play, pause, set, frame, view, stats, "
+                   fmt::format("unknown request \"{}\" (status, calibrate, cancel, load, play, pause, set, frame, view, stats, "
                                "reload, shutdown, identify, testcard, rollback)",
                                name));
 }

@@ -151,7 +151,8 @@ class Conductor {
   bool acceptingJobs_ = true;  // false once run() has ended
   std::atomic<bool> shutdown_{false};
   std::optional<DaemonConfig> restartWith_;
-  std::atomic<bool> cancel_{false};
+  std::atomic<bool> cancel_{false};  // set by `cancel` and `shutdown`: the calibration stops
+  bool calibrationCancelled_ = false;  // the last calibration stopped at a `cancel` (conductor thread)
 
   mutable std::mutex publishedMutex_;
   nlohmann::json publishedStatus_, publishedStats_;

@@ -1,7 +1,8 @@
 // The conductor against the simulated hardware, in process (a small demo display: 4 modules of
 // 64×48): a static scene is rendered and pushed once; frames whose bytes did not change are not
 // re-sent; a module whose link drops and returns gets its frame back; bad scenes, bad reloads
-// and bad requests leave the old scene on the modules and are reported.
+// and bad requests leave the old scene on the modules and are reported; a calibration cancelled
+// halfway leaves the installed calibration and brings the scene back.
 
 #include "daemon/parallaxd/conductor.h"
 
@@ -12,6 +13,10 @@
 #include <thread>
 
 #include "../hw/sim_fixture.h"
+#include "calibration/calibration_captures.h"
+#include "calibration/ground_truth.h"
+#include "calibration/simulated_session.h"
+#include "hw/calibration_physics.h"
 #include "tracer/frame.h"
 
 namespace parallax::daemon {
@@ -66,6 +71,7 @@ class ConductorTest : public ::testing::Test {
     o.config.scene.script = script_;
     o.config.cacheDir = (folder_ / "cache").string();
     o.config.calibration.autoCalibrate = false;
+    o.config.calibration.camera = camera_;
     o.linkSpec = sim_->spec();
     o.link.ackTimeoutMs = 1000;
     o.link.reconnectAttempts = 20;
@@ -104,6 +110,7 @@ class ConductorTest : public ::testing::Test {
 
   fs::path folder_;
   std::string script_;
+  std::string camera_;  // camera.json for calibrating (empty: the daemon cannot calibrate)
   std::unique_ptr<hw::InProcessSimhw> sim_;
   std::unique_ptr<Conductor> conductor_;
   std::thread thread_;
@@ -237,6 +244,62 @@ TEST_F(ConductorTest, RaytexturesComeFromTheCacheTheSecondTime) {
   const json status = ask({{"request", "status"}});
   EXPECT_EQ(status["ray_textures"]["from_cache"], kModules);
   EXPECT_EQ(status["ray_textures"]["generated"], 0);
+}
+
+TEST_F(ConductorTest, CancelledCalibrationKeepsTheInstalledOneAndBringsTheSceneBack) {
+  // A simulator whose camera photographs a seeded ground truth of this display.
+  DisplayConfig display;
+  display.modules = kModules;
+  display.width = kWidth;
+  display.height = kHeight;
+  const DisplayModel truth = makeGroundTruth(nominalDisplayOf(display), GroundTruthOptions{});
+  CameraRigOptions rig;
+  rig.stations = 2;
+  rig.intrinsics = CameraIntrinsics::centred(240, 136, 262.0);
+  const SimulatedRig camera = makeSimulatedRig(truth, rig, 3);
+  camera_ = (folder_ / "camera.json").string();
+  saveCameraMetadata(camera.metadata, camera_);
+  sim_.reset();
+  hw::SimulatedHardwareOptions o;
+  o.modules = kModules;
+  o.width = kWidth;
+  o.height = kHeight;
+  sim_ = std::make_unique<hw::InProcessSimhw>(o, std::make_unique<hw::CalibrationPhysics>(truth, camera.truth));
+  startConductor();
+  waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });
+  const std::vector<uint8_t> before = daemonFrame(1);
+  const json statusBefore = ask({{"request", "status"}});
+  EXPECT_EQ(ask({{"request", "cancel"}})["ok"], false) << "nothing runs yet";
+
+  json reply;
+  std::thread calibrating([&] { reply = ask({{"request", "calibrate"}}); });
+  // Cancel once a few pictures are taken: the modules show patterns by then.
+  json status;
+  for (int i = 0; i < 2000; ++i) {
+    status = ask({{"request", "status"}});
+    const std::string stage = status["stage"];
+    if (status["state"] == "calibrating" && stage.rfind("pictures: 3", 0) == 0) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(status["state"], "calibrating") << status.dump();
+  const json cancelled = ask({{"request", "cancel"}});
+  calibrating.join();
+  EXPECT_EQ(cancelled["ok"], true) << cancelled.dump();
+  EXPECT_EQ(reply["ok"], false) << reply.dump();
+  EXPECT_NE(reply["error"].get<std::string>().find("cancelled"), std::string::npos) << reply.dump();
+
+  // Nothing installed, nothing reported as a failure, and the scene is back on the modules.
+  const json after = ask({{"request", "status"}});
+  EXPECT_EQ(after["state"], "playing") << after.dump();
+  EXPECT_EQ(after["calibration"], statusBefore["calibration"]);
+  EXPECT_FALSE(after.contains("last_error")) << after.dump();
+  EXPECT_FALSE(fs::exists(folder_ / "cache" / "calibration.json"));
+  // The patterns replaced the scene on the modules: it is pushed again.
+  waitFor([](const json& s) { return s["module_frames_sent"] >= 2 * kModules; });
+  EXPECT_EQ(daemonFrame(1), before);
+  stopConductor();
+  sim_->stop();
+  EXPECT_EQ(sim_->hardware().shownFrame(1).pixels, before);
 }
 
 }  // namespace

@@ -13,7 +13,14 @@ ProgressBar::ProgressBar(std::string label, std::int64_t total, bool enabled)
       interactive_(isatty(STDERR_FILENO) != 0),
       start_(std::chrono::steady_clock::now()) {}
 
-ProgressBar::~ProgressBar() { finish(); }
+// Left without finish() (an error or an interruption unwound past it): the last line says how
+// far it got, not 100%.
+ProgressBar::~ProgressBar() {
+  std::lock_guard lock(drawMutex_);
+  if (finished_ || !enabled_) return;
+  finished_ = true;
+  draw(done_.load(), true);
+}
 
 void ProgressBar::advance(std::int64_t steps) {
   const std::int64_t done = done_.fetch_add(steps) + steps;
@@ -50,8 +57,7 @@ void ProgressBar::draw(std::int64_t done, bool final) {
                  100.0 * fraction, seconds, final ? "\n" : "");
   } else {
     const int decile = static_cast<int>(fraction * 10);
-    if (decile == lastDecile_ && !final) return;
-    if (final && lastDecile_ == 10) return;
+    if (decile == lastDecile_) return;  // a line per 10%, the last one included
     lastDecile_ = decile;
     std::fprintf(stderr, "%s: %3d%% (%.1fs)\n", label_.c_str(), decile * 10, seconds);
   }

@@ -16,6 +16,8 @@
 // --truth adds error-against-truth columns to the report, and the camera's (camera_truth.json
 // beside it, or --camera-truth) to the checkerboard calibration's; the fit never sees them.
 
+#include <atomic>
+#include <csignal>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -41,6 +43,32 @@
 
 namespace parallax::cli {
 namespace {
+
+// Ctrl-C or SIGTERM while calibrating: the pictures and the fit stop at their next step, so the
+// modules are handed back in playback mode and the camera unlocked (killed outright, a real
+// display would be left showing a pattern), and nothing is installed.
+std::atomic<bool> gInterrupted{false};
+static_assert(std::atomic<bool>::is_always_lock_free, "set from a signal handler");
+extern "C" void onInterrupt(int) { gInterrupted.store(true); }
+
+class InterruptStopsCalibration {
+ public:
+  InterruptStopsCalibration() {
+    gInterrupted = false;
+    previousInt_ = std::signal(SIGINT, onInterrupt);
+    previousTerm_ = std::signal(SIGTERM, onInterrupt);
+  }
+  ~InterruptStopsCalibration() {
+    std::signal(SIGINT, previousInt_);
+    std::signal(SIGTERM, previousTerm_);
+  }
+  InterruptStopsCalibration(const InterruptStopsCalibration&) = delete;
+  InterruptStopsCalibration& operator=(const InterruptStopsCalibration&) = delete;
+
+ private:
+  void (*previousInt_)(int);
+  void (*previousTerm_)(int);
+};
 
 struct CalibrateArgs {
   std::string captures;
@@ -103,10 +131,12 @@ CalibrationObservations sessionObservations(const CalibrateArgs& args, const Dis
   capture.stations = args.stations;
   std::optional<ProgressBar> bar;
   const CalibrationCaptures captures = hw::captureCalibration(
-      link, cameraDevice, nominal, camera, capture, [&bar](int done, int total) {
+      link, cameraDevice, nominal, camera, capture,
+      [&bar](int done, int total) {
         if (!bar) bar.emplace("capture", total);
         if (done > 0) bar->advance();
-      });
+      },
+      &gInterrupted);
   if (bar) bar->finish();
   if (!args.saveCaptures.empty()) {
     saveCaptures(captures, args.saveCaptures);
@@ -123,6 +153,7 @@ void runCalibrate(const CalibrateArgs& args) {
     throw InputError({"", "--camera", 0}, "--link needs the camera's metadata (camera.json: intrinsics, stations)");
   }
   const DisplayModel nominal = resolveDisplay(args.nominal);
+  const InterruptStopsCalibration interrupt;
   // The true camera, for the report only: --camera-truth, else camera_truth.json beside --truth.
   std::optional<CameraIntrinsics> cameraTruth;
   namespace fs = std::filesystem;
@@ -149,6 +180,7 @@ void runCalibrate(const CalibrateArgs& args) {
   // Three solves of up to maxIterations each; the bar counts iterations and finishes early.
   ProgressBar progress("calibrate", 3L * options.maxIterations);
   options.onIteration = [&progress](int, double) { progress.advance(); };
+  options.stopRequested = [] { return gInterrupted.load(); };
   FitResult result;
   try {
     result = fitDisplay(nominal, observations, options);
@@ -156,6 +188,7 @@ void runCalibrate(const CalibrateArgs& args) {
     throw e.location().file.empty() ? e.inFile(source) : e;
   }
   progress.finish();
+  if (result.stopped) throw std::runtime_error(fmt::format("interrupted during the fit; {} was left untouched", args.out));
 
   std::cout << formatFitSummary(result);
   std::optional<DisplayModel> truth;

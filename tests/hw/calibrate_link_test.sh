@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `parallax calibrate --link` against a running parallax-simhw that photographs a seeded ground
-# truth (demo display, 640x360 camera, every 6th camera pixel decoded): the calibration is
-# installed and its rays are within 0.4 module px RMS of the truth's.
+# truth (demo display, 640x360 camera, every 6th camera pixel decoded): interrupted, it stops
+# cleanly and installs nothing; run through, the calibration is installed and its rays are
+# within 0.4 module px RMS of the truth's.
 #   calibrate_link_test.sh PARALLAX PARALLAX_SIMHW
 set -euo pipefail
 parallax=$1
@@ -24,6 +25,23 @@ for _ in $(seq 1 600); do
   sleep 0.1
 done
 sleep 0.5  # bound → listening
+
+# Interrupted (Ctrl-C) once the pictures have started: it stops with a clear message, installs
+# nothing and hands the modules back, so the run below on the same simulator works.
+"$parallax" calibrate --link "simhw:$sock" --camera "$dir/camera.json" --nominal "$dir/nominal.json" \
+  --out "$dir/calib.json" --pixel-step 6 > "$dir/interrupted.txt" 2>&1 &
+calibrating=$!
+for _ in $(seq 1 300); do
+  grep -q "capture" "$dir/interrupted.txt" && break
+  sleep 0.05
+done
+kill -INT "$calibrating"
+status=0
+wait "$calibrating" || status=$?
+cat "$dir/interrupted.txt"
+[ "$status" -ne 0 ] || { echo "FAIL: an interrupted calibration exited 0"; exit 1; }
+grep -qE "cancelled|interrupted" "$dir/interrupted.txt" || { echo "FAIL: no word of the interruption"; exit 1; }
+[ ! -e "$dir/calib.json" ] || { echo "FAIL: an interrupted calibration installed a file"; exit 1; }
 
 out=$("$parallax" calibrate --link "simhw:$sock" --camera "$dir/camera.json" --nominal "$dir/nominal.json" \
         --out "$dir/calib.json" --truth "$dir/ground_truth.json" --pixel-step 6 2>&1)

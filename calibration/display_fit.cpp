@@ -373,7 +373,8 @@ class DisplayFitter {
     so.max_num_line_search_step_size_iterations = 0;
     ceres::Solve(so, problem_.get(), &summary);
     result->iterations += static_cast<int>(summary.iterations.size());
-    if (summary.termination_type == ceres::USER_FAILURE) result->stopped = true;
+    // Only StopCallback aborts (USER_FAILURE); the others continue or end successfully.
+    if (summary.termination_type == ceres::USER_FAILURE && options_.stopRequested) result->stopped = true;
     if (withModules) {
       result->converged = summary.termination_type == ceres::CONVERGENCE ||
                           summary.termination_type == ceres::USER_SUCCESS;

@@ -15,12 +15,7 @@ ProgressBar::ProgressBar(std::string label, std::int64_t total, bool enabled)
 
 // Left without finish() (an error or an interruption unwound past it): the last line says how
 // far it got, not 100%.
-ProgressBar::~ProgressBar() {
-  std::lock_guard lock(drawMutex_);
-  if (finished_ || !enabled_) return;
-  finished_ = true;
-  draw(done_.load(), true);
-}
+ProgressBar::~ProgressBar() { end(done_.load()); }
 
 void ProgressBar::advance(std::int64_t steps) {
   const std::int64_t done = done_.fetch_add(steps) + steps;
@@ -30,14 +25,16 @@ void ProgressBar::advance(std::int64_t steps) {
   if (lock.owns_lock()) draw(done, false);
 }
 
-void ProgressBar::finish() {
+void ProgressBar::finish() { end(total_); }
+
+void ProgressBar::end(std::int64_t done) {
   std::lock_guard lock(drawMutex_);
   if (finished_ || !enabled_) {
     finished_ = true;
     return;
   }
   finished_ = true;
-  draw(total_, true);
+  draw(done, true);
 }
 
 void ProgressBar::draw(std::int64_t done, bool final) {

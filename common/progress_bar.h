@@ -22,6 +22,7 @@ class ProgressBar {
   void finish();
 
  private:
+  void end(std::int64_t done);  // the final line, once: finish() or the destructor
   void draw(std::int64_t done, bool final);
 
   std::string label_;

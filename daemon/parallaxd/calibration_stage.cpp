@@ -28,8 +28,9 @@ CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& no
       link, device, nominal, camera, capture,
       [&progress](int done, int total) { progress(fmt::format("pictures: {} of {}", done, total)); }, cancel);
   // Decoding takes seconds and is not interrupted: a `cancel` meanwhile is seen after it.
-  auto stopIfCancelled = [cancel] {
-    if (cancel && cancel->load()) throw hw::CalibrationCancelled();
+  const auto cancelled = [cancel] { return cancel && cancel->load(); };
+  const auto stopIfCancelled = [&cancelled] {
+    if (cancelled()) throw hw::CalibrationCancelled();
   };
   stopIfCancelled();
   progress("decoding the pictures");
@@ -40,7 +41,7 @@ CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& no
   progress(fmt::format("fitting ({} correspondences)", observations.correspondences.size()));
   FitOptions fit;
   fit.threads = 2;
-  fit.stopRequested = [cancel] { return cancel && cancel->load(); };
+  fit.stopRequested = cancelled;
   if (onlyModule) {
     // One replaced module: the others and the screen stay as calibrated.
     for (int m = 0; m < static_cast<int>(start.modules.size()); ++m) {

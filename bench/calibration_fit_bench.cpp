@@ -13,15 +13,15 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
-#include <ctime>
 #include <cstring>
+#include <ctime>
 #include <string>
 
-#include "calibration/display_fit.h"
-#include "calibration/display_presets.h"
-#include "calibration/ground_truth.h"
-#include "calibration/ray_error.h"
-#include "calibration/synthetic_observations.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/display/ray_error.h"
+#include "calibration/fit/display_fit.h"
+#include "calibration/simulation/ground_truth.h"
+#include "calibration/simulation/synthetic_observations.h"
 
 namespace {
 
@@ -55,14 +55,18 @@ Row runOnce(const DisplayModel& nominal, const DisplayModel& truth, const Synthe
 }
 
 void header(const char* axis) {
-  std::printf("\n| %s | correspondences | fit wall s | diag wall s | fit+diag CPU s | iterations | ray px RMS | ray px max | screen mm RMS | observer mm RMS | gate |\n", axis);
+  std::printf(
+      "\n| %s | correspondences | fit wall s | diag wall s | fit+diag CPU s | iterations | ray px "
+      "RMS | ray px max | screen mm RMS | observer mm RMS | gate |\n",
+      axis);
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
 }
 
 void print(const std::string& value, const Row& r) {
-  std::printf("| %s | %zu | %.2f | %.2f | %.2f | %d | %.4f | %.3f | %.3f | %.2f | %s |\n", value.c_str(), r.correspondences,
-              r.fitSeconds, r.diagnosticsSeconds, r.fitCpuSeconds, r.iterations, r.rays.rmsPx, r.rays.maxPx, r.rays.rmsScreenMm,
-              r.rays.rmsObserverMm, r.passes ? "pass" : "refused");
+  std::printf("| %s | %zu | %.2f | %.2f | %.2f | %d | %.4f | %.3f | %.3f | %.2f | %s |\n",
+              value.c_str(), r.correspondences, r.fitSeconds, r.diagnosticsSeconds, r.fitCpuSeconds,
+              r.iterations, r.rays.rmsPx, r.rays.maxPx, r.rays.rmsScreenMm, r.rays.rmsObserverMm,
+              r.passes ? "pass" : "refused");
   std::fflush(stdout);
 }
 
@@ -72,9 +76,12 @@ int main(int argc, char** argv) {
   std::string preset = "default";
   bool quick = false, experiment = false;
   for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--quick") == 0) quick = true;
-    else if (std::strcmp(argv[i], "--experiment") == 0) experiment = true;
-    else preset = argv[i];
+    if (std::strcmp(argv[i], "--quick") == 0)
+      quick = true;
+    else if (std::strcmp(argv[i], "--experiment") == 0)
+      experiment = true;
+    else
+      preset = argv[i];
   }
   NominalDisplayOptions nominalOptions;
   nominalOptions.preset = preset;
@@ -95,19 +102,31 @@ int main(int argc, char** argv) {
   FitOptions fit;
   fit.threads = 2;
   std::printf("# calibration error vs run time: display \"%s\" (%zu modules of %dx%d), seed 2026\n",
-              preset.c_str(), nominal.modules.size(), nominal.modules[0].width, nominal.modules[0].height);
+              preset.c_str(), nominal.modules.size(), nominal.modules[0].width,
+              nominal.modules[0].height);
   double load[1] = {0.0};
   if (getloadavg(load, 1) < 1) load[0] = -1.0;
-  std::printf("fit wall time includes waiting for the CPU on a shared machine (load average %.2f at the start); "
-              "CPU time is the process's (2 solver threads)\n", load[0]);
-  std::printf("base: 5 stations over 3.2 m, 0.3 px camera noise, rows every %d px, %d samples across each stripe\n",
-              static_cast<int>(base.rowStepPx), base.samplesAcrossStripe);
+  std::printf(
+      "fit wall time includes waiting for the CPU on a shared machine (load average %.2f at the "
+      "start); "
+      "CPU time is the process's (2 solver threads)\n",
+      load[0]);
+  std::printf(
+      "base: 5 stations over 3.2 m, 0.3 px camera noise, rows every %d px, %d samples across each "
+      "stripe\n",
+      static_cast<int>(base.rowStepPx), base.samplesAcrossStripe);
 
   if (experiment) {
     header("noise (px) on / residual / sampling");
-    struct Case { double noise; bool onModule, cameraResidual; };
-    for (const Case& c : std::vector<Case>{{0.3, false, true}, {0.3, false, false}, {0.3, true, false},
-                                           {0.0, false, true}, {0.0, false, false}}) {
+    struct Case {
+      double noise;
+      bool onModule, cameraResidual;
+    };
+    for (const Case& c : std::vector<Case>{{0.3, false, true},
+                                           {0.3, false, false},
+                                           {0.3, true, false},
+                                           {0.0, false, true},
+                                           {0.0, false, false}}) {
       for (auto [rows, across] : std::vector<std::pair<double, int>>{{16, 5}, {10, 11}}) {
         SyntheticOptions s = base;
         s.noisePx = c.noise;
@@ -117,8 +136,9 @@ int main(int argc, char** argv) {
         FitOptions f = fit;
         f.residualInCameraPx = c.cameraResidual;
         char label[128];
-        std::snprintf(label, sizeof label, "%.1f on %s / residual in %s / rows %d, %d across", c.noise,
-                      c.onModule ? "module px" : "camera px", c.cameraResidual ? "camera px (two-stage)" : "module px",
+        std::snprintf(label, sizeof label, "%.1f on %s / residual in %s / rows %d, %d across",
+                      c.noise, c.onModule ? "module px" : "camera px",
+                      c.cameraResidual ? "camera px (two-stage)" : "module px",
                       static_cast<int>(rows), across);
         print(label, runOnce(nominal, truth, s, f));
       }
@@ -139,14 +159,17 @@ int main(int argc, char** argv) {
   }
   header("sampled rows / samples across a stripe");
   for (auto [rows, across] : quick ? std::vector<std::pair<double, int>>{{16, 5}, {10, 11}}
-                                   : std::vector<std::pair<double, int>>{{32, 3}, {16, 5}, {16, 9}, {12, 11}, {10, 11}, {8, 9}}) {
+                                   : std::vector<std::pair<double, int>>{
+                                         {32, 3}, {16, 5}, {16, 9}, {12, 11}, {10, 11}, {8, 9}}) {
     SyntheticOptions s = base;
     s.rowStepPx = rows;
     s.samplesAcrossStripe = across;
-    print("every " + std::to_string(static_cast<int>(rows)) + " px / " + std::to_string(across), runOnce(nominal, truth, s, fit));
+    print("every " + std::to_string(static_cast<int>(rows)) + " px / " + std::to_string(across),
+          runOnce(nominal, truth, s, fit));
   }
   header("camera noise (px)");
-  for (double noise : quick ? std::vector<double>{0.3} : std::vector<double>{0.1, 0.3, 0.5, 1.0, 2.0}) {
+  for (double noise :
+       quick ? std::vector<double>{0.3} : std::vector<double>{0.1, 0.3, 0.5, 1.0, 2.0}) {
     SyntheticOptions s = base;
     s.noisePx = noise;
     char label[16];

@@ -7,8 +7,8 @@
 
 #include <vector>
 
-#include "calibration/display_presets.h"
-#include "calibration/ray_textures.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/display/ray_textures.h"
 
 namespace parallax {
 namespace {
@@ -48,14 +48,16 @@ void generateDisplay(benchmark::State& state, const DisplayModel& model) {
   for (const CompactRay& r : buffer) valid += r.masked() ? 0 : 1;
   const double pixels = static_cast<double>(model.pixelCount());
   state.counters["pixels"] = pixels;
-  state.counters["pixels_per_s"] = benchmark::Counter(pixels, benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["pixels_per_s"] =
+      benchmark::Counter(pixels, benchmark::Counter::kIsIterationInvariantRate);
   state.counters["valid_fraction"] = static_cast<double>(valid) / pixels;
   state.counters["bytes_per_pixel"] = static_cast<double>(sizeof(CompactRay));
   state.counters["buffer_MiB"] = pixels * sizeof(CompactRay) / (1024.0 * 1024.0);
   state.counters["peak_rss_MiB"] = peakResidentMiB();
 }
 
-DisplayModel variant(const std::string& preset, double k, ScreenTransfer transfer, double k1 = 0.0) {
+DisplayModel variant(const std::string& preset, double k, ScreenTransfer transfer,
+                     double k1 = 0.0) {
   NominalDisplayOptions options;
   options.preset = preset;
   options.curvature = k;
@@ -65,14 +67,22 @@ DisplayModel variant(const std::string& preset, double k, ScreenTransfer transfe
   return model;
 }
 
-void BM_Default_Conical_Flat(benchmark::State& s) { generateDisplay(s, variant("default", 0.0, ScreenTransfer::kConical)); }
-void BM_Default_Linear_Flat(benchmark::State& s) { generateDisplay(s, variant("default", 0.0, ScreenTransfer::kLinear)); }
-void BM_Default_Conical_Curved(benchmark::State& s) { generateDisplay(s, variant("default", 0.5, ScreenTransfer::kConical)); }
+void BM_Default_Conical_Flat(benchmark::State& s) {
+  generateDisplay(s, variant("default", 0.0, ScreenTransfer::kConical));
+}
+void BM_Default_Linear_Flat(benchmark::State& s) {
+  generateDisplay(s, variant("default", 0.0, ScreenTransfer::kLinear));
+}
+void BM_Default_Conical_Curved(benchmark::State& s) {
+  generateDisplay(s, variant("default", 0.5, ScreenTransfer::kConical));
+}
 // A calibrated display has lens distortion: every pixel then pays the radial undistortion.
 void BM_Default_Conical_Distorted(benchmark::State& s) {
   generateDisplay(s, variant("default", 0.5, ScreenTransfer::kConical, -0.08));
 }
-void BM_Demo_Conical_Flat(benchmark::State& s) { generateDisplay(s, variant("demo", 0.0, ScreenTransfer::kConical)); }
+void BM_Demo_Conical_Flat(benchmark::State& s) {
+  generateDisplay(s, variant("demo", 0.0, ScreenTransfer::kConical));
+}
 
 BENCHMARK(BM_Default_Conical_Flat)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
 BENCHMARK(BM_Default_Linear_Flat)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);

@@ -1,4 +1,5 @@
-// `parallax`: the offline command-line tool and the daemon's control client (DESIGN.md, "Processes and interfaces").
+// `parallax`: the offline command-line tool and the daemon's control client (DESIGN.md, "Processes
+// and interfaces").
 
 #include <CLI/CLI.hpp>
 #include <cstdio>

@@ -40,10 +40,12 @@ std::map<std::string, double> parseParameterSettings(const std::vector<std::stri
 }
 
 std::string librarySceneScript(const std::string& name) {
-  if (name.empty() || name.find_first_not_of("abcdefghijklmnopqrstuvwxyz_0123456789") != std::string::npos) {
+  if (name.empty() ||
+      name.find_first_not_of("abcdefghijklmnopqrstuvwxyz_0123456789") != std::string::npos) {
     return "";
   }
-  const std::filesystem::path script = std::filesystem::path(ScriptOptions::defaultSceneLibrary()) / (name + ".lua");
+  const std::filesystem::path script =
+      std::filesystem::path(ScriptOptions::defaultSceneLibrary()) / (name + ".lua");
   return std::filesystem::is_regular_file(script) ? script.string() : "";
 }
 

@@ -17,7 +17,8 @@ Rgb shadePixel(const PhysicalScene& scene, const SurfaceSample& sample, const Ei
                DirectShadingCounters* c) {
   const PhysicalMesh& mesh = scene.meshes()[static_cast<size_t>(sample.mesh)];
   const Material& m = scene.materials()[static_cast<size_t>(mesh.material)];
-  const HitInfo h = hitInfoOf(mesh, static_cast<unsigned>(sample.triangle), sample.b1, sample.b2, d, m.diffuseTexture >= 0);
+  const HitInfo h = hitInfoOf(mesh, static_cast<unsigned>(sample.triangle), sample.b1, sample.b2, d,
+                              m.diffuseTexture >= 0);
   Rgb texture = Rgb::Ones();
   if (m.diffuseTexture >= 0) {
     const TextureImage& image = scene.textures()[static_cast<size_t>(m.diffuseTexture)];
@@ -52,7 +53,8 @@ Rgb shadePixel(const PhysicalScene& scene, const SurfaceSample& sample, const Ei
     if (cosine <= 0.0f || h.geometricNormal.dot(l) <= 0.0f) continue;
     Rgb response = albedo * cosine;
     if (m.specular.maxCoeff() > 0.0f) {
-      response += m.specular * std::pow(std::max(0.0f, reflect(d, h.shadingNormal).dot(l)), m.shininess);
+      response +=
+          m.specular * std::pow(std::max(0.0f, reflect(d, h.shadingNormal).dot(l)), m.shininess);
     }
     out += response.cwiseProduct(irradiance);
   }
@@ -61,22 +63,24 @@ Rgb shadePixel(const PhysicalScene& scene, const SurfaceSample& sample, const Ei
 
 }  // namespace
 
-Frame shadeDirect(const PhysicalScene& scene, const VisibilityBuffer& visibility, const RayTextures& textures,
-                  DirectShadingCounters* counters) {
+Frame shadeDirect(const PhysicalScene& scene, const VisibilityBuffer& visibility,
+                  const RayTextures& textures, DirectShadingCounters* counters) {
   Frame frame(visibility.width, visibility.height);
   tbb::combinable<DirectShadingCounters> perThread;
-  tbb::parallel_for(tbb::blocked_range<int>(0, visibility.height, 8), [&](const tbb::blocked_range<int>& rows) {
-    DirectShadingCounters& c = perThread.local();
-    for (int row = rows.begin(); row < rows.end(); ++row) {
-      for (int column = 0; column < visibility.width; ++column) {
-        const SurfaceSample& s = visibility.at(column, row);
-        const CompactRay& r = textures.at(column, row);
-        if (r.masked()) continue;  // black, as in the tracer
-        frame.at(column, row) =
-            s.covered() ? shadePixel(scene, s, textures.frame().direction(r), &c) : scene.background();
-      }
-    }
-  });
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, visibility.height, 8), [&](const tbb::blocked_range<int>& rows) {
+        DirectShadingCounters& c = perThread.local();
+        for (int row = rows.begin(); row < rows.end(); ++row) {
+          for (int column = 0; column < visibility.width; ++column) {
+            const SurfaceSample& s = visibility.at(column, row);
+            const CompactRay& r = textures.at(column, row);
+            if (r.masked()) continue;  // black, as in the tracer
+            frame.at(column, row) = s.covered()
+                                        ? shadePixel(scene, s, textures.frame().direction(r), &c)
+                                        : scene.background();
+          }
+        }
+      });
   if (counters) {
     *counters = DirectShadingCounters{};
     perThread.combine_each([&](const DirectShadingCounters& c) {

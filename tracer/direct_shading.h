@@ -5,7 +5,7 @@
 // rays the rasterizer does not have (it cannot do Whitted): they show only their emission and
 // are counted. Same Frame layout as renderFrame, so the two compare pixel for pixel.
 
-#include "calibration/ray_textures.h"
+#include "calibration/display/ray_textures.h"
 #include "tracer/frame.h"
 #include "tracer/physical_scene.h"
 #include "tracer/visibility_buffer.h"
@@ -18,7 +18,7 @@ struct DirectShadingCounters {
 };
 
 // `textures` gives each pixel's view direction (for the facing and the highlight).
-Frame shadeDirect(const PhysicalScene& scene, const VisibilityBuffer& visibility, const RayTextures& textures,
-                  DirectShadingCounters* counters = nullptr);
+Frame shadeDirect(const PhysicalScene& scene, const VisibilityBuffer& visibility,
+                  const RayTextures& textures, DirectShadingCounters* counters = nullptr);
 
 }  // namespace parallax

@@ -19,7 +19,8 @@ namespace parallax {
 std::uint8_t srgb8FromLinear(float linear) {
   // NaN must not reach a module: treat it as black (the integrator never makes one; this is the
   // last guard before the bytes leave).
-  const float c = std::isfinite(linear) ? std::clamp(linear, 0.0f, 1.0f) : (linear > 0.0f ? 1.0f : 0.0f);
+  const float c =
+      std::isfinite(linear) ? std::clamp(linear, 0.0f, 1.0f) : (linear > 0.0f ? 1.0f : 0.0f);
   const float encoded = c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
   return static_cast<std::uint8_t>(std::lround(encoded * 255.0f));
 }
@@ -29,12 +30,14 @@ float linearFromSrgb(float encoded) {
 }
 
 Frame frameFromSrgb8(int width, int height, const std::vector<std::uint8_t>& rgb) {
-  if (width < 0 || height < 0 || rgb.size() != static_cast<size_t>(width) * static_cast<size_t>(height) * 3) {
+  if (width < 0 || height < 0 ||
+      rgb.size() != static_cast<size_t>(width) * static_cast<size_t>(height) * 3) {
     throw std::invalid_argument("frameFromSrgb8: byte count is not width x height x 3");
   }
   static const std::array<float, 256> kLinear = [] {
     std::array<float, 256> table{};
-    for (int i = 0; i < 256; ++i) table[static_cast<size_t>(i)] = linearFromSrgb(static_cast<float>(i) / 255.0f);
+    for (int i = 0; i < 256; ++i)
+      table[static_cast<size_t>(i)] = linearFromSrgb(static_cast<float>(i) / 255.0f);
     return table;
   }();
   Frame frame(width, height);
@@ -59,14 +62,19 @@ struct SrgbEncoder {
   std::array<float, 257> lowest{};
 
   SrgbEncoder() {
-    for (int i = 0; i <= kSteps; ++i) code[static_cast<size_t>(i)] = srgb8FromLinear(static_cast<float>(i) / kSteps);
+    for (int i = 0; i <= kSteps; ++i)
+      code[static_cast<size_t>(i)] = srgb8FromLinear(static_cast<float>(i) / kSteps);
     lowest[0] = -std::numeric_limits<float>::infinity();
     lowest[256] = std::numeric_limits<float>::infinity();
     for (int k = 1; k < 256; ++k) {
-      std::uint32_t lo = 0, hi = std::bit_cast<std::uint32_t>(1.0f);  // srgb8FromLinear(1) = 255 >= k
+      std::uint32_t lo = 0,
+                    hi = std::bit_cast<std::uint32_t>(1.0f);  // srgb8FromLinear(1) = 255 >= k
       while (lo < hi) {
         const std::uint32_t mid = lo + (hi - lo) / 2;
-        if (srgb8FromLinear(std::bit_cast<float>(mid)) >= k) hi = mid; else lo = mid + 1;
+        if (srgb8FromLinear(std::bit_cast<float>(mid)) >= k)
+          hi = mid;
+        else
+          lo = mid + 1;
       }
       lowest[static_cast<size_t>(k)] = std::bit_cast<float>(lo);
     }
@@ -87,7 +95,8 @@ struct SrgbEncoder {
     for (; i + 4 <= n; i += 4) {
       const __m128 c = _mm_min_ps(_mm_max_ps(_mm_loadu_ps(in + i), zero), one);
       _mm_store_ps(clamped + i, c);
-      _mm_store_si128(reinterpret_cast<__m128i*>(index + i), _mm_cvttps_epi32(_mm_add_ps(_mm_mul_ps(c, steps), half)));
+      _mm_store_si128(reinterpret_cast<__m128i*>(index + i),
+                      _mm_cvttps_epi32(_mm_add_ps(_mm_mul_ps(c, steps), half)));
     }
     for (; i < n; ++i) {
       const __m128 c = _mm_min_ss(_mm_max_ss(_mm_load_ss(in + i), zero), one);
@@ -130,7 +139,8 @@ namespace {
 
 void writeImage(const std::string& path, const OIIO::ImageSpec& spec, const void* data) {
   auto output = OIIO::ImageOutput::create(path);
-  if (!output) throw InputError({path, "", 0}, "no image writer for this file name: " + OIIO::geterror());
+  if (!output)
+    throw InputError({path, "", 0}, "no image writer for this file name: " + OIIO::geterror());
   if (!output->open(path, spec) || !output->write_image(spec.format, data) || !output->close()) {
     throw InputError({path, "", 0}, "cannot write the image: " + output->geterror());
   }
@@ -165,7 +175,8 @@ Frame readFrame(const std::string& path) {
   auto input = OIIO::ImageInput::open(path);
   if (!input) throw InputError({path, "", 0}, "cannot read the image: " + OIIO::geterror());
   const OIIO::ImageSpec& spec = input->spec();
-  if (spec.width < 1 || spec.height < 1 || spec.width > 16384 || spec.height > 16384 || spec.nchannels < 1) {
+  if (spec.width < 1 || spec.height < 1 || spec.width > 16384 || spec.height > 16384 ||
+      spec.nchannels < 1) {
     throw InputError({path, "", 0}, "unsupported image size or channel count");
   }
   std::vector<float> data(static_cast<size_t>(spec.width) * static_cast<size_t>(spec.height) *

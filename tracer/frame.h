@@ -16,10 +16,15 @@ struct Frame {
   std::vector<Rgb> pixels;
 
   Frame() = default;
-  Frame(int w, int h) : width(w), height(h), pixels(static_cast<size_t>(w) * static_cast<size_t>(h), Rgb::Zero()) {}
-  Rgb& at(int column, int row) { return pixels[static_cast<size_t>(row) * static_cast<size_t>(width) + static_cast<size_t>(column)]; }
+  Frame(int w, int h)
+      : width(w), height(h), pixels(static_cast<size_t>(w) * static_cast<size_t>(h), Rgb::Zero()) {}
+  Rgb& at(int column, int row) {
+    return pixels[static_cast<size_t>(row) * static_cast<size_t>(width) +
+                  static_cast<size_t>(column)];
+  }
   const Rgb& at(int column, int row) const {
-    return pixels[static_cast<size_t>(row) * static_cast<size_t>(width) + static_cast<size_t>(column)];
+    return pixels[static_cast<size_t>(row) * static_cast<size_t>(width) +
+                  static_cast<size_t>(column)];
   }
 
   // sRGB-encoded, clamped to [0, 1], rounded: RGB RGB ... row-major.

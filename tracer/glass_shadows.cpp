@@ -8,8 +8,8 @@
 
 namespace parallax {
 
-ShadowQueryContext shadowQueryContext(bool coherent, const PhysicalScene* scene, ShadowTransmittance* transmittance,
-                                      long* filterCalls) {
+ShadowQueryContext shadowQueryContext(bool coherent, const PhysicalScene* scene,
+                                      ShadowTransmittance* transmittance, long* filterCalls) {
   ShadowQueryContext context;
   context.base = intersectContext(coherent);
   context.scene = scene;

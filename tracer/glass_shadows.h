@@ -33,8 +33,8 @@ struct ShadowTransmittance {
   // A ray that crosses more glass surfaces than this is treated as blocked (conservative; the
   // fixtures cross at most 4).
   static constexpr int kMaxCrossings = 8;
-  float fresnel = 1.0f;                // product of the crossings' Fresnel transmittances
-  Rgb opticalDepth = Rgb::Zero();      // Σ over exits of absorption·t − Σ over entries (world units)
+  float fresnel = 1.0f;            // product of the crossings' Fresnel transmittances
+  Rgb opticalDepth = Rgb::Zero();  // Σ over exits of absorption·t − Σ over entries (world units)
   int crossings = 0;
   std::uint64_t crossed[kMaxCrossings];  // (geomID << 32 | primID) of the triangles counted
 
@@ -55,7 +55,8 @@ struct ShadowQueryContext {
 
 // `coherent`: the RTCIntersectContext flag (see intersectContext in ray_batch.h).
 ShadowQueryContext shadowQueryContext(bool coherent, const PhysicalScene* scene = nullptr,
-                                      ShadowTransmittance* transmittance = nullptr, long* filterCalls = nullptr);
+                                      ShadowTransmittance* transmittance = nullptr,
+                                      long* filterCalls = nullptr);
 
 // The occlusion filter PhysicalScene sets on dielectric geometries.
 void glassShadowFilter(const RTCFilterFunctionNArguments* args);

@@ -1,7 +1,8 @@
 #pragma once
 // What shading needs to know about a ray's hit on a triangle: position (from the vertices),
 // normals facing the incoming ray, uv, vertex colour, and the texel density for the texture
-// footprint. Inline: it sits in the integrator's hot path. Shared by the Whitted integrator and the rasterizer's direct shading.
+// footprint. Inline: it sits in the integrator's hot path. Shared by the Whitted integrator and the
+// rasterizer's direct shading.
 
 #include <Eigen/Core>
 #include <cmath>
@@ -22,8 +23,8 @@ struct HitInfo {
 
 // (u, v): Embree's barycentrics of vertices 1 and 2; d: the incoming ray's direction;
 // `wantUv`: the surface samples a texture (its uv and texel density are needed).
-inline HitInfo hitInfoOf(const PhysicalMesh& mesh, unsigned prim, float u, float v, const Eigen::Vector3f& d,
-                         bool wantUv) {
+inline HitInfo hitInfoOf(const PhysicalMesh& mesh, unsigned prim, float u, float v,
+                         const Eigen::Vector3f& d, bool wantUv) {
   const auto& tri = mesh.triangles[prim];
   const Eigen::Vector3f& p0 = mesh.positions[tri[0]];
   const Eigen::Vector3f& p1 = mesh.positions[tri[1]];
@@ -38,7 +39,8 @@ inline HitInfo hitInfoOf(const PhysicalMesh& mesh, unsigned prim, float u, float
   h.geometricNormal = ng;
   h.shadingNormal = ng;
   if (!mesh.normals.empty()) {
-    const Eigen::Vector3f ns = w * mesh.normals[tri[0]] + u * mesh.normals[tri[1]] + v * mesh.normals[tri[2]];
+    const Eigen::Vector3f ns =
+        w * mesh.normals[tri[0]] + u * mesh.normals[tri[1]] + v * mesh.normals[tri[2]];
     const float length = ns.norm();
     if (length > 0.0f && std::isfinite(length)) {
       Eigen::Vector3f n = ns / length;
@@ -57,7 +59,8 @@ inline HitInfo hitInfoOf(const PhysicalMesh& mesh, unsigned prim, float u, float
     const float uvArea = std::abs(a.x() * b.y() - a.y() * b.x());
     h.texelsPerMetreSq = uvArea / mesh.crossLengths[prim];
   }
-  if (!mesh.colors.empty()) h.vertexColor = w * mesh.colors[tri[0]] + u * mesh.colors[tri[1]] + v * mesh.colors[tri[2]];
+  if (!mesh.colors.empty())
+    h.vertexColor = w * mesh.colors[tri[0]] + u * mesh.colors[tri[1]] + v * mesh.colors[tri[2]];
   return h;
 }
 

@@ -10,7 +10,8 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-std::uint32_t addVertex(Mesh* m, const Eigen::Vector3d& p, const Eigen::Vector3d& n, double u, double v) {
+std::uint32_t addVertex(Mesh* m, const Eigen::Vector3d& p, const Eigen::Vector3d& n, double u,
+                        double v) {
   m->positions.push_back(p);
   m->normals.push_back(n.normalized().cast<float>());
   m->uvs.push_back({static_cast<float>(u), static_cast<float>(v)});
@@ -37,7 +38,8 @@ Mesh makeGrid(double width, double height, int nx, int ny) {
   }
   const auto at = [&](int i, int j) { return static_cast<std::uint32_t>(j * (nx + 1) + i); };
   for (int j = 0; j < ny; ++j) {
-    for (int i = 0; i < nx; ++i) addQuad(&m, at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+    for (int i = 0; i < nx; ++i)
+      addQuad(&m, at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
   }
   return m;
 }
@@ -48,11 +50,13 @@ Mesh makeBox(const Eigen::Vector3d& size) {
   const Eigen::Vector3d h = 0.5 * size;
   // Each face: outward normal n and two in-plane axes a, b with a × b = n.
   const Eigen::Vector3d axes[6][3] = {
-      {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}},  {{-1, 0, 0}, {0, 0, 1}, {0, 1, 0}}, {{0, 1, 0}, {0, 0, 1}, {1, 0, 0}},
-      {{0, -1, 0}, {1, 0, 0}, {0, 0, 1}}, {{0, 0, 1}, {1, 0, 0}, {0, 1, 0}},  {{0, 0, -1}, {0, 1, 0}, {1, 0, 0}}};
+      {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, {{-1, 0, 0}, {0, 0, 1}, {0, 1, 0}},
+      {{0, 1, 0}, {0, 0, 1}, {1, 0, 0}}, {{0, -1, 0}, {1, 0, 0}, {0, 0, 1}},
+      {{0, 0, 1}, {1, 0, 0}, {0, 1, 0}}, {{0, 0, -1}, {0, 1, 0}, {1, 0, 0}}};
   for (const auto& face : axes) {
     const Eigen::Vector3d& n = face[0];
-    const Eigen::Vector3d a = face[1].cwiseProduct(h), b = face[2].cwiseProduct(h), c = n.cwiseProduct(h);
+    const Eigen::Vector3d a = face[1].cwiseProduct(h), b = face[2].cwiseProduct(h),
+                          c = n.cwiseProduct(h);
     const std::uint32_t v0 = addVertex(&m, c - a - b, n, 0, 0);
     const std::uint32_t v1 = addVertex(&m, c + a - b, n, 1, 0);
     const std::uint32_t v2 = addVertex(&m, c + a + b, n, 1, 1);
@@ -70,8 +74,10 @@ Mesh makeSphere(double radius, int slices, int stacks) {
     const double theta = kPi * j / stacks;  // from the north pole (+y)
     for (int i = 0; i <= slices; ++i) {
       const double phi = 2.0 * kPi * i / slices;
-      const Eigen::Vector3d n(std::sin(theta) * std::sin(phi), std::cos(theta), std::sin(theta) * std::cos(phi));
-      addVertex(&m, radius * n, n, static_cast<double>(i) / slices, 1.0 - static_cast<double>(j) / stacks);
+      const Eigen::Vector3d n(std::sin(theta) * std::sin(phi), std::cos(theta),
+                              std::sin(theta) * std::cos(phi));
+      addVertex(&m, radius * n, n, static_cast<double>(i) / slices,
+                1.0 - static_cast<double>(j) / stacks);
     }
   }
   const auto at = [&](int i, int j) { return static_cast<std::uint32_t>(j * (slices + 1) + i); };
@@ -101,7 +107,8 @@ Mesh makeTorus(double majorRadius, double minorRadius, int segments, int sides) 
   }
   const auto at = [&](int i, int j) { return static_cast<std::uint32_t>(j * (sides + 1) + i); };
   for (int j = 0; j < segments; ++j) {
-    for (int i = 0; i < sides; ++i) addQuad(&m, at(i, j), at(i, j + 1), at(i + 1, j + 1), at(i + 1, j));
+    for (int i = 0; i < sides; ++i)
+      addQuad(&m, at(i, j), at(i, j + 1), at(i + 1, j + 1), at(i + 1, j));
   }
   return m;
 }
@@ -123,12 +130,16 @@ Mesh makeCylinder(double radius, double height, int slices) {
     // Caps: fans from the centres, flat normals.
     const Eigen::Vector3d up(0, 1, 0);
     const std::uint32_t ct = addVertex(&m, {0, h, 0}, up, 0.5, 0.5);
-    const std::uint32_t ct0 = addVertex(&m, radius * n0 + Eigen::Vector3d(0, h, 0), up, 0.5 + 0.5 * n0.x(), 0.5 + 0.5 * n0.z());
-    const std::uint32_t ct1 = addVertex(&m, radius * n1 + Eigen::Vector3d(0, h, 0), up, 0.5 + 0.5 * n1.x(), 0.5 + 0.5 * n1.z());
+    const std::uint32_t ct0 = addVertex(&m, radius * n0 + Eigen::Vector3d(0, h, 0), up,
+                                        0.5 + 0.5 * n0.x(), 0.5 + 0.5 * n0.z());
+    const std::uint32_t ct1 = addVertex(&m, radius * n1 + Eigen::Vector3d(0, h, 0), up,
+                                        0.5 + 0.5 * n1.x(), 0.5 + 0.5 * n1.z());
     m.triangles.push_back({ct, ct0, ct1});
     const std::uint32_t cb = addVertex(&m, {0, -h, 0}, -up, 0.5, 0.5);
-    const std::uint32_t cb0 = addVertex(&m, radius * n0 + Eigen::Vector3d(0, -h, 0), -up, 0.5 + 0.5 * n0.x(), 0.5 + 0.5 * n0.z());
-    const std::uint32_t cb1 = addVertex(&m, radius * n1 + Eigen::Vector3d(0, -h, 0), -up, 0.5 + 0.5 * n1.x(), 0.5 + 0.5 * n1.z());
+    const std::uint32_t cb0 = addVertex(&m, radius * n0 + Eigen::Vector3d(0, -h, 0), -up,
+                                        0.5 + 0.5 * n0.x(), 0.5 + 0.5 * n0.z());
+    const std::uint32_t cb1 = addVertex(&m, radius * n1 + Eigen::Vector3d(0, -h, 0), -up,
+                                        0.5 + 0.5 * n1.x(), 0.5 + 0.5 * n1.z());
     m.triangles.push_back({cb, cb1, cb0});
   }
   return m;
@@ -141,10 +152,14 @@ Mesh makeCone(double radius, double height, int slices) {
   const double h = 0.5 * height;
   const double slope = radius / height;  // normal tilt: (cos a, slope, sin a) normalised
   for (int i = 0; i < slices; ++i) {
-    const double a0 = 2.0 * kPi * i / slices, a1 = 2.0 * kPi * (i + 1) / slices, am = 0.5 * (a0 + a1);
-    const Eigen::Vector3d r0(std::sin(a0), 0, std::cos(a0)), r1(std::sin(a1), 0, std::cos(a1)), rm(std::sin(am), 0, std::cos(am));
-    const std::uint32_t b0 = addVertex(&m, radius * r0 + Eigen::Vector3d(0, -h, 0), r0 + Eigen::Vector3d(0, slope, 0), 0, 0);
-    const std::uint32_t b1 = addVertex(&m, radius * r1 + Eigen::Vector3d(0, -h, 0), r1 + Eigen::Vector3d(0, slope, 0), 1, 0);
+    const double a0 = 2.0 * kPi * i / slices, a1 = 2.0 * kPi * (i + 1) / slices,
+                 am = 0.5 * (a0 + a1);
+    const Eigen::Vector3d r0(std::sin(a0), 0, std::cos(a0)), r1(std::sin(a1), 0, std::cos(a1)),
+        rm(std::sin(am), 0, std::cos(am));
+    const std::uint32_t b0 = addVertex(&m, radius * r0 + Eigen::Vector3d(0, -h, 0),
+                                       r0 + Eigen::Vector3d(0, slope, 0), 0, 0);
+    const std::uint32_t b1 = addVertex(&m, radius * r1 + Eigen::Vector3d(0, -h, 0),
+                                       r1 + Eigen::Vector3d(0, slope, 0), 1, 0);
     const std::uint32_t apex = addVertex(&m, {0, h, 0}, rm + Eigen::Vector3d(0, slope, 0), 0.5, 1);
     m.triangles.push_back({b0, b1, apex});
     const Eigen::Vector3d down(0, -1, 0);

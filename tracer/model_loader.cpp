@@ -5,18 +5,17 @@
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include <assimp/Importer.hpp>
 #include <algorithm>
+#include <assimp/Importer.hpp>
 #include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <functional>
 #include <limits>
 #include <map>
-
-#include <fmt/format.h>
 
 #include "common/input_error.h"
 #include "tracer/scene_fixtures.h"
@@ -27,17 +26,21 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string lower(std::string s) {
-  std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return s;
 }
 
 Eigen::Matrix4d toEigen(const aiMatrix4x4& m) {
   Eigen::Matrix4d out;
-  out << m.a1, m.a2, m.a3, m.a4, m.b1, m.b2, m.b3, m.b4, m.c1, m.c2, m.c3, m.c4, m.d1, m.d2, m.d3, m.d4;
+  out << m.a1, m.a2, m.a3, m.a4, m.b1, m.b2, m.b3, m.b4, m.c1, m.c2, m.c3, m.c4, m.d1, m.d2, m.d3,
+      m.d4;
   return out;
 }
 
-float srgbToLinear(float c) { return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f); }
+float srgbToLinear(float c) {
+  return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
+}
 
 // A texture stored inside the model file (glTF binary, FBX): decoded through OpenImageIO from
 // memory into an inline Texture. Returns false with `error` set when it cannot be decoded.
@@ -68,7 +71,8 @@ bool decodeEmbedded(const aiTexture& embedded, Texture* out, std::string* error)
     return false;
   }
   const OIIO::ImageSpec spec = input->spec();
-  if (spec.width <= 0 || spec.height <= 0 || spec.width > 65536 || spec.height > 65536 || spec.nchannels <= 0) {
+  if (spec.width <= 0 || spec.height <= 0 || spec.width > 65536 || spec.height > 65536 ||
+      spec.nchannels <= 0) {
     *error = "unsupported embedded image size";
     return false;
   }
@@ -92,9 +96,11 @@ bool decodeEmbedded(const aiTexture& embedded, Texture* out, std::string* error)
   return true;
 }
 
-Rgb colorOf(const aiMaterial& m, const char* key, unsigned type, unsigned index, const Rgb& fallback, bool* present) {
+Rgb colorOf(const aiMaterial& m, const char* key, unsigned type, unsigned index,
+            const Rgb& fallback, bool* present) {
   aiColor4D c;
-  if (m.Get(key, type, index, c) == AI_SUCCESS && std::isfinite(c.r) && std::isfinite(c.g) && std::isfinite(c.b)) {
+  if (m.Get(key, type, index, c) == AI_SUCCESS && std::isfinite(c.r) && std::isfinite(c.g) &&
+      std::isfinite(c.b)) {
     *present = true;
     return Rgb(std::max(c.r, 0.0f), std::max(c.g, 0.0f), std::max(c.b, 0.0f));
   }
@@ -104,11 +110,13 @@ Rgb colorOf(const aiMaterial& m, const char* key, unsigned type, unsigned index,
 
 }  // namespace
 
-std::string resolveTexturePath(const std::string& reference, const std::string& modelDirectory, bool* found) {
+std::string resolveTexturePath(const std::string& reference, const std::string& modelDirectory,
+                               bool* found) {
   std::string cleaned = reference;
   std::replace(cleaned.begin(), cleaned.end(), '\\', '/');
   while (cleaned.rfind("./", 0) == 0) cleaned = cleaned.substr(2);
-  const fs::path candidate = fs::path(cleaned).is_absolute() ? fs::path(cleaned) : fs::path(modelDirectory) / cleaned;
+  const fs::path candidate =
+      fs::path(cleaned).is_absolute() ? fs::path(cleaned) : fs::path(modelDirectory) / cleaned;
   std::error_code ec;
   if (fs::is_regular_file(candidate, ec)) {
     *found = true;
@@ -127,17 +135,22 @@ std::string resolveTexturePath(const std::string& reference, const std::string& 
   return candidate.string();
 }
 
-ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& options, Scene* scene) {
+ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& options,
+                            Scene* scene) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw InputError({path, "", 0}, "no such model file");
-  if (fs::file_size(path, ec) == 0) throw InputError({path, "", 0}, "the model file is empty (0 bytes)");
+  if (fs::file_size(path, ec) == 0)
+    throw InputError({path, "", 0}, "the model file is empty (0 bytes)");
   Assimp::Importer importer;
   // Drop points and lines (nothing a ray can hit); triangulate quads and polygons; make normals
   // where the file has none; reject NaN data; merge identical vertices so smooth normals smooth.
-  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const aiScene* model =
-      importer.ReadFile(path, aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_ValidateDataStructure);
-  auto failed = [&](const aiScene* s) { return !s || !s->mRootNode || (s->mFlags & AI_SCENE_FLAGS_INCOMPLETE); };
+  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,
+                              aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+  const aiScene* model = importer.ReadFile(
+      path, aiProcess_Triangulate | aiProcess_SortByPType | aiProcess_ValidateDataStructure);
+  auto failed = [&](const aiScene* s) {
+    return !s || !s->mRootNode || (s->mFlags & AI_SCENE_FLAGS_INCOMPLETE);
+  };
   auto reason = [&] {
     std::string r = importer.GetErrorString();
     return r.empty() ? std::string("the file holds no complete scene") : r;
@@ -146,9 +159,11 @@ ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& opt
   ModelLoadReport report;
   // The rest runs as a second step so the report can say which meshes came without normals
   // (GenSmoothNormals leaves meshes that have them alone).
-  for (unsigned i = 0; i < model->mNumMeshes; ++i) report.generatedNormals += model->mMeshes[i]->mNormals ? 0 : 1;
-  model = importer.ApplyPostProcessing(aiProcess_GenSmoothNormals | aiProcess_JoinIdenticalVertices |
-                                       aiProcess_FindInvalidData | aiProcess_FindDegenerates);
+  for (unsigned i = 0; i < model->mNumMeshes; ++i)
+    report.generatedNormals += model->mMeshes[i]->mNormals ? 0 : 1;
+  model =
+      importer.ApplyPostProcessing(aiProcess_GenSmoothNormals | aiProcess_JoinIdenticalVertices |
+                                   aiProcess_FindInvalidData | aiProcess_FindDegenerates);
   if (failed(model)) throw InputError({path, "", 0}, "cannot post-process the model: " + reason());
   const std::string directory = fs::path(path).parent_path().string();
 
@@ -161,13 +176,14 @@ ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& opt
     if (m.Get(AI_MATKEY_NAME, name) == AI_SUCCESS) material.name = name.C_Str();
     bool present = false;
     material.diffuse = colorOf(m, AI_MATKEY_BASE_COLOR, Rgb(0.8f, 0.8f, 0.8f), &present);
-    if (!present) material.diffuse = colorOf(m, AI_MATKEY_COLOR_DIFFUSE, Rgb(0.8f, 0.8f, 0.8f), &present);
+    if (!present)
+      material.diffuse = colorOf(m, AI_MATKEY_COLOR_DIFFUSE, Rgb(0.8f, 0.8f, 0.8f), &present);
     // An all-black diffuse colour from an exporter usually means "texture only".
     if (material.diffuse.maxCoeff() <= 0.0f) material.diffuse = Rgb(0.8f, 0.8f, 0.8f);
     float shininess = 0.0f;
     const Rgb specular = colorOf(m, AI_MATKEY_COLOR_SPECULAR, Rgb::Zero(), &present);
-    if (m.Get(AI_MATKEY_SHININESS, shininess) == AI_SUCCESS && std::isfinite(shininess) && shininess > 1.0f &&
-        specular.maxCoeff() > 0.0f) {
+    if (m.Get(AI_MATKEY_SHININESS, shininess) == AI_SUCCESS && std::isfinite(shininess) &&
+        shininess > 1.0f && specular.maxCoeff() > 0.0f) {
       material.specular = specular;
       material.shininess = std::min(shininess, 1000.0f);
     }
@@ -198,8 +214,9 @@ ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& opt
         ++report.textures;
       } else {
         ++report.texturesMissing;
-        report.warnings.push_back(fmt::format("{}: material \"{}\": texture \"{}\" unusable ({}); using its colour",
-                                              path, material.name, texturePath.C_Str(), error));
+        report.warnings.push_back(
+            fmt::format("{}: material \"{}\": texture \"{}\" unusable ({}); using its colour", path,
+                        material.name, texturePath.C_Str(), error));
       }
     }
     scene->addMaterial(std::move(material));
@@ -214,7 +231,9 @@ ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& opt
     if (!(source.mPrimitiveTypes & aiPrimitiveType_TRIANGLE) || source.mNumFaces == 0) continue;
     Mesh mesh;
     mesh.name = source.mName.C_Str();
-    mesh.material = materialBase + static_cast<int>(std::min(source.mMaterialIndex, std::max(model->mNumMaterials, 1u) - 1));
+    mesh.material =
+        materialBase +
+        static_cast<int>(std::min(source.mMaterialIndex, std::max(model->mNumMaterials, 1u) - 1));
     mesh.positions.reserve(source.mNumVertices);
     for (unsigned v = 0; v < source.mNumVertices; ++v) {
       const aiVector3D& p = source.mVertices[v];
@@ -253,16 +272,16 @@ ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& opt
 
   // Instances from the node hierarchy, with the model's own transforms.
   std::vector<std::pair<int, Eigen::Affine3d>> placed;
-  std::function<void(const aiNode&, const Eigen::Affine3d&)> visit = [&](const aiNode& node,
-                                                                         const Eigen::Affine3d& parent) {
-    Eigen::Affine3d here = parent * Eigen::Affine3d(toEigen(node.mTransformation));
-    if (!here.matrix().allFinite()) here = parent;
-    for (unsigned k = 0; k < node.mNumMeshes; ++k) {
-      const unsigned m = node.mMeshes[k];
-      if (m < meshIndex.size() && meshIndex[m] >= 0) placed.emplace_back(meshIndex[m], here);
-    }
-    for (unsigned c = 0; c < node.mNumChildren; ++c) visit(*node.mChildren[c], here);
-  };
+  std::function<void(const aiNode&, const Eigen::Affine3d&)> visit =
+      [&](const aiNode& node, const Eigen::Affine3d& parent) {
+        Eigen::Affine3d here = parent * Eigen::Affine3d(toEigen(node.mTransformation));
+        if (!here.matrix().allFinite()) here = parent;
+        for (unsigned k = 0; k < node.mNumMeshes; ++k) {
+          const unsigned m = node.mMeshes[k];
+          if (m < meshIndex.size() && meshIndex[m] >= 0) placed.emplace_back(meshIndex[m], here);
+        }
+        for (unsigned c = 0; c < node.mNumChildren; ++c) visit(*node.mChildren[c], here);
+      };
   visit(*model->mRootNode, Eigen::Affine3d::Identity());
   if (placed.empty()) throw InputError({path, "", 0}, "the model holds no triangles");
 
@@ -285,7 +304,8 @@ ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& opt
   for (const auto& [mesh, transform] : placed) {
     scene->addInstance(mesh, options.worldFromModel * normalise * transform);
     ++report.meshes;
-    report.triangles += static_cast<long>(scene->meshes[static_cast<size_t>(mesh)].triangles.size());
+    report.triangles +=
+        static_cast<long>(scene->meshes[static_cast<size_t>(mesh)].triangles.size());
   }
   for (const std::string& w : report.warnings) spdlog::warn("{}", w);
   return report;

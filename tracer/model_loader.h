@@ -26,9 +26,9 @@ struct ModelLoadReport {
   int meshes = 0;
   long triangles = 0;
   int materials = 0;
-  int textures = 0;              // texture references added to the scene
-  int texturesMissing = 0;       // files not found: the material's colour is the fallback
-  int generatedNormals = 0;      // meshes that had no normals
+  int textures = 0;          // texture references added to the scene
+  int texturesMissing = 0;   // files not found: the material's colour is the fallback
+  int generatedNormals = 0;  // meshes that had no normals
   std::vector<std::string> warnings;
 };
 
@@ -42,6 +42,7 @@ Scene loadModelScene(const std::string& path, ModelLoadReport* report = nullptr)
 // `map_Kd .\sub\tex.jpg` → the file it means, relative to `modelDirectory`: backslashes become
 // slashes, and when the exact name is missing a case-insensitive match in that folder is
 // accepted. Returns the resolved path, or the cleaned one when nothing matches.
-std::string resolveTexturePath(const std::string& reference, const std::string& modelDirectory, bool* found);
+std::string resolveTexturePath(const std::string& reference, const std::string& modelDirectory,
+                               bool* found);
 
 }  // namespace parallax

@@ -1,19 +1,18 @@
 #include "tracer/observer_view.h"
 
+#include <fmt/format.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <numbers>
 #include <optional>
 
-#include <fmt/format.h>
-
-#include "calibration/conventions.h"
-#include "calibration/optical_module.h"
-#include "calibration/screen_transfer.h"
+#include "calibration/display/conventions.h"
+#include "calibration/display/optical_module.h"
+#include "calibration/display/screen_transfer.h"
 #include "common/check.h"
 #include "common/input_error.h"
 
@@ -31,7 +30,8 @@ Rgb sampleBilinear(const Frame& frame, double u, double v) {
          fy * ((1 - fx) * frame.at(x0, y1) + fx * frame.at(x1, y1));
 }
 
-Eigen::Vector3d viewPixelOnScreen(const Screen& screen, const ObserverViewOptions& options, int i, int j) {
+Eigen::Vector3d viewPixelOnScreen(const Screen& screen, const ObserverViewOptions& options, int i,
+                                  int j) {
   const double x = (-0.5 + (i + 0.5) / options.width) * screen.width;
   const double y = (0.5 - (j + 0.5) / options.height) * screen.height;
   return screen.pointAt(x, y);
@@ -42,10 +42,16 @@ Eigen::Vector3d viewPixelOnScreen(const Screen& screen, const ObserverViewOption
 double angularShare(const std::vector<double>& exitAngle, size_t k) {
   std::optional<double> before, after;
   for (size_t b = k; b-- > 0;) {
-    if (!std::isnan(exitAngle[b])) { before = exitAngle[b]; break; }
+    if (!std::isnan(exitAngle[b])) {
+      before = exitAngle[b];
+      break;
+    }
   }
   for (size_t a = k + 1; a < exitAngle.size(); ++a) {
-    if (!std::isnan(exitAngle[a])) { after = exitAngle[a]; break; }
+    if (!std::isnan(exitAngle[a])) {
+      after = exitAngle[a];
+      break;
+    }
   }
   if (before && after) return 0.5 * std::abs(*after - *before);
   if (before) return std::abs(exitAngle[k] - *before);
@@ -57,7 +63,8 @@ double angularShare(const std::vector<double>& exitAngle, size_t k) {
 
 void ObserverViewOptions::validate() const {
   if (width < 1 || height < 1 || width > 16384 || height > 16384) {
-    throw InputError({"", "view resolution", 0}, fmt::format("must be 1..16384 a side, got {}x{}", width, height));
+    throw InputError({"", "view resolution", 0},
+                     fmt::format("must be 1..16384 a side, got {}x{}", width, height));
   }
 }
 
@@ -92,47 +99,53 @@ Frame synthesizeObserverView(const DisplayModel& model, const std::vector<Frame>
 
   Frame view(options.width, options.height);
   if (coverage) coverage->assign(view.pixels.size(), 0.0f);
-  tbb::parallel_for(tbb::blocked_range<int>(0, options.height), [&](const tbb::blocked_range<int>& rows) {
-    std::vector<double> exitAngle;  // per row position, NaN where the transfer has no solution
-    for (int j = rows.begin(); j != rows.end(); ++j) {
-      for (int i = 0; i < options.width; ++i) {
-        const Eigen::Vector3d s = viewPixelOnScreen(model.screen, options, i, j);
-        const double viewerAngle = std::atan2(viewer.x() - s.x(), viewer.z() - s.z());
-        exitAngle.assign(rowOrder.size(), std::numeric_limits<double>::quiet_NaN());
-        for (size_t k = 0; k < rowOrder.size(); ++k) {
-          const Eigen::Vector3d d = (s - optics[rowOrder[k]].position()).normalized();
-          double x;
-          if (transferToObserverLine(model.screen, model.observer, s, d, &x)) {
-            exitAngle[k] = std::atan2(x - s.x(), model.observer.z - s.z());
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, options.height), [&](const tbb::blocked_range<int>& rows) {
+        std::vector<double> exitAngle;  // per row position, NaN where the transfer has no solution
+        for (int j = rows.begin(); j != rows.end(); ++j) {
+          for (int i = 0; i < options.width; ++i) {
+            const Eigen::Vector3d s = viewPixelOnScreen(model.screen, options, i, j);
+            const double viewerAngle = std::atan2(viewer.x() - s.x(), viewer.z() - s.z());
+            exitAngle.assign(rowOrder.size(), std::numeric_limits<double>::quiet_NaN());
+            for (size_t k = 0; k < rowOrder.size(); ++k) {
+              const Eigen::Vector3d d = (s - optics[rowOrder[k]].position()).normalized();
+              double x;
+              if (transferToObserverLine(model.screen, model.observer, s, d, &x)) {
+                exitAngle[k] = std::atan2(x - s.x(), model.observer.z - s.z());
+              }
+            }
+            Rgb sum = Rgb::Zero();
+            double weights = 0.0;
+            for (size_t k = 0; k < rowOrder.size(); ++k) {
+              if (std::isnan(exitAngle[k])) continue;
+              const double angle = exitAngle[k] - viewerAngle;
+              if (std::abs(angle) > cutoff) continue;
+              const size_t m = rowOrder[k];
+              Eigen::Vector2d pixel;
+              const Eigen::Vector3d d = (s - optics[m].position()).normalized();
+              if (!optics[m].project(d, &pixel)) continue;
+              const OpticalModule& module = model.modules[m];
+              if (pixel.x() < 0.0 || pixel.y() < 0.0 || pixel.x() > module.width ||
+                  pixel.y() > module.height)
+                continue;
+              const double share = angularShare(exitAngle, k);
+              const double scale = share > 0.0 ? share / lobeIntegral : 1.0;
+              const double weight = scale * std::exp(-0.5 * angle * angle / (sigma * sigma));
+              sum += static_cast<float>(weight) * sampleBilinear(frames[m], pixel.x(), pixel.y());
+              weights += weight;
+            }
+            view.at(i, j) = sum;
+            if (coverage)
+              (*coverage)[static_cast<size_t>(j) * static_cast<size_t>(options.width) +
+                          static_cast<size_t>(i)] = static_cast<float>(weights);
           }
         }
-        Rgb sum = Rgb::Zero();
-        double weights = 0.0;
-        for (size_t k = 0; k < rowOrder.size(); ++k) {
-          if (std::isnan(exitAngle[k])) continue;
-          const double angle = exitAngle[k] - viewerAngle;
-          if (std::abs(angle) > cutoff) continue;
-          const size_t m = rowOrder[k];
-          Eigen::Vector2d pixel;
-          const Eigen::Vector3d d = (s - optics[m].position()).normalized();
-          if (!optics[m].project(d, &pixel)) continue;
-          const OpticalModule& module = model.modules[m];
-          if (pixel.x() < 0.0 || pixel.y() < 0.0 || pixel.x() > module.width || pixel.y() > module.height) continue;
-          const double share = angularShare(exitAngle, k);
-          const double scale = share > 0.0 ? share / lobeIntegral : 1.0;
-          const double weight = scale * std::exp(-0.5 * angle * angle / (sigma * sigma));
-          sum += static_cast<float>(weight) * sampleBilinear(frames[m], pixel.x(), pixel.y());
-          weights += weight;
-        }
-        view.at(i, j) = sum;
-        if (coverage) (*coverage)[static_cast<size_t>(j) * static_cast<size_t>(options.width) + static_cast<size_t>(i)] = static_cast<float>(weights);
-      }
-    }
-  });
+      });
   return view;
 }
 
-RayTextures observerViewRays(const DisplayModel& model, double viewerX, const ObserverViewOptions& options) {
+RayTextures observerViewRays(const DisplayModel& model, double viewerX,
+                             const ObserverViewOptions& options) {
   return observerViewRays(model, model.observer.pointAt(viewerX), options);
 }
 
@@ -149,8 +162,9 @@ RayTextures observerViewRays(const DisplayModel& model, const Eigen::Vector3d& v
   for (int j = 0; j < options.height; ++j) {
     for (int i = 0; i < options.width; ++i) {
       const Eigen::Vector3d s = viewPixelOnScreen(model.screen, options, i, j);
-      rays.rays()[static_cast<size_t>(j) * static_cast<size_t>(options.width) + static_cast<size_t>(i)] = {
-          static_cast<float>(viewerX), static_cast<float>(s.x()), static_cast<float>(s.y())};
+      rays.rays()[static_cast<size_t>(j) * static_cast<size_t>(options.width) +
+                  static_cast<size_t>(i)] = {static_cast<float>(viewerX), static_cast<float>(s.x()),
+                                             static_cast<float>(s.y())};
     }
   }
   return rays;

@@ -15,8 +15,8 @@
 #include <Eigen/Core>
 #include <vector>
 
-#include "calibration/display_model.h"
-#include "calibration/ray_textures.h"
+#include "calibration/display/display_model.h"
+#include "calibration/display/ray_textures.h"
 #include "tracer/frame.h"
 
 namespace parallax {
@@ -39,7 +39,8 @@ Frame synthesizeObserverView(const DisplayModel& model, const std::vector<Frame>
 // The rays a viewer at x on the observer line sees the scene along, one per view pixel (o = the
 // viewer, s = the view pixel's screen point), in the tracer's compact form: rendering them with
 // renderFrame gives the view traced directly, the reference for synthesizeObserverView.
-RayTextures observerViewRays(const DisplayModel& model, double viewerX, const ObserverViewOptions& options);
+RayTextures observerViewRays(const DisplayModel& model, double viewerX,
+                             const ObserverViewOptions& options);
 // The same for a viewer anywhere in front of the screen (off the observer line too).
 RayTextures observerViewRays(const DisplayModel& model, const Eigen::Vector3d& viewer,
                              const ObserverViewOptions& options);

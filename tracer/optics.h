@@ -17,8 +17,8 @@ inline Eigen::Vector3f reflect(const Eigen::Vector3f& d, const Eigen::Vector3f& 
 // d: unit incoming direction; n: unit normal facing the incoming side (d·n < 0); eta = n_i/n_t.
 // Returns false on total internal reflection. Otherwise *t is the unit refracted direction and
 // *cosT the cosine of the refraction angle.
-inline bool refract(const Eigen::Vector3f& d, const Eigen::Vector3f& n, float eta, Eigen::Vector3f* t,
-                    float* cosT) {
+inline bool refract(const Eigen::Vector3f& d, const Eigen::Vector3f& n, float eta,
+                    Eigen::Vector3f* t, float* cosT) {
   const float cosI = std::min(1.0f, -d.dot(n));
   const float sin2T = eta * eta * std::max(0.0f, 1.0f - cosI * cosI);
   if (sin2T >= 1.0f) return false;

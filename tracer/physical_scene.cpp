@@ -1,12 +1,11 @@
 #include "tracer/physical_scene.h"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <chrono>
 #include <cmath>
 #include <limits>
-
-#include <fmt/format.h>
 
 #include "common/check.h"
 #include "tracer/embree_device.h"
@@ -25,12 +24,14 @@ struct ClipVertex {
 // Sutherland–Hodgman against the six faces of `box`. Returns the inside polygon (possibly
 // empty). Vertices within `tolerance` of a face count as inside, so geometry that lies exactly
 // on B_P's boundary (a scene filling B_W) is not shaved by rounding.
-std::vector<ClipVertex> clipToBox(std::vector<ClipVertex> polygon, const Box3& box, double tolerance) {
+std::vector<ClipVertex> clipToBox(std::vector<ClipVertex> polygon, const Box3& box,
+                                  double tolerance) {
   for (int axis = 0; axis < 3 && !polygon.empty(); ++axis) {
     for (int side = 0; side < 2 && !polygon.empty(); ++side) {
       // Signed distance inside the face: >= 0 keeps.
       auto inside = [&](const ClipVertex& v) {
-        return side == 0 ? v.p[axis] - (box.min[axis] - tolerance) : (box.max[axis] + tolerance) - v.p[axis];
+        return side == 0 ? v.p[axis] - (box.min[axis] - tolerance)
+                         : (box.max[axis] + tolerance) - v.p[axis];
       };
       std::vector<ClipVertex> out;
       for (size_t i = 0; i < polygon.size(); ++i) {
@@ -51,7 +52,8 @@ std::vector<ClipVertex> clipToBox(std::vector<ClipVertex> polygon, const Box3& b
 }
 
 bool insideBox(const Eigen::Vector3d& p, const Box3& box, double tolerance) {
-  return (p.array() >= box.min.array() - tolerance).all() && (p.array() <= box.max.array() + tolerance).all();
+  return (p.array() >= box.min.array() - tolerance).all() &&
+         (p.array() <= box.max.array() + tolerance).all();
 }
 
 bool degenerate(const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c) {
@@ -106,7 +108,8 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox) {
 
   for (const Instance& instance : scene.instances) addInstance(scene, instance, displayableBox);
   for (const std::string& name : features_.unsampledTextureMaterials) {
-    warnings_.push_back("material " + name + " has a texture but its mesh has no UVs: texture ignored");
+    warnings_.push_back("material " + name +
+                        " has a texture but its mesh has no UVs: texture ignored");
   }
 
   // Build: high-quality SAH for a static scene (built once, traced for many frames); the
@@ -120,18 +123,22 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox) {
   // Glass lets shadow rays through (glass_shadows.h) by a filter on the dielectric geometries
   // only: other geometries, and scenes without glass or without shadow rays, never call it.
   glassShadows_ = features_.shadowPass() && features_.dielectrics;
-  if (glassShadows_ && rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_FILTER_FUNCTION_SUPPORTED) == 0) {
+  if (glassShadows_ &&
+      rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_FILTER_FUNCTION_SUPPORTED) == 0) {
     glassShadows_ = false;
     warnings_.push_back("this Embree has no filter functions: glass casts opaque shadows");
   }
   for (size_t g = 0; g < meshes_.size(); ++g) {
     const PhysicalMesh& mesh = meshes_[g];
     RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    rtcSetGeometryBuildQuality(geometry, animated_ ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_HIGH);
-    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
-        geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), mesh.positions.size()));
-    auto* indices = static_cast<std::uint32_t*>(rtcSetNewGeometryBuffer(
-        geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(std::uint32_t), mesh.triangles.size()));
+    rtcSetGeometryBuildQuality(geometry,
+                               animated_ ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_HIGH);
+    auto* vertices = static_cast<float*>(
+        rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                3 * sizeof(float), mesh.positions.size()));
+    auto* indices = static_cast<std::uint32_t*>(
+        rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                3 * sizeof(std::uint32_t), mesh.triangles.size()));
     throwIfEmbreeFailed("geometry allocation");
     for (size_t i = 0; i < mesh.positions.size(); ++i) {
       for (int k = 0; k < 3; ++k) vertices[3 * i + static_cast<size_t>(k)] = mesh.positions[i][k];
@@ -144,7 +151,8 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox) {
         boundsMax_ = boundsMax_.cwiseMax(mesh.positions[index]);
       }
     }
-    if (glassShadows_ && materials_[static_cast<size_t>(mesh.material)].kind == MaterialKind::kDielectric) {
+    if (glassShadows_ &&
+        materials_[static_cast<size_t>(mesh.material)].kind == MaterialKind::kDielectric) {
       rtcSetGeometryOccludedFilterFunction(geometry, glassShadowFilter);
     }
     rtcCommitGeometry(geometry);
@@ -156,10 +164,12 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox) {
   throwIfEmbreeFailed("the scene build");
   if (counters_.trianglesBuilt == 0) {
     boundsMin_ = boundsMax_ = Eigen::Vector3f::Zero();
-    warnings_.push_back("no triangle lies inside the displayable box: the frame shows only the background");
+    warnings_.push_back(
+        "no triangle lies inside the displayable box: the frame shows only the background");
   }
   loadTextures(scene);
-  counters_.buildMs = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  counters_.buildMs =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
 PhysicalScene::~PhysicalScene() {
@@ -191,7 +201,8 @@ void PhysicalScene::addInstance(const Scene& scene, const Instance& instance, co
     return length > 0.0 ? Eigen::Vector3f((n / length).cast<float>()) : Eigen::Vector3f::Zero();
   };
   // Vertices are copied on first use, so unused vertices and dropped triangles cost nothing.
-  std::vector<std::uint32_t> remap(source.positions.size(), std::numeric_limits<std::uint32_t>::max());
+  std::vector<std::uint32_t> remap(source.positions.size(),
+                                   std::numeric_limits<std::uint32_t>::max());
   auto useVertex = [&](std::uint32_t i) {
     if (remap[i] == std::numeric_limits<std::uint32_t>::max()) {
       remap[i] = static_cast<std::uint32_t>(mesh.positions.size());
@@ -217,7 +228,8 @@ void PhysicalScene::addInstance(const Scene& scene, const Instance& instance, co
       ++counters_.trianglesDegenerate;
       continue;
     }
-    if (insideBox(a, clipBox, tolerance) && insideBox(b, clipBox, tolerance) && insideBox(c, clipBox, tolerance)) {
+    if (insideBox(a, clipBox, tolerance) && insideBox(b, clipBox, tolerance) &&
+        insideBox(c, clipBox, tolerance)) {
       addTriangle(useVertex(tri[0]), useVertex(tri[1]), useVertex(tri[2]));
       ++counters_.trianglesBuilt;
       continue;
@@ -236,12 +248,16 @@ void PhysicalScene::addInstance(const Scene& scene, const Instance& instance, co
       mesh.positions.push_back(v.p.cast<float>());
       const Eigen::Vector3f w = v.bary.cast<float>();
       if (hasNormals) {
-        const Eigen::Vector3f n = w[0] * normalOf(tri[0]) + w[1] * normalOf(tri[1]) + w[2] * normalOf(tri[2]);
+        const Eigen::Vector3f n =
+            w[0] * normalOf(tri[0]) + w[1] * normalOf(tri[1]) + w[2] * normalOf(tri[2]);
         mesh.normals.push_back(n.norm() > 0.0f ? Eigen::Vector3f(n.normalized()) : n);
       }
-      if (hasUvs) mesh.uvs.push_back(w[0] * source.uvs[tri[0]] + w[1] * source.uvs[tri[1]] + w[2] * source.uvs[tri[2]]);
+      if (hasUvs)
+        mesh.uvs.push_back(w[0] * source.uvs[tri[0]] + w[1] * source.uvs[tri[1]] +
+                           w[2] * source.uvs[tri[2]]);
       if (hasColors) {
-        mesh.colors.push_back(w[0] * source.colors[tri[0]] + w[1] * source.colors[tri[1]] + w[2] * source.colors[tri[2]]);
+        mesh.colors.push_back(w[0] * source.colors[tri[0]] + w[1] * source.colors[tri[1]] +
+                              w[2] * source.colors[tri[2]]);
       }
     }
     for (size_t k = 1; k + 1 < ids.size(); ++k) {
@@ -288,8 +304,8 @@ void PhysicalScene::loadTextures(const Scene& scene) {
     } else {
       ++counters_.texturesFailed;
       const std::string message =
-          fmt::format("texture {}: {}; using the fallback colour ({}, {}, {})", t.path, error, t.fallback.x(),
-                      t.fallback.y(), t.fallback.z());
+          fmt::format("texture {}: {}; using the fallback colour ({}, {}, {})", t.path, error,
+                      t.fallback.x(), t.fallback.y(), t.fallback.z());
       spdlog::warn("{}", message);
       warnings_.push_back(message);
       textures_[i] = TextureImage::constant(t.fallback);

@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "calibration/box3.h"
-#include "calibration/world_to_physical.h"
+#include "calibration/display/box3.h"
+#include "calibration/display/world_to_physical.h"
 #include "tracer/scene.h"
 #include "tracer/scene_features.h"
 #include "tracer/texture_image.h"
@@ -26,10 +26,11 @@ struct SceneBuildCounters {
   long trianglesOutside = 0;     // wholly outside B_P: dropped
   long trianglesClipped = 0;     // crossing B_P's faces: replaced by their inside part
   long trianglesBuilt = 0;       // in the BVH
-  int flatNormalMeshes = 0;      // vertex normals equal to the face normals: dropped, never interpolated
+  int flatNormalMeshes =
+      0;  // vertex normals equal to the face normals: dropped, never interpolated
   int texturesLoaded = 0;
-  int texturesFailed = 0;        // unreadable: warned, replaced by their fallback colour
-  int texturesSkipped = 0;       // nothing samples them: never read
+  int texturesFailed = 0;   // unreadable: warned, replaced by their fallback colour
+  int texturesSkipped = 0;  // nothing samples them: never read
   double buildMs = 0.0;
 };
 

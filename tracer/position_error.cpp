@@ -8,7 +8,7 @@
 #include <cmath>
 #include <limits>
 
-#include "calibration/ray_function.h"
+#include "calibration/display/ray_function.h"
 #include "common/check.h"
 
 namespace parallax {
@@ -19,34 +19,40 @@ ExactSurface exactSurface(const PhysicalScene& scene, const DisplayModel& model,
   ExactSurface out;
   out.width = traced.width;
   out.height = traced.height;
-  out.points.assign(traced.samples.size(), Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
-  tbb::parallel_for(tbb::blocked_range<int>(0, traced.height, 4), [&](const tbb::blocked_range<int>& rowRange) {
-    for (int row = rowRange.begin(); row < rowRange.end(); ++row) {
-      for (int column = 0; column < traced.width; ++column) {
-        const SurfaceSample& s = traced.at(column, row);
-        if (!s.covered()) continue;
-        const PixelRay ray = rays.atPixel(column, row);
-        if (!ray.valid()) continue;
-        const PhysicalMesh& mesh = scene.meshes()[static_cast<size_t>(s.mesh)];
-        const auto& tri = mesh.triangles[static_cast<size_t>(s.triangle)];
-        const Eigen::Vector3d p0 = mesh.positions[tri[0]].cast<double>();
-        const Eigen::Vector3d n =
-            (mesh.positions[tri[1]].cast<double>() - p0).cross(mesh.positions[tri[2]].cast<double>() - p0);
-        const Eigen::Vector3d d = ray.direction();
-        const double denominator = n.dot(d);
-        // A ray in the triangle's plane (grazing to the last bit): no better answer than the tracer's.
-        const Eigen::Vector3d point = std::abs(denominator) > 1e-12 * n.norm()
-                                          ? Eigen::Vector3d(ray.origin + n.dot(p0 - ray.origin) / denominator * d)
-                                          : surfacePosition(scene, s).cast<double>();
-        out.points[static_cast<size_t>(row) * static_cast<size_t>(traced.width) + static_cast<size_t>(column)] = point;
-      }
-    }
-  });
+  out.points.assign(traced.samples.size(),
+                    Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, traced.height, 4), [&](const tbb::blocked_range<int>& rowRange) {
+        for (int row = rowRange.begin(); row < rowRange.end(); ++row) {
+          for (int column = 0; column < traced.width; ++column) {
+            const SurfaceSample& s = traced.at(column, row);
+            if (!s.covered()) continue;
+            const PixelRay ray = rays.atPixel(column, row);
+            if (!ray.valid()) continue;
+            const PhysicalMesh& mesh = scene.meshes()[static_cast<size_t>(s.mesh)];
+            const auto& tri = mesh.triangles[static_cast<size_t>(s.triangle)];
+            const Eigen::Vector3d p0 = mesh.positions[tri[0]].cast<double>();
+            const Eigen::Vector3d n = (mesh.positions[tri[1]].cast<double>() - p0)
+                                          .cross(mesh.positions[tri[2]].cast<double>() - p0);
+            const Eigen::Vector3d d = ray.direction();
+            const double denominator = n.dot(d);
+            // A ray in the triangle's plane (grazing to the last bit): no better answer than the
+            // tracer's.
+            const Eigen::Vector3d point =
+                std::abs(denominator) > 1e-12 * n.norm()
+                    ? Eigen::Vector3d(ray.origin + n.dot(p0 - ray.origin) / denominator * d)
+                    : surfacePosition(scene, s).cast<double>();
+            out.points[static_cast<size_t>(row) * static_cast<size_t>(traced.width) +
+                       static_cast<size_t>(column)] = point;
+          }
+        }
+      });
   return out;
 }
 
-PositionError positionError(const PhysicalScene& scene, const VisibilityBuffer& candidate, const ExactSurface& exact,
-                            const ForwardMap& forwardMap, const PositionErrorOptions& options) {
+PositionError positionError(const PhysicalScene& scene, const VisibilityBuffer& candidate,
+                            const ExactSurface& exact, const ForwardMap& forwardMap,
+                            const PositionErrorOptions& options) {
   PARALLAX_CHECK_OP(candidate.width, ==, exact.width);
   PARALLAX_CHECK_OP(candidate.height, ==, exact.height);
   // Which pixels get the module-pixel error: every stride-th of the compared ones.
@@ -54,7 +60,8 @@ PositionError positionError(const PhysicalScene& scene, const VisibilityBuffer& 
   for (size_t i = 0; i < candidate.samples.size(); ++i) {
     if (candidate.samples[i].covered() && exact.points[i].allFinite()) ++comparable;
   }
-  const long stride = std::max<long>(1, (comparable + options.maxPixelSamples - 1) / std::max<long>(1, options.maxPixelSamples));
+  const long stride = std::max<long>(
+      1, (comparable + options.maxPixelSamples - 1) / std::max<long>(1, options.maxPixelSamples));
 
   struct Partial {
     PositionError e;
@@ -70,37 +77,39 @@ PositionError positionError(const PhysicalScene& scene, const VisibilityBuffer& 
     before[static_cast<size_t>(row) + 1] = before[static_cast<size_t>(row)] + n;
   }
   tbb::combinable<Partial> partials;
-  tbb::parallel_for(tbb::blocked_range<int>(0, candidate.height, 2), [&](const tbb::blocked_range<int>& rowRange) {
-    Partial& p = partials.local();
-    for (int row = rowRange.begin(); row < rowRange.end(); ++row) {
-      long index = before[static_cast<size_t>(row)];
-      for (int column = 0; column < candidate.width; ++column) {
-        const SurfaceSample& s = candidate.at(column, row);
-        const Eigen::Vector3d& exactPoint = exact.at(column, row);
-        const bool hasExact = exactPoint.allFinite();
-        if (!s.covered() || !hasExact) {
-          if (s.covered()) ++p.e.candidateOnly;
-          if (hasExact) ++p.e.exactOnly;
-          continue;
-        }
-        ++p.e.compared;
-        const Eigen::Vector3d position = surfacePosition(scene, s).cast<double>();
-        const double mm = 1e3 * (position - exactPoint).norm();
-        p.sumMm2 += mm * mm;
-        p.e.maxMm = std::max(p.e.maxMm, mm);
-        if (index++ % stride != 0) continue;
-        const ForwardMapResult r = forwardMap.pixelOfContinued(position);
-        if (!r.ok) {
-          ++p.e.pixelFailures;
-          continue;
-        }
-        const double px = (r.pixel - Eigen::Vector2d(column + 0.5, row + 0.5)).norm();
-        ++p.e.pixelSamples;
-        p.sumPx2 += px * px;
-        p.e.maxPx = std::max(p.e.maxPx, px);
-      }
-    }
-  });
+  tbb::parallel_for(tbb::blocked_range<int>(0, candidate.height, 2),
+                    [&](const tbb::blocked_range<int>& rowRange) {
+                      Partial& p = partials.local();
+                      for (int row = rowRange.begin(); row < rowRange.end(); ++row) {
+                        long index = before[static_cast<size_t>(row)];
+                        for (int column = 0; column < candidate.width; ++column) {
+                          const SurfaceSample& s = candidate.at(column, row);
+                          const Eigen::Vector3d& exactPoint = exact.at(column, row);
+                          const bool hasExact = exactPoint.allFinite();
+                          if (!s.covered() || !hasExact) {
+                            if (s.covered()) ++p.e.candidateOnly;
+                            if (hasExact) ++p.e.exactOnly;
+                            continue;
+                          }
+                          ++p.e.compared;
+                          const Eigen::Vector3d position = surfacePosition(scene, s).cast<double>();
+                          const double mm = 1e3 * (position - exactPoint).norm();
+                          p.sumMm2 += mm * mm;
+                          p.e.maxMm = std::max(p.e.maxMm, mm);
+                          if (index++ % stride != 0) continue;
+                          const ForwardMapResult r = forwardMap.pixelOfContinued(position);
+                          if (!r.ok) {
+                            ++p.e.pixelFailures;
+                            continue;
+                          }
+                          const double px =
+                              (r.pixel - Eigen::Vector2d(column + 0.5, row + 0.5)).norm();
+                          ++p.e.pixelSamples;
+                          p.sumPx2 += px * px;
+                          p.e.maxPx = std::max(p.e.maxPx, px);
+                        }
+                      }
+                    });
   Partial total;
   partials.combine_each([&](const Partial& p) {
     total.e.compared += p.e.compared;

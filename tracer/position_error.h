@@ -15,8 +15,8 @@
 #include <Eigen/Core>
 #include <vector>
 
-#include "calibration/display_model.h"
-#include "calibration/forward_map.h"
+#include "calibration/display/display_model.h"
+#include "calibration/display/forward_map.h"
 #include "tracer/physical_scene.h"
 #include "tracer/visibility_buffer.h"
 
@@ -27,7 +27,8 @@ struct ExactSurface {
   std::vector<Eigen::Vector3d> points;  // physical; NaN where the pixel shows no surface
 
   const Eigen::Vector3d& at(int column, int row) const {
-    return points[static_cast<size_t>(row) * static_cast<size_t>(width) + static_cast<size_t>(column)];
+    return points[static_cast<size_t>(row) * static_cast<size_t>(width) +
+                  static_cast<size_t>(column)];
   }
 };
 
@@ -51,7 +52,8 @@ struct PositionError {
   double rmsPx = 0.0, maxPx = 0.0;
 };
 
-PositionError positionError(const PhysicalScene& scene, const VisibilityBuffer& candidate, const ExactSurface& exact,
-                            const ForwardMap& forwardMap, const PositionErrorOptions& options = {});
+PositionError positionError(const PhysicalScene& scene, const VisibilityBuffer& candidate,
+                            const ExactSurface& exact, const ForwardMap& forwardMap,
+                            const PositionErrorOptions& options = {});
 
 }  // namespace parallax

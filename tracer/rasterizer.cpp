@@ -34,7 +34,8 @@ struct GridVertex {
 };
 
 double msSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
 }
 
 struct Projector {
@@ -75,8 +76,8 @@ struct Projector {
   static constexpr float kInf = std::numeric_limits<float>::infinity();
 };
 
-void emit(const GridVertex& a, const GridVertex& b, const GridVertex& c, int mesh, int triangle, int width,
-          int height, std::vector<ScreenTriangle>* out, RasterCounters* counters) {
+void emit(const GridVertex& a, const GridVertex& b, const GridVertex& c, int mesh, int triangle,
+          int width, int height, std::vector<ScreenTriangle>* out, RasterCounters* counters) {
   if (!a.ok || !b.ok || !c.ok) {
     ++counters->droppedTriangles;
     return;
@@ -85,7 +86,9 @@ void emit(const GridVertex& a, const GridVertex& b, const GridVertex& c, int mes
   if (!(std::abs(area) > 0.0f)) return;  // degenerate in the image: covers no pixel centre
   const float loU = std::min({a.u, b.u, c.u}), hiU = std::max({a.u, b.u, c.u});
   const float loV = std::min({a.v, b.v, c.v}), hiV = std::max({a.v, b.v, c.v});
-  if (hiU < 0.0f || loU > static_cast<float>(width) || hiV < 0.0f || loV > static_cast<float>(height)) return;
+  if (hiU < 0.0f || loU > static_cast<float>(width) || hiV < 0.0f ||
+      loV > static_cast<float>(height))
+    return;
   ScreenTriangle t;
   const GridVertex* vs[3] = {&a, &b, &c};
   for (int k = 0; k < 3; ++k) {
@@ -103,8 +106,9 @@ void emit(const GridVertex& a, const GridVertex& b, const GridVertex& c, int mes
 
 // Projects one source triangle, tessellated into N² = 4^level small ones over a barycentric
 // grid (i, j), i + j ≤ N, whose vertices are projected once each.
-void projectTriangle(const Projector& projector, const PhysicalMesh& mesh, int meshIndex, int triangle, int level,
-                     std::vector<GridVertex>* grid, std::vector<ScreenTriangle>* out, RasterCounters* c) {
+void projectTriangle(const Projector& projector, const PhysicalMesh& mesh, int meshIndex,
+                     int triangle, int level, std::vector<GridVertex>* grid,
+                     std::vector<ScreenTriangle>* out, RasterCounters* c) {
   const auto& tri = mesh.triangles[static_cast<size_t>(triangle)];
   const Eigen::Vector3d p0 = mesh.positions[tri[0]].cast<double>();
   const Eigen::Vector3d e1 = mesh.positions[tri[1]].cast<double>() - p0;
@@ -112,7 +116,8 @@ void projectTriangle(const Projector& projector, const PhysicalMesh& mesh, int m
   const int n = 1 << level;
   auto index = [n](int i, int j) { return static_cast<size_t>(j * (n + 1) + i); };
   grid->assign(static_cast<size_t>((n + 1) * (n + 1)), GridVertex{});
-  GridVertex corners[3] = {projector.project(p0, 0.0f, 0.0f, c), projector.project(p0 + e1, 1.0f, 0.0f, c),
+  GridVertex corners[3] = {projector.project(p0, 0.0f, 0.0f, c),
+                           projector.project(p0 + e1, 1.0f, 0.0f, c),
                            projector.project(p0 + e2, 0.0f, 1.0f, c)};
   if (corners[0].ok && corners[1].ok && corners[2].ok && projector.offImage(corners)) {
     ++c->culledTriangles;
@@ -125,7 +130,8 @@ void projectTriangle(const Projector& projector, const PhysicalMesh& mesh, int m
     for (int i = 0; i + j <= n; ++i) {
       if ((i == 0 && j == 0) || (i == n && j == 0) || (i == 0 && j == n)) continue;
       const double b1 = static_cast<double>(i) / n, b2 = static_cast<double>(j) / n;
-      (*grid)[index(i, j)] = projector.project(p0 + b1 * e1 + b2 * e2, static_cast<float>(b1), static_cast<float>(b2), c);
+      (*grid)[index(i, j)] = projector.project(p0 + b1 * e1 + b2 * e2, static_cast<float>(b1),
+                                               static_cast<float>(b2), c);
     }
   }
   for (int j = 0; j < n; ++j) {
@@ -134,22 +140,24 @@ void projectTriangle(const Projector& projector, const PhysicalMesh& mesh, int m
       const GridVertex& b = (*grid)[index(i + 1, j)];
       const GridVertex& d = (*grid)[index(i, j + 1)];
       emit(a, b, d, meshIndex, triangle, projector.width, projector.height, out, c);
-      if (i + j + 1 < n) emit(b, (*grid)[index(i + 1, j + 1)], d, meshIndex, triangle, projector.width,
-                              projector.height, out, c);
+      if (i + j + 1 < n)
+        emit(b, (*grid)[index(i + 1, j + 1)], d, meshIndex, triangle, projector.width,
+             projector.height, out, c);
     }
   }
 }
 
 // Scan-converts the triangles binned to one band of rows into its slice of the buffers.
-void rasterizeBand(const std::vector<ScreenTriangle>& triangles, const std::vector<int>& binned, int row0, int row1,
-                   const RayTextures& textures, Interpolation interpolation, std::vector<float>* depth,
-                   VisibilityBuffer* out, long* fragments) {
+void rasterizeBand(const std::vector<ScreenTriangle>& triangles, const std::vector<int>& binned,
+                   int row0, int row1, const RayTextures& textures, Interpolation interpolation,
+                   std::vector<float>* depth, VisibilityBuffer* out, long* fragments) {
   const int width = textures.width();
   for (int index : binned) {
     const ScreenTriangle& t = triangles[static_cast<size_t>(index)];
     // Orient counter-clockwise in (u, v) so all three edge functions are ≥ 0 inside.
     int k1 = 1, k2 = 2;
-    const float area = (t.u[1] - t.u[0]) * (t.v[2] - t.v[0]) - (t.v[1] - t.v[0]) * (t.u[2] - t.u[0]);
+    const float area =
+        (t.u[1] - t.u[0]) * (t.v[2] - t.v[0]) - (t.v[1] - t.v[0]) * (t.u[2] - t.u[0]);
     if (area < 0.0f) std::swap(k1, k2);
     const int order[3] = {0, k1, k2};
     const float inverseArea = 1.0f / std::abs(area);
@@ -205,15 +213,18 @@ const char* interpolationName(Interpolation interpolation) {
 
 void RasterOptions::validate() const {
   if (tessellationLevel < 0 || tessellationLevel > kMaxTessellationLevel) {
-    throw InputError({"", "tessellation_level", 0}, "must be in 0..8 (each level multiplies the triangles by 4)");
+    throw InputError({"", "tessellation_level", 0},
+                     "must be in 0..8 (each level multiplies the triangles by 4)");
   }
   if (bandRows < 1 || bandRows > 4096) throw InputError({"", "band_rows", 0}, "must be in 1..4096");
 }
 
-Rasterizer::Rasterizer(const DisplayModel& model, int moduleIndex) : model_(model), forwardMap_(model, moduleIndex) {}
+Rasterizer::Rasterizer(const DisplayModel& model, int moduleIndex)
+    : model_(model), forwardMap_(model, moduleIndex) {}
 
 VisibilityBuffer Rasterizer::rasterize(const PhysicalScene& scene, const RayTextures& textures,
-                                       const RasterOptions& options, RasterCounters* counters) const {
+                                       const RasterOptions& options,
+                                       RasterCounters* counters) const {
   options.validate();
   const auto start = std::chrono::steady_clock::now();
   const int width = textures.width(), height = textures.height();
@@ -226,19 +237,22 @@ VisibilityBuffer Rasterizer::rasterize(const PhysicalScene& scene, const RayText
   };
   std::vector<Source> sources;
   for (size_t m = 0; m < scene.meshes().size(); ++m) {
-    for (size_t t = 0; t < scene.meshes()[m].triangles.size(); ++t) sources.push_back({static_cast<int>(m), static_cast<int>(t)});
+    for (size_t t = 0; t < scene.meshes()[m].triangles.size(); ++t)
+      sources.push_back({static_cast<int>(m), static_cast<int>(t)});
   }
   std::vector<std::vector<ScreenTriangle>> perSource(sources.size());
   tbb::combinable<RasterCounters> perThread;
-  tbb::parallel_for(tbb::blocked_range<size_t>(0, sources.size(), 4), [&](const tbb::blocked_range<size_t>& range) {
-    std::vector<GridVertex> grid;
-    RasterCounters& c = perThread.local();
-    for (size_t i = range.begin(); i < range.end(); ++i) {
-      const Source& s = sources[i];
-      projectTriangle(projector, scene.meshes()[static_cast<size_t>(s.mesh)], s.mesh, s.triangle,
-                      options.tessellationLevel, &grid, &perSource[i], &c);
-    }
-  });
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, sources.size(), 4),
+                    [&](const tbb::blocked_range<size_t>& range) {
+                      std::vector<GridVertex> grid;
+                      RasterCounters& c = perThread.local();
+                      for (size_t i = range.begin(); i < range.end(); ++i) {
+                        const Source& s = sources[i];
+                        projectTriangle(projector, scene.meshes()[static_cast<size_t>(s.mesh)],
+                                        s.mesh, s.triangle, options.tessellationLevel, &grid,
+                                        &perSource[i], &c);
+                      }
+                    });
   std::vector<ScreenTriangle> triangles;
   size_t total = 0;
   for (const auto& list : perSource) total += list.size();
@@ -256,17 +270,21 @@ VisibilityBuffer Rasterizer::rasterize(const PhysicalScene& scene, const RayText
   for (size_t i = 0; i < triangles.size(); ++i) {
     const ScreenTriangle& t = triangles[i];
     const float loV = std::min({t.v[0], t.v[1], t.v[2]}), hiV = std::max({t.v[0], t.v[1], t.v[2]});
-    const int first = std::clamp(static_cast<int>(std::floor(loV - 0.5f)) / options.bandRows, 0, bands - 1);
-    const int last = std::clamp(static_cast<int>(std::floor(hiV + 0.5f)) / options.bandRows, 0, bands - 1);
-    for (int b = first; b <= last; ++b) binned[static_cast<size_t>(b)].push_back(static_cast<int>(i));
+    const int first =
+        std::clamp(static_cast<int>(std::floor(loV - 0.5f)) / options.bandRows, 0, bands - 1);
+    const int last =
+        std::clamp(static_cast<int>(std::floor(hiV + 0.5f)) / options.bandRows, 0, bands - 1);
+    for (int b = first; b <= last; ++b)
+      binned[static_cast<size_t>(b)].push_back(static_cast<int>(i));
   }
   VisibilityBuffer out(width, height);
   tbb::combinable<long> fragments;
   tbb::parallel_for(0, bands, [&](int band) {
     const int row0 = band * options.bandRows, row1 = std::min(height, row0 + options.bandRows);
-    std::vector<float> depth(static_cast<size_t>((row1 - row0) * width), -std::numeric_limits<float>::infinity());
-    rasterizeBand(triangles, binned[static_cast<size_t>(band)], row0, row1, textures, options.interpolation, &depth,
-                  &out, &fragments.local());
+    std::vector<float> depth(static_cast<size_t>((row1 - row0) * width),
+                             -std::numeric_limits<float>::infinity());
+    rasterizeBand(triangles, binned[static_cast<size_t>(band)], row0, row1, textures,
+                  options.interpolation, &depth, &out, &fragments.local());
   });
   if (counters) {
     *counters = RasterCounters{};
@@ -286,8 +304,9 @@ VisibilityBuffer Rasterizer::rasterize(const PhysicalScene& scene, const RayText
   return out;
 }
 
-Frame rasterizeFrame(const Rasterizer& rasterizer, const PhysicalScene& scene, const RayTextures& textures,
-                     const RasterOptions& options, RasterCounters* counters) {
+Frame rasterizeFrame(const Rasterizer& rasterizer, const PhysicalScene& scene,
+                     const RayTextures& textures, const RasterOptions& options,
+                     RasterCounters* counters) {
   return shadeDirect(scene, rasterizer.rasterize(scene, textures, options, counters), textures);
 }
 

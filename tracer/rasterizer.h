@@ -35,9 +35,9 @@
 
 #include <string>
 
-#include "calibration/display_model.h"
-#include "calibration/forward_map.h"
-#include "calibration/ray_textures.h"
+#include "calibration/display/display_model.h"
+#include "calibration/display/forward_map.h"
+#include "calibration/display/ray_textures.h"
 #include "tracer/frame.h"
 #include "tracer/physical_scene.h"
 #include "tracer/visibility_buffer.h"
@@ -58,12 +58,12 @@ struct RasterOptions {
 
 struct RasterCounters {
   long sourceTriangles = 0;
-  long culledTriangles = 0;     // source triangles wholly off the image (before tessellation)
-  long projectedVertices = 0;   // forward-map evaluations
-  long failedVertices = 0;      // no pixel's ray passes through them
-  long droppedTriangles = 0;    // small triangles with a failed vertex
-  long drawnTriangles = 0;      // small triangles scan-converted
-  long fragments = 0;           // pixel centres inside a drawn triangle (depth tests)
+  long culledTriangles = 0;    // source triangles wholly off the image (before tessellation)
+  long projectedVertices = 0;  // forward-map evaluations
+  long failedVertices = 0;     // no pixel's ray passes through them
+  long droppedTriangles = 0;   // small triangles with a failed vertex
+  long drawnTriangles = 0;     // small triangles scan-converted
+  long fragments = 0;          // pixel centres inside a drawn triangle (depth tests)
   long coveredPixels = 0;
   double projectMs = 0.0, rasterMs = 0.0;
 };
@@ -73,7 +73,8 @@ class Rasterizer {
   Rasterizer(const DisplayModel& model, int moduleIndex);
 
   // `textures` (of the same module) supplies the resolution and the mask.
-  VisibilityBuffer rasterize(const PhysicalScene& scene, const RayTextures& textures, const RasterOptions& options,
+  VisibilityBuffer rasterize(const PhysicalScene& scene, const RayTextures& textures,
+                             const RasterOptions& options,
                              RasterCounters* counters = nullptr) const;
 
  private:
@@ -82,7 +83,8 @@ class Rasterizer {
 };
 
 // rasterize + the shading a rasterizer can do (direct_shading.h).
-Frame rasterizeFrame(const Rasterizer& rasterizer, const PhysicalScene& scene, const RayTextures& textures,
-                     const RasterOptions& options, RasterCounters* counters = nullptr);
+Frame rasterizeFrame(const Rasterizer& rasterizer, const PhysicalScene& scene,
+                     const RayTextures& textures, const RasterOptions& options,
+                     RasterCounters* counters = nullptr);
 
 }  // namespace parallax

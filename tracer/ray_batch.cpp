@@ -1,12 +1,12 @@
 #include "tracer/ray_batch.h"
 
-#include "tracer/glass_shadows.h"
-
 #include <algorithm>
 #include <bit>
 #include <cmath>
 #include <cstring>
 #include <limits>
+
+#include "tracer/glass_shadows.h"
 
 namespace parallax {
 namespace {
@@ -36,15 +36,19 @@ void toPacket(const RTCRay* rays, int count, RTCRay16* packet, int* valid) {
 RTCIntersectContext intersectContext(bool coherent) {
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
-  context.flags = coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  context.flags =
+      coherent ? RTC_INTERSECT_CONTEXT_FLAG_COHERENT : RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
   return context;
 }
 
 const char* traversalName(Traversal traversal) {
   switch (traversal) {
-    case Traversal::kSingle: return "single";
-    case Traversal::kPacket16: return "packet16";
-    case Traversal::kStream: return "stream";
+    case Traversal::kSingle:
+      return "single";
+    case Traversal::kPacket16:
+      return "packet16";
+    case Traversal::kStream:
+      return "stream";
   }
   return "?";
 }
@@ -67,7 +71,8 @@ void intersectBatch(RTCScene scene, std::span<RTCRayHit> rays, Traversal travers
       for (RTCRayHit& r : rays) rtcIntersect1(scene, &context, &r);
       break;
     case Traversal::kStream:
-      rtcIntersect1M(scene, &context, rays.data(), static_cast<unsigned>(rays.size()), sizeof(RTCRayHit));
+      rtcIntersect1M(scene, &context, rays.data(), static_cast<unsigned>(rays.size()),
+                     sizeof(RTCRayHit));
       break;
     case Traversal::kPacket16: {
       alignas(64) RTCRayHit16 packet;
@@ -115,7 +120,8 @@ void occludedBatch(RTCScene scene, std::span<RTCRay> rays, Traversal traversal, 
       for (RTCRay& r : rays) rtcOccluded1(scene, &context, &r);
       break;
     case Traversal::kStream:
-      rtcOccluded1M(scene, &context, rays.data(), static_cast<unsigned>(rays.size()), sizeof(RTCRay));
+      rtcOccluded1M(scene, &context, rays.data(), static_cast<unsigned>(rays.size()),
+                    sizeof(RTCRay));
       break;
     case Traversal::kPacket16: {
       alignas(64) RTCRay16 packet;

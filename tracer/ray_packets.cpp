@@ -14,8 +14,8 @@ void validLanes(size_t packet, size_t size, int* valid) {
 // lanes masked off) or as one stream (unused lanes made empty, tnear > tfar). `lanes` gives a
 // packet's ray part (RTCRay16 of an RTCRayHit16, or the RTCRay16 itself).
 template <class Packets, class One, class Sixteen, class Stream, class Lanes>
-void traceBatch(Packets& rays, Traversal traversal, One traceOne, Sixteen traceSixteen, Stream traceStream,
-                Lanes lanes) {
+void traceBatch(Packets& rays, Traversal traversal, One traceOne, Sixteen traceSixteen,
+                Stream traceStream, Lanes lanes) {
   if (rays.empty()) return;
   const size_t count = rays.packetCount();
   switch (traversal) {
@@ -140,7 +140,8 @@ void intersectPackets(RTCScene scene, RayHitPackets& rays, Traversal traversal, 
       rays, traversal, [&](RTCRayHit* r) { rtcIntersect1(scene, &context, r); },
       [&](const int* valid, RTCRayHit16* p) { rtcIntersect16(valid, scene, &context, p); },
       [&](RTCRayHit16* packets, unsigned count) {
-        rtcIntersectNM(scene, &context, reinterpret_cast<RTCRayHitN*>(packets), 16, count, sizeof(RTCRayHit16));
+        rtcIntersectNM(scene, &context, reinterpret_cast<RTCRayHitN*>(packets), 16, count,
+                       sizeof(RTCRayHit16));
       },
       [](RTCRayHit16& p) -> RTCRay16& { return p.ray; });
 }
@@ -150,13 +151,15 @@ void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal
   occludedPackets(scene, rays, traversal, &query);
 }
 
-void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal, ShadowQueryContext* query) {
+void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal,
+                     ShadowQueryContext* query) {
   RTCIntersectContext& context = query->base;
   traceBatch(
       rays, traversal, [&](RTCRay* r) { rtcOccluded1(scene, &context, r); },
       [&](const int* valid, RTCRay16* p) { rtcOccluded16(valid, scene, &context, p); },
       [&](RTCRay16* packets, unsigned count) {
-        rtcOccludedNM(scene, &context, reinterpret_cast<RTCRayN*>(packets), 16, count, sizeof(RTCRay16));
+        rtcOccludedNM(scene, &context, reinterpret_cast<RTCRayN*>(packets), 16, count,
+                      sizeof(RTCRay16));
       },
       [](RTCRay16& p) -> RTCRay16& { return p; });
 }

@@ -88,7 +88,8 @@ class OcclusionPackets {
   void reserveRays(size_t n) {
     while (16 * packets_.size() < n) grow();
   }
-  void write(size_t slot, const Eigen::Vector3f& origin, const Eigen::Vector3f& direction, float tfar) {
+  void write(size_t slot, const Eigen::Vector3f& origin, const Eigen::Vector3f& direction,
+             float tfar) {
     const size_t lane = slot % 16;
     RTCRay16& p = packets_[slot / 16];
     p.org_x[lane] = origin.x();
@@ -123,6 +124,7 @@ void intersectPackets(RTCScene scene, RayHitPackets& rays, Traversal traversal, 
 // Glass blocks these (no transmittance states).
 void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal, bool coherent);
 // With the caller's context: its transmittance states (if any) are indexed by push order.
-void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal, ShadowQueryContext* query);
+void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal,
+                     ShadowQueryContext* query);
 
 }  // namespace parallax

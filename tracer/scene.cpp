@@ -1,9 +1,9 @@
 #include "tracer/scene.h"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <limits>
-
-#include <fmt/format.h>
 
 #include "common/input_error.h"
 
@@ -31,14 +31,15 @@ void validateMaterial(const Material& m, const std::string& field, size_t textur
     fail(field + ".ior", fmt::format("must be finite and > 0, got {}", m.ior));
   }
   if (m.diffuseTexture < -1 || m.diffuseTexture >= static_cast<int>(textureCount)) {
-    fail(field + ".diffuse_texture",
-         fmt::format("index {} out of range (scene has {} textures)", m.diffuseTexture, textureCount));
+    fail(field + ".diffuse_texture", fmt::format("index {} out of range (scene has {} textures)",
+                                                 m.diffuseTexture, textureCount));
   }
 }
 
 void validateMesh(const Mesh& mesh, const std::string& field, size_t materialCount) {
   const size_t n = mesh.positions.size();
-  if (n > std::numeric_limits<std::uint32_t>::max()) fail(field + ".positions", "too many vertices");
+  if (n > std::numeric_limits<std::uint32_t>::max())
+    fail(field + ".positions", "too many vertices");
   for (size_t i = 0; i < n; ++i) {
     if (!finite(mesh.positions[i])) {
       fail(fmt::format("{}.positions[{}]", field, i), "vertex is not finite (NaN or Inf)");
@@ -55,7 +56,8 @@ void validateMesh(const Mesh& mesh, const std::string& field, size_t materialCou
   }
   if (!mesh.normals.empty()) {
     if (mesh.normals.size() != n) {
-      fail(field + ".normals", fmt::format("has {} entries for {} vertices", mesh.normals.size(), n));
+      fail(field + ".normals",
+           fmt::format("has {} entries for {} vertices", mesh.normals.size(), n));
     }
     for (size_t i = 0; i < n; ++i) {
       if (!mesh.normals[i].allFinite()) fail(fmt::format("{}.normals[{}]", field, i), "not finite");
@@ -80,8 +82,8 @@ void validateMesh(const Mesh& mesh, const std::string& field, size_t materialCou
     }
   }
   if (mesh.material < 0 || mesh.material >= static_cast<int>(materialCount)) {
-    fail(field + ".material",
-         fmt::format("index {} out of range (scene has {} materials)", mesh.material, materialCount));
+    fail(field + ".material", fmt::format("index {} out of range (scene has {} materials)",
+                                          mesh.material, materialCount));
   }
 }
 
@@ -89,10 +91,14 @@ void validateMesh(const Mesh& mesh, const std::string& field, size_t materialCou
 
 const char* materialKindName(MaterialKind kind) {
   switch (kind) {
-    case MaterialKind::kDiffuse: return "diffuse";
-    case MaterialKind::kMirror: return "mirror";
-    case MaterialKind::kDielectric: return "dielectric";
-    case MaterialKind::kEmissive: return "emissive";
+    case MaterialKind::kDiffuse:
+      return "diffuse";
+    case MaterialKind::kMirror:
+      return "mirror";
+    case MaterialKind::kDielectric:
+      return "dielectric";
+    case MaterialKind::kEmissive:
+      return "emissive";
   }
   return "?";
 }
@@ -224,12 +230,13 @@ void Scene::validate() const {
     if (!finiteNonNegative(t.fallback)) fail(field + ".fallback", "must be finite and >= 0");
     if (t.path.empty()) {
       if (t.width <= 0 || t.height <= 0 || t.width > 65536 || t.height > 65536) {
-        fail(field, fmt::format("inline texture needs a size in 1..65536, got {}x{}", t.width, t.height));
+        fail(field,
+             fmt::format("inline texture needs a size in 1..65536, got {}x{}", t.width, t.height));
       }
       if (t.pixels.size() != static_cast<size_t>(t.width) * static_cast<size_t>(t.height) * 3) {
-        fail(field + ".pixels", fmt::format("has {} floats, {}x{} RGB needs {}", t.pixels.size(),
-                                            t.width, t.height,
-                                            static_cast<size_t>(t.width) * t.height * 3));
+        fail(field + ".pixels",
+             fmt::format("has {} floats, {}x{} RGB needs {}", t.pixels.size(), t.width, t.height,
+                         static_cast<size_t>(t.width) * t.height * 3));
       }
       for (float v : t.pixels) {
         if (!std::isfinite(v)) fail(field + ".pixels", "contains a non-finite value");
@@ -243,8 +250,8 @@ void Scene::validate() const {
     const Instance& instance = instances[i];
     const std::string field = fmt::format("instances[{}]", i);
     if (instance.mesh < 0 || instance.mesh >= static_cast<int>(meshes.size())) {
-      fail(field + ".mesh", fmt::format("index {} out of range (scene has {} meshes)", instance.mesh,
-                                        meshes.size()));
+      fail(field + ".mesh", fmt::format("index {} out of range (scene has {} meshes)",
+                                        instance.mesh, meshes.size()));
     }
     if (!instance.worldFromObject.matrix().allFinite()) fail(field + ".transform", "not finite");
     if (!(std::abs(instance.worldFromObject.linear().determinant()) > 0.0)) {
@@ -265,10 +272,13 @@ void Scene::validate() const {
   }
   if (!finiteNonNegative(background)) fail("background", "must be finite and >= 0");
   if (!finiteNonNegative(ambient)) fail("ambient", "must be finite and >= 0");
-  if (maxDepth < 1 || maxDepth > 64) fail("max_depth", fmt::format("must be in 1..64, got {}", maxDepth));
-  if (triangleCount() == 0) fail("meshes", "the scene has nothing to draw (no instanced triangles)");
+  if (maxDepth < 1 || maxDepth > 64)
+    fail("max_depth", fmt::format("must be in 1..64, got {}", maxDepth));
+  if (triangleCount() == 0)
+    fail("meshes", "the scene has nothing to draw (no instanced triangles)");
   if (worldBox) {
-    if (!worldBox->min.allFinite() || !worldBox->max.allFinite()) fail("world_box", "must be finite");
+    if (!worldBox->min.allFinite() || !worldBox->max.allFinite())
+      fail("world_box", "must be finite");
     if ((worldBox->max.array() < worldBox->min.array()).any()) fail("world_box", "max below min");
     if (!(worldBox->size().maxCoeff() > 0.0)) fail("world_box", "has no extent");
   }

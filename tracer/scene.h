@@ -22,7 +22,7 @@
 #include <string>
 #include <vector>
 
-#include "calibration/box3.h"
+#include "calibration/display/box3.h"
 
 namespace parallax {
 
@@ -42,14 +42,14 @@ struct Material {
   MaterialKind kind = MaterialKind::kDiffuse;
 
   // kDiffuse
-  Rgb diffuse{0.8f, 0.8f, 0.8f};  // albedo; multiplied by the texture and vertex colours
-  int diffuseTexture = -1;        // index into Scene::textures, -1 for none
+  Rgb diffuse{0.8f, 0.8f, 0.8f};   // albedo; multiplied by the texture and vertex colours
+  int diffuseTexture = -1;         // index into Scene::textures, -1 for none
   Rgb specular{0.0f, 0.0f, 0.0f};  // Phong highlight colour; zero: no highlight
   float shininess = 32.0f;         // Phong exponent
   // kMirror
   Rgb reflectance{0.9f, 0.9f, 0.9f};
   // kDielectric
-  float ior = 1.5f;                 // relative to the surrounding air (1)
+  float ior = 1.5f;                  // relative to the surrounding air (1)
   Rgb absorption{0.0f, 0.0f, 0.0f};  // Beer–Lambert coefficient per world unit inside
   // kEmissive (also added on top of any other kind)
   Rgb emission{0.0f, 0.0f, 0.0f};
@@ -65,9 +65,9 @@ struct Material {
 // procedural texture from a script). Loaded only if a drawn material references it. When the
 // file cannot be read, the tracer warns and uses `fallback` instead.
 struct Texture {
-  std::string path;            // empty when `pixels` is given
-  int width = 0, height = 0;   // inline image size
-  std::vector<float> pixels;   // inline linear RGB, width × height × 3, row 0 at the top
+  std::string path;           // empty when `pixels` is given
+  int width = 0, height = 0;  // inline image size
+  std::vector<float> pixels;  // inline linear RGB, width × height × 3, row 0 at the top
   Rgb fallback{0.6f, 0.6f, 0.6f};
   bool srgb = true;  // 8-bit files are sRGB-encoded; converted to linear on load
 };
@@ -76,7 +76,7 @@ struct Texture {
 
 struct Mesh {
   std::string name;
-  std::vector<Eigen::Vector3d> positions;          // world (object) space
+  std::vector<Eigen::Vector3d> positions;               // world (object) space
   std::vector<std::array<std::uint32_t, 3>> triangles;  // indices into positions
   std::vector<Eigen::Vector3f> normals;  // empty, or one per position (smooth shading)
   std::vector<Eigen::Vector2f> uvs;      // empty, or one per position

@@ -34,13 +34,15 @@ SceneFeatures analyseScene(const Scene& scene) {
     f.materialDrawn[static_cast<size_t>(mesh.material)] = true;
     f.vertexColors = f.vertexColors || !mesh.colors.empty();
     const Material& m = scene.materials[static_cast<size_t>(mesh.material)];
-    const bool textured = m.diffuseTexture >= 0 && m.diffuseTexture < static_cast<int>(scene.textures.size()) &&
+    const bool textured = m.diffuseTexture >= 0 &&
+                          m.diffuseTexture < static_cast<int>(scene.textures.size()) &&
                           (m.kind == MaterialKind::kDiffuse || m.kind == MaterialKind::kEmissive);
     if (textured) {
       if (!mesh.uvs.empty()) {
         f.textureNeeded[static_cast<size_t>(m.diffuseTexture)] = true;
       } else {
-        f.unsampledTextureMaterials.push_back(m.name.empty() ? fmt::format("#{}", mesh.material) : m.name);
+        f.unsampledTextureMaterials.push_back(m.name.empty() ? fmt::format("#{}", mesh.material)
+                                                             : m.name);
       }
     }
   }
@@ -52,12 +54,15 @@ SceneFeatures analyseScene(const Scene& scene) {
         f.litSurfaces = true;
         f.phong = f.phong || m.specular.maxCoeff() > 0.0f;
         break;
-      case MaterialKind::kMirror: f.mirrors = true; break;
+      case MaterialKind::kMirror:
+        f.mirrors = true;
+        break;
       case MaterialKind::kDielectric:
         f.dielectrics = true;
         f.absorption = f.absorption || m.absorption.maxCoeff() > 0.0f;
         break;
-      case MaterialKind::kEmissive: break;
+      case MaterialKind::kEmissive:
+        break;
     }
     f.emissive = f.emissive || m.emission.maxCoeff() > 0.0f;
   }
@@ -70,8 +75,12 @@ SceneFeatures analyseScene(const Scene& scene) {
 
 std::vector<std::string> SceneFeatures::explain() const {
   std::vector<std::string> lines;
-  auto ran = [&](const std::string& what, const std::string& why) { lines.push_back("  ran:       " + what + " (" + why + ")"); };
-  auto left = [&](const std::string& what, const std::string& why) { lines.push_back("  left out:  " + what + " (" + why + ")"); };
+  auto ran = [&](const std::string& what, const std::string& why) {
+    lines.push_back("  ran:       " + what + " (" + why + ")");
+  };
+  auto left = [&](const std::string& what, const std::string& why) {
+    lines.push_back("  left out:  " + what + " (" + why + ")");
+  };
   ran("primary rays", "every unmasked pixel whose ray meets the scene's bounds");
   if (shadowPass()) {
     ran("shadow rays", "lights and lit (diffuse) surfaces");
@@ -80,7 +89,9 @@ std::vector<std::string> SceneFeatures::explain() const {
   }
   if (phong) ran("Phong highlights", "a drawn material has a specular colour");
   if (reflectionPass()) {
-    ran("reflection rays", mirrors && dielectrics ? "mirrors and glass drawn" : mirrors ? "a mirror is drawn" : "glass is drawn");
+    ran("reflection rays", mirrors && dielectrics ? "mirrors and glass drawn"
+                           : mirrors              ? "a mirror is drawn"
+                                                  : "glass is drawn");
   } else {
     left("reflection rays", "no mirror or glass is drawn");
   }
@@ -90,17 +101,20 @@ std::vector<std::string> SceneFeatures::explain() const {
     left("refraction rays", "no glass is drawn");
   }
   if (texturePass()) {
-    ran(fmt::format("texture sampling ({} of {} textures loaded)", texturesNeeded(), textureNeeded.size()),
+    ran(fmt::format("texture sampling ({} of {} textures loaded)", texturesNeeded(),
+                    textureNeeded.size()),
         "textured materials on UV-mapped meshes");
   } else {
-    left("texture sampling and loading",
-         textureNeeded.empty() ? "the scene has no textures" : "no drawn, UV-mapped surface references a texture");
+    left("texture sampling and loading", textureNeeded.empty()
+                                             ? "the scene has no textures"
+                                             : "no drawn, UV-mapped surface references a texture");
   }
   for (const std::string& name : unsampledTextureMaterials) {
     left("texture of material " + name, "its mesh has no UVs");
   }
   if (depth < requestedDepth) {
-    left(fmt::format("depth {}..{}", depth + 1, requestedDepth), "no material makes secondary rays; depth capped at 1");
+    left(fmt::format("depth {}..{}", depth + 1, requestedDepth),
+         "no material makes secondary rays; depth capped at 1");
   } else {
     ran(fmt::format("recursion to depth {}", depth), "as requested");
   }

@@ -12,20 +12,20 @@
 namespace parallax {
 
 struct SceneFeatures {
-  bool lights = false;        // at least one light
-  bool litSurfaces = false;   // a drawn diffuse material (the only kind lights act on)
-  bool phong = false;         // a drawn diffuse material with a highlight
-  bool mirrors = false;       // a drawn mirror
-  bool dielectrics = false;   // a drawn dielectric
-  bool absorption = false;    // a drawn dielectric that absorbs
-  bool emissive = false;      // drawn emission
-  bool vertexColors = false;  // a drawn mesh with colours
-  int depth = 1;              // effective recursion limit
-  int requestedDepth = 1;     // Scene::maxDepth
-  std::vector<bool> materialDrawn;     // per Scene::materials
-  std::vector<bool> textureNeeded;     // per Scene::textures
+  bool lights = false;              // at least one light
+  bool litSurfaces = false;         // a drawn diffuse material (the only kind lights act on)
+  bool phong = false;               // a drawn diffuse material with a highlight
+  bool mirrors = false;             // a drawn mirror
+  bool dielectrics = false;         // a drawn dielectric
+  bool absorption = false;          // a drawn dielectric that absorbs
+  bool emissive = false;            // drawn emission
+  bool vertexColors = false;        // a drawn mesh with colours
+  int depth = 1;                    // effective recursion limit
+  int requestedDepth = 1;           // Scene::maxDepth
+  std::vector<bool> materialDrawn;  // per Scene::materials
+  std::vector<bool> textureNeeded;  // per Scene::textures
   std::vector<std::string> unsampledTextureMaterials;  // textured materials on meshes without UVs
-  int meshesUnused = 0;                // meshes no instance draws
+  int meshesUnused = 0;                                // meshes no instance draws
 
   bool shadowPass() const { return lights && litSurfaces; }
   bool reflectionPass() const { return mirrors || dielectrics; }

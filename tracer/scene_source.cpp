@@ -17,9 +17,10 @@ std::string assimpTestModelsRoot() {
 Scene resolveScene(const std::string& nameOrFile) {
   if (isBuiltInScene(nameOrFile)) return makeBuiltInScene(nameOrFile, assimpTestModelsRoot());
   if (!std::filesystem::exists(nameOrFile)) {
-    throw InputError({"", "--scene", 0}, "\"" + nameOrFile +
-                                             "\" is neither a built-in scene (cornell, shapes, statue, xyz) "
-                                             "nor an existing file");
+    throw InputError({"", "--scene", 0},
+                     "\"" + nameOrFile +
+                         "\" is neither a built-in scene (cornell, shapes, statue, xyz) "
+                         "nor an existing file");
   }
   return loadModelScene(nameOrFile);
 }

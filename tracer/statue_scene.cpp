@@ -18,7 +18,8 @@ Scene makeStatueScene(const std::string& assetRoot) {
   for (const fs::path& p : {wuson, spider}) {
     if (!fs::exists(p)) {
       throw InputError({p.string(), "", 0},
-                       "the statue scene needs Debian's assimp-testmodels (apt install assimp-testmodels, or set "
+                       "the statue scene needs Debian's assimp-testmodels (apt install "
+                       "assimp-testmodels, or set "
                        "PARALLAX_ASSIMP_MODELS to its models folder)");
     }
   }
@@ -30,7 +31,8 @@ Scene makeStatueScene(const std::string& assetRoot) {
   for (int y = 0; y < 128; ++y) {
     for (int x = 0; x < 128; ++x) {
       const bool check = ((x / 16) + (y / 16)) % 2 == 0;
-      const float vein = 0.5f + 0.5f * std::sin(0.15f * static_cast<float>(x) + 0.3f * std::sin(0.11f * static_cast<float>(y)));
+      const float vein = 0.5f + 0.5f * std::sin(0.15f * static_cast<float>(x) +
+                                                0.3f * std::sin(0.11f * static_cast<float>(y)));
       const float base = (check ? 0.75f : 0.55f) * (0.85f + 0.15f * vein);
       marble.pixels.insert(marble.pixels.end(), {base, base * 0.96f, base * 0.9f});
     }
@@ -50,11 +52,13 @@ Scene makeStatueScene(const std::string& assetRoot) {
 
   ModelLoadOptions w;
   w.targetHeight = 1.1;
-  w.worldFromModel = Eigen::Translation3d(-0.55, 0.4, 0.0) * Eigen::AngleAxisd(-1.25, Eigen::Vector3d::UnitY());
+  w.worldFromModel =
+      Eigen::Translation3d(-0.55, 0.4, 0.0) * Eigen::AngleAxisd(-1.25, Eigen::Vector3d::UnitY());
   appendModel(wuson.string(), w, &scene);
   ModelLoadOptions s;
   s.targetHeight = 0.6;
-  s.worldFromModel = Eigen::Translation3d(1.0, 0.4, 0.1) * Eigen::AngleAxisd(-0.6, Eigen::Vector3d::UnitY());
+  s.worldFromModel =
+      Eigen::Translation3d(1.0, 0.4, 0.1) * Eigen::AngleAxisd(-0.6, Eigen::Vector3d::UnitY());
   appendModel(spider.string(), s, &scene);
 
   addPaperLights(&scene);

@@ -7,42 +7,47 @@
 #include <cmath>
 #include <limits>
 
-#include "calibration/ray_function.h"
+#include "calibration/display/ray_function.h"
 #include "common/input_error.h"
 
 namespace parallax {
 namespace {
 
 double msSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
 }
 
 }  // namespace
 
-RayTextures generateOffsetRayTextures(const DisplayModel& model, int moduleIndex, double du, double dv) {
+RayTextures generateOffsetRayTextures(const DisplayModel& model, int moduleIndex, double du,
+                                      double dv) {
   const OpticalModule& m = model.modules.at(static_cast<size_t>(moduleIndex));
   RayTextures out(m.width, m.height, rayFrameOf(model));
   const RayFunction rays(model, moduleIndex);
   std::span<CompactRay> texels = out.rays();
-  tbb::parallel_for(tbb::blocked_range<int>(0, m.height, 8), [&](const tbb::blocked_range<int>& rowRange) {
-    for (int row = rowRange.begin(); row < rowRange.end(); ++row) {
-      for (int column = 0; column < m.width; ++column) {
-        const PixelRay r = rays.at(column + du, row + dv);
-        CompactRay& t = texels[static_cast<size_t>(row) * static_cast<size_t>(m.width) + static_cast<size_t>(column)];
-        if (!r.valid()) {
-          t = {std::numeric_limits<float>::quiet_NaN(), 0.0f, 0.0f};
-          continue;
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, m.height, 8), [&](const tbb::blocked_range<int>& rowRange) {
+        for (int row = rowRange.begin(); row < rowRange.end(); ++row) {
+          for (int column = 0; column < m.width; ++column) {
+            const PixelRay r = rays.at(column + du, row + dv);
+            CompactRay& t = texels[static_cast<size_t>(row) * static_cast<size_t>(m.width) +
+                                   static_cast<size_t>(column)];
+            if (!r.valid()) {
+              t = {std::numeric_limits<float>::quiet_NaN(), 0.0f, 0.0f};
+              continue;
+            }
+            t = {static_cast<float>(r.origin.x()), static_cast<float>(r.screenPoint.x()),
+                 static_cast<float>(r.screenPoint.y())};
+          }
         }
-        t = {static_cast<float>(r.origin.x()), static_cast<float>(r.screenPoint.x()),
-             static_cast<float>(r.screenPoint.y())};
-      }
-    }
-  });
+      });
   return out;
 }
 
-Frame renderFrame(const PhysicalScene& scene, const DisplayModel& model, int moduleIndex, const RayTextures& centres,
-                  const RenderOptions& options, RenderCounters* counters, SupersampleTimes* times) {
+Frame renderFrame(const PhysicalScene& scene, const DisplayModel& model, int moduleIndex,
+                  const RayTextures& centres, const RenderOptions& options,
+                  RenderCounters* counters, SupersampleTimes* times) {
   options.validate();
   RenderOptions single = options;
   single.samplesPerPixel = 1;
@@ -52,7 +57,8 @@ Frame renderFrame(const PhysicalScene& scene, const DisplayModel& model, int mod
     if (times) *times = {0.0, msSince(start)};
     return frame;
   }
-  const int n = static_cast<int>(std::lround(std::sqrt(static_cast<double>(options.samplesPerPixel))));
+  const int n =
+      static_cast<int>(std::lround(std::sqrt(static_cast<double>(options.samplesPerPixel))));
   Frame sum(centres.width(), centres.height());
   std::vector<int> samples(sum.pixels.size(), 0);
   SupersampleTimes spent;
@@ -60,7 +66,8 @@ Frame renderFrame(const PhysicalScene& scene, const DisplayModel& model, int mod
   for (int b = 0; b < n; ++b) {
     for (int a = 0; a < n; ++a) {
       auto start = std::chrono::steady_clock::now();
-      const RayTextures grid = generateOffsetRayTextures(model, moduleIndex, (a + 0.5) / n, (b + 0.5) / n);
+      const RayTextures grid =
+          generateOffsetRayTextures(model, moduleIndex, (a + 0.5) / n, (b + 0.5) / n);
       spent.rayGenerationMs += msSince(start);
       start = std::chrono::steady_clock::now();
       RenderCounters c;

@@ -8,8 +8,8 @@
 // A pixel masked at its centre stays black (as at 1 sample); a sub-sample whose own ray is
 // masked (a pixel straddling the edge of the image's valid part) is left out of its average.
 
-#include "calibration/display_model.h"
-#include "calibration/ray_textures.h"
+#include "calibration/display/display_model.h"
+#include "calibration/display/ray_textures.h"
 #include "tracer/frame.h"
 #include "tracer/whitted_integrator.h"
 
@@ -22,10 +22,12 @@ struct SupersampleTimes {
 
 // `centres`: the module's ray textures. samplesPerPixel 1 is exactly renderFrame(scene,
 // centres, options).
-Frame renderFrame(const PhysicalScene& scene, const DisplayModel& model, int moduleIndex, const RayTextures& centres,
-                  const RenderOptions& options, RenderCounters* counters = nullptr, SupersampleTimes* times = nullptr);
+Frame renderFrame(const PhysicalScene& scene, const DisplayModel& model, int moduleIndex,
+                  const RayTextures& centres, const RenderOptions& options,
+                  RenderCounters* counters = nullptr, SupersampleTimes* times = nullptr);
 
 // The compact ray textures of the sub-pixel position (column + du, row + dv) of every pixel.
-RayTextures generateOffsetRayTextures(const DisplayModel& model, int moduleIndex, double du, double dv);
+RayTextures generateOffsetRayTextures(const DisplayModel& model, int moduleIndex, double du,
+                                      double dv);
 
 }  // namespace parallax

@@ -46,11 +46,13 @@ bool TextureImage::load(const std::string& path, bool srgb, TextureImage* out, s
     return false;
   }
   const OIIO::ImageSpec& spec = source.spec();
-  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.width > 65536 || spec.height > 65536) {
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.width > 65536 ||
+      spec.height > 65536) {
     *error = "unsupported image size or channel count";
     return false;
   }
-  const bool decode = srgb && (spec.format == OIIO::TypeDesc::UINT8 || spec.format == OIIO::TypeDesc::UINT16);
+  const bool decode =
+      srgb && (spec.format == OIIO::TypeDesc::UINT8 || spec.format == OIIO::TypeDesc::UINT16);
   std::vector<float> rgb(static_cast<size_t>(spec.width) * static_cast<size_t>(spec.height) * 3);
   std::vector<float> pixel(static_cast<size_t>(spec.nchannels));
   size_t k = 0;
@@ -79,10 +81,11 @@ void TextureImage::buildPyramid() {
     OIIO::ImageBuf fineBuf(fineSpec, const_cast<float*>(fine.rgb.data()));
     OIIO::ImageBuf coarseBuf;
     // A box filter over each 2×2 block (the footprint a level stands for); OIIO handles odd sizes.
-    OIIO::ImageBufAlgo::resize(coarseBuf, fineBuf, "box", 0.0f, OIIO::ROI(0, coarse.width, 0, coarse.height, 0, 1, 0, 3));
+    OIIO::ImageBufAlgo::resize(coarseBuf, fineBuf, "box", 0.0f,
+                               OIIO::ROI(0, coarse.width, 0, coarse.height, 0, 1, 0, 3));
     coarse.rgb.resize(static_cast<size_t>(coarse.width) * static_cast<size_t>(coarse.height) * 3);
-    coarseBuf.get_pixels(OIIO::ROI(0, coarse.width, 0, coarse.height, 0, 1, 0, 3), OIIO::TypeDesc::FLOAT,
-                         coarse.rgb.data());
+    coarseBuf.get_pixels(OIIO::ROI(0, coarse.width, 0, coarse.height, 0, 1, 0, 3),
+                         OIIO::TypeDesc::FLOAT, coarse.rgb.data());
     levels_.push_back(std::move(coarse));
   }
 }
@@ -90,7 +93,8 @@ void TextureImage::buildPyramid() {
 Rgb TextureImage::texel(int level, int x, int y) const {
   const Level& l = levels_[static_cast<size_t>(level)];
   const size_t i = (static_cast<size_t>(wrap(y, l.height)) * static_cast<size_t>(l.width) +
-                    static_cast<size_t>(wrap(x, l.width))) * 3;
+                    static_cast<size_t>(wrap(x, l.width))) *
+                   3;
   return {l.rgb[i], l.rgb[i + 1], l.rgb[i + 2]};
 }
 
@@ -109,13 +113,16 @@ Rgb TextureImage::bilinear(int level, float u, float v) const {
   const size_t w = static_cast<size_t>(l.width);
   const float* row0 = l.rgb.data() + static_cast<size_t>(y0) * w * 3;
   const float* row1 = l.rgb.data() + static_cast<size_t>(y1) * w * 3;
-  const Eigen::Map<const Rgb> c00(row0 + 3 * static_cast<size_t>(x0)), c10(row0 + 3 * static_cast<size_t>(x1));
-  const Eigen::Map<const Rgb> c01(row1 + 3 * static_cast<size_t>(x0)), c11(row1 + 3 * static_cast<size_t>(x1));
+  const Eigen::Map<const Rgb> c00(row0 + 3 * static_cast<size_t>(x0)),
+      c10(row0 + 3 * static_cast<size_t>(x1));
+  const Eigen::Map<const Rgb> c01(row1 + 3 * static_cast<size_t>(x0)),
+      c11(row1 + 3 * static_cast<size_t>(x1));
   return (1 - ay) * ((1 - ax) * c00 + ax * c10) + ay * ((1 - ax) * c01 + ax * c11);
 }
 
 Rgb TextureImage::lookup(float u, float v, float lod) const {
-  if (!std::isfinite(u) || !std::isfinite(v)) return texel(static_cast<int>(levels_.size()) - 1, 0, 0);
+  if (!std::isfinite(u) || !std::isfinite(v))
+    return texel(static_cast<int>(levels_.size()) - 1, 0, 0);
   const float maxLevel = static_cast<float>(levels_.size() - 1);
   const float level = std::isfinite(lod) ? std::clamp(lod, 0.0f, maxLevel) : 0.0f;
   const int l0 = static_cast<int>(level);

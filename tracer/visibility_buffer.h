@@ -7,16 +7,16 @@
 #include <Eigen/Core>
 #include <vector>
 
-#include "calibration/ray_textures.h"
+#include "calibration/display/ray_textures.h"
 #include "tracer/physical_scene.h"
 
 namespace parallax {
 
 struct SurfaceSample {
-  int mesh = -1;      // PhysicalScene::meshes() index; −1: nothing (background or masked)
-  int triangle = 0;   // index into that mesh's triangles
-  float b1 = 0.0f;    // barycentrics of vertices 1 and 2 (vertex 0 has 1 − b1 − b2),
-  float b2 = 0.0f;    // Embree's (u, v)
+  int mesh = -1;     // PhysicalScene::meshes() index; −1: nothing (background or masked)
+  int triangle = 0;  // index into that mesh's triangles
+  float b1 = 0.0f;   // barycentrics of vertices 1 and 2 (vertex 0 has 1 − b1 − b2),
+  float b2 = 0.0f;   // Embree's (u, v)
 
   bool covered() const { return mesh >= 0; }
 };
@@ -27,12 +27,15 @@ struct VisibilityBuffer {
   std::vector<SurfaceSample> samples;
 
   VisibilityBuffer() = default;
-  VisibilityBuffer(int w, int h) : width(w), height(h), samples(static_cast<size_t>(w) * static_cast<size_t>(h)) {}
+  VisibilityBuffer(int w, int h)
+      : width(w), height(h), samples(static_cast<size_t>(w) * static_cast<size_t>(h)) {}
   SurfaceSample& at(int column, int row) {
-    return samples[static_cast<size_t>(row) * static_cast<size_t>(width) + static_cast<size_t>(column)];
+    return samples[static_cast<size_t>(row) * static_cast<size_t>(width) +
+                   static_cast<size_t>(column)];
   }
   const SurfaceSample& at(int column, int row) const {
-    return samples[static_cast<size_t>(row) * static_cast<size_t>(width) + static_cast<size_t>(column)];
+    return samples[static_cast<size_t>(row) * static_cast<size_t>(width) +
+                   static_cast<size_t>(column)];
   }
   long coveredCount() const;
 };

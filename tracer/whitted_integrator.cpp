@@ -1,5 +1,6 @@
 #include "tracer/whitted_integrator.h"
 
+#include <fmt/format.h>
 #include <tbb/blocked_range2d.h>
 #include <tbb/combinable.h>
 #include <tbb/enumerable_thread_specific.h>
@@ -7,12 +8,10 @@
 
 #include <algorithm>
 #include <chrono>
-#include <ctime>
 #include <cmath>
+#include <ctime>
 #include <limits>
 #include <memory>
-
-#include <fmt/format.h>
 
 #include "common/input_error.h"
 #include "tracer/glass_shadows.h"
@@ -96,7 +95,8 @@ class PhaseClock {
   void lap(RenderPhase ended) {
     if (!on_) return;
     const auto now = std::chrono::steady_clock::now();
-    counters_->phaseThreadMs[static_cast<int>(ended)] += std::chrono::duration<double, std::milli>(now - last_).count();
+    counters_->phaseThreadMs[static_cast<int>(ended)] +=
+        std::chrono::duration<double, std::milli>(now - last_).count();
     last_ = now;
   }
 
@@ -122,13 +122,25 @@ struct TileBuffers {
 
 class TileRenderer {
  public:
-  TileRenderer(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options, int depth,
-               Frame* frame, RayLog* log, TileBuffers* buffers)
-      : scene_(scene), textures_(textures), options_(options), depth_(depth), frame_(frame), log_(log),
+  TileRenderer(const PhysicalScene& scene, const RayTextures& textures,
+               const RenderOptions& options, int depth, Frame* frame, RayLog* log,
+               TileBuffers* buffers)
+      : scene_(scene),
+        textures_(textures),
+        options_(options),
+        depth_(depth),
+        frame_(frame),
+        log_(log),
         texturesUsed_(scene.features().texturePass()),
-        boxMargin_(0.01f * (scene.boundsMax() - scene.boundsMin()).norm()), glassShadows_(scene.glassShadows()),
-        paths_(buffers->paths), nextPaths_(buffers->nextPaths), rays_(buffers->rays), nextRays_(buffers->nextRays),
-        lit_(buffers->lit), shadowRays_(buffers->shadowRays), shadows_(buffers->shadows),
+        boxMargin_(0.01f * (scene.boundsMax() - scene.boundsMin()).norm()),
+        glassShadows_(scene.glassShadows()),
+        paths_(buffers->paths),
+        nextPaths_(buffers->nextPaths),
+        rays_(buffers->rays),
+        nextRays_(buffers->nextRays),
+        lit_(buffers->lit),
+        shadowRays_(buffers->shadowRays),
+        shadows_(buffers->shadows),
         transmittance_(buffers->transmittance) {}
 
   void render(int x0, int x1, int y0, int y1, RenderCounters* c);
@@ -140,10 +152,10 @@ class TileRenderer {
   template <bool kPoint>
   size_t makeShadowRays(const PhysicalLight& light);
   void traceShadowRays(bool coherent, int generation, RenderCounters* c, PhaseClock* clock);
-  Rgb textureColor(const Material& m, const HitInfo& h, const Path& path, float t, const Eigen::Vector3f& d,
-                   RenderCounters* c) const;
-  void pushBranch(const Path& parent, const Rgb& weight, const Eigen::Vector3f& origin, const Eigen::Vector3f& dir,
-                  int inside, float coneWidth, RenderCounters* c);
+  Rgb textureColor(const Material& m, const HitInfo& h, const Path& path, float t,
+                   const Eigen::Vector3f& d, RenderCounters* c) const;
+  void pushBranch(const Path& parent, const Rgb& weight, const Eigen::Vector3f& origin,
+                  const Eigen::Vector3f& dir, int inside, float coneWidth, RenderCounters* c);
   void logBatch(int generation, const RayHitPackets& rays);
   void logBatch(int generation, const OcclusionPackets& rays);
   void logBatch(bool occlusion, int generation, std::vector<RTCRay> rays);
@@ -162,7 +174,8 @@ class TileRenderer {
   std::vector<Path>& nextPaths_;
   RayHitPackets& rays_;
   RayHitPackets& nextRays_;
-  std::vector<LitSurface>& lit_;  // the first litCount_ are this generation's (the vector only grows)
+  std::vector<LitSurface>&
+      lit_;  // the first litCount_ are this generation's (the vector only grows)
   size_t litCount_ = 0;
   OcclusionPackets& shadowRays_;
   std::vector<PendingShadow>& shadows_;
@@ -170,7 +183,8 @@ class TileRenderer {
 };
 
 // o and s − o of a compact ray. A flat screen (the common case) needs no sag and its square root.
-inline void expand(const RayFrame& f, const CompactRay& r, Eigen::Vector3f* o, Eigen::Vector3f* toScreen) {
+inline void expand(const RayFrame& f, const CompactRay& r, Eigen::Vector3f* o,
+                   Eigen::Vector3f* toScreen) {
   const float sz = f.curvature == 0.0f ? 0.0f : screenSag(f.curvature, r.screenX);
   *o = {r.originX, f.observerY, f.observerZ};
   *toScreen = {r.screenX - r.originX, r.screenY - f.observerY, sz - f.observerZ};
@@ -189,14 +203,16 @@ void TileRenderer::cone(int pixel, Path* path) const {
   float width = 0.0f, spread = 0.0f;
   const int nx = column + 1 < textures_.width() ? column + 1 : column - 1;
   const int ny = row + 1 < textures_.height() ? row + 1 : row - 1;
-  for (const CompactRay* n : {nx >= 0 ? &textures_.at(nx, row) : nullptr, ny >= 0 ? &textures_.at(column, ny) : nullptr}) {
+  for (const CompactRay* n : {nx >= 0 ? &textures_.at(nx, row) : nullptr,
+                              ny >= 0 ? &textures_.at(column, ny) : nullptr}) {
     if (!n || n->masked()) continue;
     Eigen::Vector3f o, t;
     expand(f, *n, &o, &t);
     width = std::max(width, std::abs(n->originX - self.originX));
     spread = std::max(spread, (t - toScreen).norm() * inverseLength);
   }
-  path->coneWidth = width + path->coneWidth * spread;  // coneWidth: the distance the origin was advanced
+  path->coneWidth =
+      width + path->coneWidth * spread;  // coneWidth: the distance the origin was advanced
   path->coneSpread = spread;
 }
 
@@ -215,8 +231,10 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
   for (int row = y0; row < y1; ++row) {
     const auto* rays = reinterpret_cast<const char*>(&textures_.at(x0, row));
     const auto* pixels = reinterpret_cast<const char*>(&frame_->at(x0, row));
-    for (size_t b = 0; b < columns * sizeof(CompactRay) + kLine - 1; b += kLine) __builtin_prefetch(rays + b, 0);
-    for (size_t b = 0; b < columns * sizeof(Rgb) + kLine - 1; b += kLine) __builtin_prefetch(pixels + b, 1);
+    for (size_t b = 0; b < columns * sizeof(CompactRay) + kLine - 1; b += kLine)
+      __builtin_prefetch(rays + b, 0);
+    for (size_t b = 0; b < columns * sizeof(Rgb) + kLine - 1; b += kLine)
+      __builtin_prefetch(pixels + b, 1);
   }
   for (int row = y0; row < y1; ++row) {
     // The frame is reused from frame to frame: every pixel of the tile is written here.
@@ -282,7 +300,8 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
     for (size_t i = 0; i < rays_.size(); ++i) shade(i, generation, c);
     if (litCount_ > 0) {
       for (const PhysicalLight& light : scene_.lights()) {
-        const size_t count = light.kind == LightKind::kPoint ? makeShadowRays<true>(light) : makeShadowRays<false>(light);
+        const size_t count = light.kind == LightKind::kPoint ? makeShadowRays<true>(light)
+                                                             : makeShadowRays<false>(light);
         shadowRays_.setSize(count);
         traceShadowRays(coherent, generation, c, &clock);
       }
@@ -327,7 +346,8 @@ size_t TileRenderer::makeShadowRays(const PhysicalLight& light) {
     if (s.highlight) {
       // pow(0, s) = 0 for s > 0: no pow call for a highlight facing away (most of them).
       const float alignment = std::max(0.0f, s.reflected.dot(l));
-      if (alignment > 0.0f || s.shininess == 0.0f) response += s.specular * phongPower(alignment, s.shininess);
+      if (alignment > 0.0f || s.shininess == 0.0f)
+        response += s.specular * phongPower(alignment, s.shininess);
     }
     const Rgb contribution = response.cwiseProduct(irradiance);
     reaches = reaches & (contribution.maxCoeff() > 0.0f);
@@ -344,7 +364,8 @@ size_t TileRenderer::makeShadowRays(const PhysicalLight& light) {
   return kept;
 }
 
-void TileRenderer::traceShadowRays(bool coherent, int generation, RenderCounters* c, PhaseClock* clock) {
+void TileRenderer::traceShadowRays(bool coherent, int generation, RenderCounters* c,
+                                   PhaseClock* clock) {
   OcclusionPackets& rays = shadowRays_;
   if (rays.empty()) return;
   if (log_) logBatch(generation, rays);
@@ -352,15 +373,17 @@ void TileRenderer::traceShadowRays(bool coherent, int generation, RenderCounters
   Rgb* pixels = frame_->pixels.data();
   const PendingShadow* pending = shadows_.data();
   if (glassShadows_) {
-    ShadowQueryContext query = shadowQueryContext(coherent, &scene_, transmittance_.data(), &c->glassShadowHits);
+    ShadowQueryContext query =
+        shadowQueryContext(coherent, &scene_, transmittance_.data(), &c->glassShadowHits);
     occludedPackets(scene_.handle(), rays, options_.traversal, &query);
     clock->lap(RenderPhase::kOcclude);
     for (size_t i = 0; i < rays.size(); ++i) {
       if (rays.occluded(i)) continue;
       const ShadowTransmittance& state = transmittance_[i];
       // Most shadow rays cross no glass: no exp() for them.
-      pixels[pending[i].pixel] += state.crossings == 0 ? pending[i].contribution
-                                                       : Rgb(pending[i].contribution.cwiseProduct(state.factor()));
+      pixels[pending[i].pixel] += state.crossings == 0
+                                      ? pending[i].contribution
+                                      : Rgb(pending[i].contribution.cwiseProduct(state.factor()));
     }
   } else {
     // No glass: the plain query, no per-ray state.
@@ -408,15 +431,16 @@ Rgb TileRenderer::textureColor(const Material& m, const HitInfo& h, const Path& 
     // Ray cone: footprint width at the hit, stretched by the incidence angle, in texels.
     const float width = path.coneWidth + t * path.coneSpread;
     const float cosine = std::max(std::abs(d.dot(h.geometricNormal)), 0.05f);
-    const float texelsPerMetre =
-        std::sqrt(h.texelsPerMetreSq * static_cast<float>(image.width()) * static_cast<float>(image.height()));
+    const float texelsPerMetre = std::sqrt(h.texelsPerMetreSq * static_cast<float>(image.width()) *
+                                           static_cast<float>(image.height()));
     lod = std::log2(std::max(width * texelsPerMetre / cosine, 1e-30f));
   }
   return image.lookup(h.uv.x(), h.uv.y(), lod);
 }
 
 void TileRenderer::pushBranch(const Path& parent, const Rgb& weight, const Eigen::Vector3f& origin,
-                              const Eigen::Vector3f& dir, int inside, float coneWidth, RenderCounters* c) {
+                              const Eigen::Vector3f& dir, int inside, float coneWidth,
+                              RenderCounters* c) {
   if (weight.maxCoeff() < options_.minWeight) {
     ++c->pruned;
     return;
@@ -441,10 +465,12 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
   const float t = rays_.tfar(i);
   const PhysicalMesh& mesh = scene_.meshes()[geomID];
   const Material& m = scene_.materials()[static_cast<size_t>(mesh.material)];
-  const HitInfo h = hitInfoOf(mesh, rays_.primID(i), rays_.u(i), rays_.v(i), d, m.diffuseTexture >= 0);
+  const HitInfo h =
+      hitInfoOf(mesh, rays_.primID(i), rays_.u(i), rays_.v(i), d, m.diffuseTexture >= 0);
   // Primary rays get their footprint only here, and only when a texture or a branch uses it.
   if (path.coneSpread == kConeUnknown && texturesUsed_ &&
-      (m.diffuseTexture >= 0 || m.kind == MaterialKind::kMirror || m.kind == MaterialKind::kDielectric)) {
+      (m.diffuseTexture >= 0 || m.kind == MaterialKind::kMirror ||
+       m.kind == MaterialKind::kDielectric)) {
     cone(path.pixel, &path);
   }
   Rgb weight = path.weight;
@@ -464,7 +490,8 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
     out += weight.cwiseProduct(e);
   }
   switch (m.kind) {
-    case MaterialKind::kEmissive: return;
+    case MaterialKind::kEmissive:
+      return;
     case MaterialKind::kDiffuse: {
       Rgb albedo = m.diffuse.cwiseProduct(h.vertexColor);
       if (m.diffuseTexture >= 0) albedo = albedo.cwiseProduct(textureColor(m, h, path, t, d, c));
@@ -489,8 +516,8 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
     case MaterialKind::kMirror: {
       if (!canBranch) return;
       ++c->reflection;
-      pushBranch(path, weight.cwiseProduct(m.reflectance), above, reflect(d, h.shadingNormal), path.inside,
-                 coneWidth, c);
+      pushBranch(path, weight.cwiseProduct(m.reflectance), above, reflect(d, h.shadingNormal),
+                 path.inside, coneWidth, c);
       return;
     }
     case MaterialKind::kDielectric: {
@@ -526,27 +553,35 @@ TileBuffers& threadBuffers() {
 
 }  // namespace
 
-
 void RenderOptions::validate() const {
-  if (tileWidth < 1 || tileWidth > 4096) throw InputError({"", "tile_width", 0}, "must be in 1..4096");
-  if (tileHeight < 1 || tileHeight > 4096) throw InputError({"", "tile_height", 0}, "must be in 1..4096");
+  if (tileWidth < 1 || tileWidth > 4096)
+    throw InputError({"", "tile_width", 0}, "must be in 1..4096");
+  if (tileHeight < 1 || tileHeight > 4096)
+    throw InputError({"", "tile_height", 0}, "must be in 1..4096");
   if (!std::isfinite(minWeight) || minWeight < 0.0f || minWeight >= 1.0f) {
     throw InputError({"", "min_weight", 0}, "must be in [0, 1)");
   }
-  if (maxDepth < 0 || maxDepth > 64) throw InputError({"", "max_depth", 0}, "must be in 0..64 (0: the scene's)");
+  if (maxDepth < 0 || maxDepth > 64)
+    throw InputError({"", "max_depth", 0}, "must be in 0..64 (0: the scene's)");
   const int side = static_cast<int>(std::lround(std::sqrt(static_cast<double>(samplesPerPixel))));
   if (samplesPerPixel < 1 || samplesPerPixel > 256 || side * side != samplesPerPixel) {
-    throw InputError({"", "samples_per_pixel", 0}, "must be a square in 1..256 (an n x n sub-pixel grid)");
+    throw InputError({"", "samples_per_pixel", 0},
+                     "must be a square in 1..256 (an n x n sub-pixel grid)");
   }
 }
 
 const char* renderPhaseName(RenderPhase phase) {
   switch (phase) {
-    case RenderPhase::kGenerate: return "generate";
-    case RenderPhase::kIntersect: return "intersect";
-    case RenderPhase::kShade: return "shade";
-    case RenderPhase::kOcclude: return "occlude";
-    case RenderPhase::kGather: return "gather";
+    case RenderPhase::kGenerate:
+      return "generate";
+    case RenderPhase::kIntersect:
+      return "intersect";
+    case RenderPhase::kShade:
+      return "shade";
+    case RenderPhase::kOcclude:
+      return "occlude";
+    case RenderPhase::kGather:
+      return "gather";
   }
   return "?";
 }
@@ -569,45 +604,54 @@ RenderCounters& RenderCounters::operator+=(const RenderCounters& o) {
 
 std::vector<std::string> RenderCounters::lines() const {
   return {
-      fmt::format("  pixels {}: {} masked (never traced), {} miss the scene's bounds (never traversed)", pixels,
-                  masked, missedBounds),
-      fmt::format("  rays {}: primary {}, shadow {}, reflection {}, refraction {}", rays(), primary, shadow,
-                  reflection, refraction),
-      fmt::format("  branches pruned below the weight limit {}; texture lookups {}; deepest generation {}", pruned,
-                  textureLookups, deepest),
-      fmt::format("  glass surfaces shadow rays passed through {} (the glass filter's calls)", glassShadowHits),
+      fmt::format(
+          "  pixels {}: {} masked (never traced), {} miss the scene's bounds (never traversed)",
+          pixels, masked, missedBounds),
+      fmt::format("  rays {}: primary {}, shadow {}, reflection {}, refraction {}", rays(), primary,
+                  shadow, reflection, refraction),
+      fmt::format(
+          "  branches pruned below the weight limit {}; texture lookups {}; deepest generation {}",
+          pruned, textureLookups, deepest),
+      fmt::format("  glass surfaces shadow rays passed through {} (the glass filter's calls)",
+                  glassShadowHits),
   };
 }
 
-void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options,
-                     Frame* frame, RenderCounters* counters, RayLog* log) {
+void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures,
+                     const RenderOptions& options, Frame* frame, RenderCounters* counters,
+                     RayLog* log) {
   options.validate();
   if (options.samplesPerPixel != 1) {
-    throw InputError({"", "samples_per_pixel", 0},
-                     "sub-pixel rays need the display model: use the renderFrame of supersampled_render.h");
+    throw InputError(
+        {"", "samples_per_pixel", 0},
+        "sub-pixel rays need the display model: use the renderFrame of supersampled_render.h");
   }
   if (frame->width != textures.width() || frame->height != textures.height() ||
-      frame->pixels.size() != static_cast<size_t>(textures.width()) * static_cast<size_t>(textures.height())) {
+      frame->pixels.size() !=
+          static_cast<size_t>(textures.width()) * static_cast<size_t>(textures.height())) {
     *frame = Frame(textures.width(), textures.height());
   }
   int depth = scene.features().depth;
   if (options.maxDepth > 0) depth = std::min(depth, options.maxDepth);
   tbb::combinable<RenderCounters> perThread;
-  const tbb::blocked_range2d<int> range(0, textures.height(), options.tileHeight, 0, textures.width(),
-                                        options.tileWidth);
-  tbb::parallel_for(range, [&](const tbb::blocked_range2d<int>& tile) {
-    TileRenderer renderer(scene, textures, options, depth, frame, log, &threadBuffers());
-    renderer.render(tile.cols().begin(), tile.cols().end(), tile.rows().begin(), tile.rows().end(),
-                    &perThread.local());
-  }, tbb::simple_partitioner());
+  const tbb::blocked_range2d<int> range(0, textures.height(), options.tileHeight, 0,
+                                        textures.width(), options.tileWidth);
+  tbb::parallel_for(
+      range,
+      [&](const tbb::blocked_range2d<int>& tile) {
+        TileRenderer renderer(scene, textures, options, depth, frame, log, &threadBuffers());
+        renderer.render(tile.cols().begin(), tile.cols().end(), tile.rows().begin(),
+                        tile.rows().end(), &perThread.local());
+      },
+      tbb::simple_partitioner());
   if (counters) {
     *counters = RenderCounters{};
     perThread.combine_each([&](const RenderCounters& c) { *counters += c; });
   }
 }
 
-Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options,
-                  RenderCounters* counters, RayLog* log) {
+Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures,
+                  const RenderOptions& options, RenderCounters* counters, RayLog* log) {
   Frame frame;
   renderFrameInto(scene, textures, options, &frame, counters, log);
   return frame;
@@ -619,19 +663,24 @@ double processCpuMs() {
   return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
 }
 
-double replayRayLog(const PhysicalScene& scene, const RayLog& log, Traversal traversal, RayKind kind, long* rays,
-                    double* cpuMs) {
+double replayRayLog(const PhysicalScene& scene, const RayLog& log, Traversal traversal,
+                    RayKind kind, long* rays, double* cpuMs) {
   auto wanted = [&](const RayLog::Batch& batch) {
     switch (kind) {
-      case RayKind::kAll: return true;
-      case RayKind::kPrimary: return !batch.occlusion && batch.generation == 0;
-      case RayKind::kShadow: return batch.occlusion;
-      case RayKind::kSecondary: return !batch.occlusion && batch.generation > 0;
+      case RayKind::kAll:
+        return true;
+      case RayKind::kPrimary:
+        return !batch.occlusion && batch.generation == 0;
+      case RayKind::kShadow:
+        return batch.occlusion;
+      case RayKind::kSecondary:
+        return !batch.occlusion && batch.generation > 0;
     }
     return false;
   };
   long count = 0;
-  for (const RayLog::Batch& batch : log.batches) count += wanted(batch) ? static_cast<long>(batch.rays.size()) : 0;
+  for (const RayLog::Batch& batch : log.batches)
+    count += wanted(batch) ? static_cast<long>(batch.rays.size()) : 0;
   // Each batch is copied from the log into the worker's packets (the layout the renderer traces)
   // right before it is traced, so Embree reads rays as warm in cache as the renderer hands them
   // over. (Packets for the whole frame built in advance are ~100 MB read cold: that replay took
@@ -653,7 +702,8 @@ double replayRayLog(const PhysicalScene& scene, const RayLog& log, Traversal tra
       Packets& p = perThread.local();
       if (batch.occlusion) {
         p.shadows.clear();
-        for (const RTCRay& r : batch.rays) p.shadows.push({r.org_x, r.org_y, r.org_z}, {r.dir_x, r.dir_y, r.dir_z}, r.tfar);
+        for (const RTCRay& r : batch.rays)
+          p.shadows.push({r.org_x, r.org_y, r.org_z}, {r.dir_x, r.dir_y, r.dir_z}, r.tfar);
         ShadowQueryContext query = shadowQueryContext(batch.coherent);
         if (scene.glassShadows()) {
           // Glass is part of the query's cost: its filter runs here as in the frame.
@@ -668,12 +718,14 @@ double replayRayLog(const PhysicalScene& scene, const RayLog& log, Traversal tra
         if (trace) occludedPackets(scene.handle(), p.shadows, traversal, &query);
       } else {
         p.hits.clear();
-        for (const RTCRay& r : batch.rays) p.hits.push({r.org_x, r.org_y, r.org_z}, {r.dir_x, r.dir_y, r.dir_z}, r.tfar);
+        for (const RTCRay& r : batch.rays)
+          p.hits.push({r.org_x, r.org_y, r.org_z}, {r.dir_x, r.dir_y, r.dir_z}, r.tfar);
         if (trace) intersectPackets(scene.handle(), p.hits, traversal, batch.coherent);
       }
     });
     *passCpuMs = processCpuMs() - cpuStart;
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+        .count();
   };
   double unused = 0.0, copyCpu = 0.0, totalCpu = 0.0;
   pass(false, &unused);  // sizes the per-thread packets

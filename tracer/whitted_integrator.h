@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "calibration/ray_textures.h"
+#include "calibration/display/ray_textures.h"
 #include "tracer/frame.h"
 #include "tracer/physical_scene.h"
 #include "tracer/ray_batch.h"
@@ -21,13 +21,14 @@
 namespace parallax {
 
 struct RenderOptions {
-  Traversal traversal = Traversal::kStream;  // chosen by `parallax bench tracer` (fastest, CPU time)
+  Traversal traversal =
+      Traversal::kStream;  // chosen by `parallax bench tracer` (fastest, CPU time)
   int tileWidth = 32;
   int tileHeight = 16;
   // A branch whose weight falls below this on every channel is not traced: its contribution
   // cannot change an 8-bit pixel by more than half a step. 0 traces every branch.
   float minWeight = 1.0f / 512.0f;
-  int maxDepth = 0;  // 0: the scene's own (always capped at what its materials need)
+  int maxDepth = 0;              // 0: the scene's own (always capped at what its materials need)
   bool textureFiltering = true;  // false: bilinear on the full-resolution level only
   // Anti-aliasing: n × n sub-pixel rays a pixel (a square: 1, 4, 9, ...). Sub-pixel rays come
   // from the ray function, so anything above 1 needs the display model: renderFrame of
@@ -60,12 +61,12 @@ struct RenderCounters {
   long shadow = 0;
   long reflection = 0;
   long refraction = 0;
-  long pruned = 0;        // branches below RenderOptions::minWeight
+  long pruned = 0;  // branches below RenderOptions::minWeight
   // Glass surfaces shadow rays met and passed through (calls of the glass filter, per ray and
   // surface, duplicates from the BVH's spatial splits included): not extra rays.
   long glassShadowHits = 0;
   long textureLookups = 0;
-  int deepest = 0;        // highest ray generation traced (1 = primary only)
+  int deepest = 0;  // highest ray generation traced (1 = primary only)
   // Wall-clock time each thread spent in each phase, summed over the threads (timePhases):
   // close to CPU time while the threads are not preempted.
   double phaseThreadMs[kRenderPhases] = {};
@@ -91,12 +92,14 @@ struct RayLog {
 // Renders one module frame into `frame`, reusing its memory when it already has the textures'
 // size (a daemon renders every frame into the same buffers). `textures` must come from the
 // display the scene was mapped into.
-void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options,
-                     Frame* frame, RenderCounters* counters = nullptr, RayLog* log = nullptr);
+void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures,
+                     const RenderOptions& options, Frame* frame, RenderCounters* counters = nullptr,
+                     RayLog* log = nullptr);
 // The same into a new frame.
 // Throws InputError for samplesPerPixel > 1 (see supersampled_render.h).
-Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures, const RenderOptions& options,
-                  RenderCounters* counters = nullptr, RayLog* log = nullptr);
+Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures,
+                  const RenderOptions& options, RenderCounters* counters = nullptr,
+                  RayLog* log = nullptr);
 
 enum class RayKind { kAll, kPrimary, kShadow, kSecondary };
 
@@ -104,7 +107,7 @@ enum class RayKind { kAll, kPrimary, kShadow, kSecondary };
 // the wall-clock ms of the Embree calls (a pass that only copies each batch into packets is
 // timed too and subtracted). `rays` (optional) receives how many rays that was, `cpuMs`
 // (optional) the process CPU time of those calls (all threads).
-double replayRayLog(const PhysicalScene& scene, const RayLog& log, Traversal traversal, RayKind kind = RayKind::kAll,
-                    long* rays = nullptr, double* cpuMs = nullptr);
+double replayRayLog(const PhysicalScene& scene, const RayLog& log, Traversal traversal,
+                    RayKind kind = RayKind::kAll, long* rays = nullptr, double* cpuMs = nullptr);
 
 }  // namespace parallax

@@ -6,14 +6,13 @@
 // peak memory of parallaxd and of the simulator from /proc. Then one frame of the static
 // cornell.lua. Figures only; nothing passes or fails on time.
 
+#include <fmt/format.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
-
-#include <fmt/format.h>
 
 #include <chrono>
 #include <cstring>
@@ -69,7 +68,8 @@ ProcessUse processUse(pid_t pid) {
     std::istringstream fields(text.substr(close + 2));
     std::string f;
     for (int i = 3; i <= 15 && fields >> f; ++i) {
-      if (i == 14 || i == 15) u.cpuSeconds += std::stod(f) / static_cast<double>(::sysconf(_SC_CLK_TCK));
+      if (i == 14 || i == 15)
+        u.cpuSeconds += std::stod(f) / static_cast<double>(::sysconf(_SC_CLK_TCK));
     }
   }
   std::ifstream status(fmt::format("/proc/{}/status", pid));
@@ -96,14 +96,16 @@ double windowMeanMs(const nlohmann::json& a, const nlohmann::json& b, const char
   return n > 0 ? total / n : 0.0;
 }
 
-nlohmann::json waitFor(const std::string& socket, const std::function<bool(const nlohmann::json&)>& done,
-                       const char* what, int timeoutSeconds) {
+nlohmann::json waitFor(const std::string& socket,
+                       const std::function<bool(const nlohmann::json&)>& done, const char* what,
+                       int timeoutSeconds) {
   const auto deadline = Clock::now() + std::chrono::seconds(timeoutSeconds);
   while (Clock::now() < deadline) {
     nlohmann::json stats = request(socket, {{"request", "stats"}});
     nlohmann::json status = request(socket, {{"request", "status"}});
     if (!stats.is_null() && !stats.is_discarded() && !status.is_discarded() && !status.is_null()) {
-      if (status.value("state", "") == "error") throw std::runtime_error("the daemon reports an error: " + status.dump());
+      if (status.value("state", "") == "error")
+        throw std::runtime_error("the daemon reports an error: " + status.dump());
       if (done(stats)) return stats;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
@@ -112,28 +114,34 @@ nlohmann::json waitFor(const std::string& socket, const std::function<bool(const
 }
 
 void benchOne(const std::string& display, const BenchDaemonArgs& args) {
-  const fs::path work = fs::temp_directory_path() / fmt::format("parallax-bench-daemon-{}", ::getpid());
+  const fs::path work =
+      fs::temp_directory_path() / fmt::format("parallax-bench-daemon-{}", ::getpid());
   fs::create_directories(work);
   const std::string socket = (work / "ctl.sock").string();
   // The ray textures are cached per user: a second run of the bench does not time their generation.
   const char* home = std::getenv("HOME");
-  const std::string cache = home ? std::string(home) + "/.cache/parallax" : (work / "cache").string();
+  const std::string cache =
+      home ? std::string(home) + "/.cache/parallax" : (work / "cache").string();
   {
     std::ofstream config(work / "parallax.toml");
     config << fmt::format(
-        "[display]\npreset = \"{}\"\n[scene]\nscript = \"orbit\"\nfps = {}\n[calibration]\nauto = false\nfile = \"{}\"\n"
+        "[display]\npreset = \"{}\"\n[scene]\nscript = \"orbit\"\nfps = {}\n[calibration]\nauto = "
+        "false\nfile = \"{}\"\n"
         "[daemon]\nsocket = \"{}\"\ncache_dir = \"{}\"\nlog_level = \"warn\"\n",
         display, args.fps, (work / "calibration.json").string(), socket, cache);
   }
   std::string daemonPath = siblingBinary("parallaxd");
   const std::string configPath = (work / "parallax.toml").string();
-  std::vector<char*> argv = {daemonPath.data(), const_cast<char*>("--config"), const_cast<char*>(configPath.c_str()), nullptr};
+  std::vector<char*> argv = {daemonPath.data(), const_cast<char*>("--config"),
+                             const_cast<char*>(configPath.c_str()), nullptr};
   pid_t pid = -1;
-  if (::posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) throw std::runtime_error("cannot start parallaxd");
+  if (::posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0)
+    throw std::runtime_error("cannot start parallaxd");
   const auto started = Clock::now();
   try {
-    nlohmann::json first = waitFor(socket, [](const nlohmann::json& s) { return s.value("display_frames", 0) >= 2; },
-                                   "the first frames", 1800);
+    nlohmann::json first = waitFor(
+        socket, [](const nlohmann::json& s) { return s.value("display_frames", 0) >= 2; },
+        "the first frames", 1800);
     const double startup = std::chrono::duration<double>(Clock::now() - started).count();
     const pid_t simhw = childOf(pid);
     const ProcessUse d0 = processUse(pid), s0 = simhw > 0 ? processUse(simhw) : ProcessUse{};
@@ -142,34 +150,52 @@ void benchOne(const std::string& display, const BenchDaemonArgs& args) {
     // A display slower than the window (default: tens of seconds a frame) is timed over at
     // least two frames rather than reported as 0 fps.
     const double firstCount = first["display_frames"].get<double>();
-    const nlohmann::json last = waitFor(socket, [firstCount](const nlohmann::json& s) {
-      return s["display_frames"].get<double>() >= firstCount + 2;
-    }, "two frames in the window", 1800);
+    const nlohmann::json last = waitFor(
+        socket,
+        [firstCount](const nlohmann::json& s) {
+          return s["display_frames"].get<double>() >= firstCount + 2;
+        },
+        "two frames in the window", 1800);
     const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
     const ProcessUse d1 = processUse(pid), s1 = simhw > 0 ? processUse(simhw) : ProcessUse{};
-    const double frames = last["display_frames"].get<double>() - first["display_frames"].get<double>();
-    const double dropped = last["dropped_frames"].get<double>() - first["dropped_frames"].get<double>();
+    const double frames =
+        last["display_frames"].get<double>() - first["display_frames"].get<double>();
+    const double dropped =
+        last["dropped_frames"].get<double>() - first["dropped_frames"].get<double>();
     const nlohmann::json status = request(socket, {{"request", "status"}});
-    std::cout << fmt::format("{}: {} modules; start-up to the second frame {:.1f} s (ray textures: {} from the cache, {} generated)\n",
-                             display, status["display"]["modules"].get<int>(), startup,
-                             status["ray_textures"]["from_cache"].get<int>(), status["ray_textures"]["generated"].get<int>());
     std::cout << fmt::format(
-        "  orbit.lua (animated, target {} fps) over {:.1f} s: {:.2f} fps, {} dropped; per display frame: render {:.1f} ms, "
+        "{}: {} modules; start-up to the second frame {:.1f} s (ray textures: {} from the cache, "
+        "{} generated)\n",
+        display, status["display"]["modules"].get<int>(), startup,
+        status["ray_textures"]["from_cache"].get<int>(),
+        status["ray_textures"]["generated"].get<int>());
+    std::cout << fmt::format(
+        "  orbit.lua (animated, target {} fps) over {:.1f} s: {:.2f} fps, {} dropped; per display "
+        "frame: render {:.1f} ms, "
         "encode {:.1f} ms, push {:.1f} ms, end to end {:.1f} ms\n",
-        args.fps, dt, frames / dt, dropped, windowMeanMs(first, last, "render"), windowMeanMs(first, last, "encode"),
-        windowMeanMs(first, last, "push"), windowMeanMs(first, last, "end_to_end"));
-    std::cout << fmt::format("  CPU: parallaxd {:.2f} cores, simulator {:.2f} cores; peak memory: parallaxd {:.0f} MiB, simulator {:.0f} MiB\n",
-                             (d1.cpuSeconds - d0.cpuSeconds) / dt, (s1.cpuSeconds - s0.cpuSeconds) / dt, d1.peakMiB, s1.peakMiB);
+        args.fps, dt, frames / dt, dropped, windowMeanMs(first, last, "render"),
+        windowMeanMs(first, last, "encode"), windowMeanMs(first, last, "push"),
+        windowMeanMs(first, last, "end_to_end"));
+    std::cout << fmt::format(
+        "  CPU: parallaxd {:.2f} cores, simulator {:.2f} cores; peak memory: parallaxd {:.0f} MiB, "
+        "simulator {:.0f} MiB\n",
+        (d1.cpuSeconds - d0.cpuSeconds) / dt, (s1.cpuSeconds - s0.cpuSeconds) / dt, d1.peakMiB,
+        s1.peakMiB);
     // The static scene: one frame, then nothing to send.
     const nlohmann::json before = request(socket, {{"request", "stats"}});
     request(socket, {{"request", "load"}, {"scene", "cornell"}});
     const double count0 = before["display_frames"].get<double>();
-    const nlohmann::json after = waitFor(socket, [count0](const nlohmann::json& s) {
-      return s["display_frames"].get<double>() > count0;
-    }, "the cornell frame", 600);
-    std::cout << fmt::format("  cornell.lua (static): render {:.1f} ms, encode {:.1f} ms, push {:.1f} ms, end to end {:.1f} ms\n",
-                             after["timings"]["render"]["last_ms"].get<double>(), after["timings"]["encode"]["last_ms"].get<double>(),
-                             after["timings"]["push"]["last_ms"].get<double>(), after["timings"]["end_to_end"]["last_ms"].get<double>());
+    const nlohmann::json after = waitFor(
+        socket,
+        [count0](const nlohmann::json& s) { return s["display_frames"].get<double>() > count0; },
+        "the cornell frame", 600);
+    std::cout << fmt::format(
+        "  cornell.lua (static): render {:.1f} ms, encode {:.1f} ms, push {:.1f} ms, end to end "
+        "{:.1f} ms\n",
+        after["timings"]["render"]["last_ms"].get<double>(),
+        after["timings"]["encode"]["last_ms"].get<double>(),
+        after["timings"]["push"]["last_ms"].get<double>(),
+        after["timings"]["end_to_end"]["last_ms"].get<double>());
   } catch (...) {
     ::kill(pid, SIGTERM);
     ::waitpid(pid, nullptr, 0);
@@ -184,13 +210,15 @@ void benchOne(const std::string& display, const BenchDaemonArgs& args) {
 
 void runBenchDaemon(const BenchDaemonArgs& args) {
   std::stringstream list(args.displays);
-  std::cout << fmt::format("bench daemon: {} hardware threads, load average at start: ", std::thread::hardware_concurrency());
+  std::cout << fmt::format("bench daemon: {} hardware threads, load average at start: ",
+                           std::thread::hardware_concurrency());
   std::ifstream load("/proc/loadavg");
   std::string loadavg;
   std::getline(load, loadavg);
   std::cout << loadavg << "\n";
   for (std::string display; std::getline(list, display, ',');) {
-    if (display != "demo" && display != "default") throw InputError({"", "--display", 0}, "demo and/or default");
+    if (display != "demo" && display != "default")
+      throw InputError({"", "--display", 0}, "demo and/or default");
     benchOne(display, args);
   }
 }
@@ -199,7 +227,8 @@ void runBenchDaemon(const BenchDaemonArgs& args) {
 
 void addBenchDaemonSubcommand(CLI::App* bench) {
   auto args = std::make_shared<BenchDaemonArgs>();
-  CLI::App* command = bench->add_subcommand("daemon", "parallaxd per display frame: render, encode, push, latency, fps, CPU, memory");
+  CLI::App* command = bench->add_subcommand(
+      "daemon", "parallaxd per display frame: render, encode, push, latency, fps, CPU, memory");
   command->add_option("--display", args->displays, "comma-separated: demo, default");
   command->add_option("--seconds", args->seconds, "how long to play the animated scene");
   command->add_option("--fps", args->fps, "target frame rate");

@@ -13,7 +13,7 @@
 
 #include "common/input_error.h"
 #include "daemon/cli/commands.h"
-#include "hw/link_bench.h"
+#include "hw/simulator/link_bench.h"
 
 namespace parallax::cli {
 namespace {

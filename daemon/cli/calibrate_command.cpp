@@ -1,7 +1,8 @@
 // parallax calibrate --captures DIR --nominal FILE|default|demo --out calib.json
 // parallax calibrate --link auto|simhw:SOCKET --camera camera.json --nominal ... --out calib.json
 //                    [--stations 0,2,4] [--save-captures DIR]
-//        common:     [--report] [--truth gt.json [--camera-truth camera_truth.json]] [--transfer conical|linear]
+//        common:     [--report] [--truth gt.json [--camera-truth camera_truth.json]] [--transfer
+//        conical|linear]
 //                    [--threads N] [--pixel-step N]
 // Fits the display to a calibration session — never its ground truth —, starting from the
 // nominal display. The session is either a captures folder (calibration_captures.h: the
@@ -16,30 +17,30 @@
 // --truth adds error-against-truth columns to the report, and the camera's (camera_truth.json
 // beside it, or --camera-truth) to the checkerboard calibration's; the fit never sees them.
 
+#include <fmt/format.h>
+
 #include <atomic>
 #include <csignal>
 #include <filesystem>
 #include <iostream>
 #include <memory>
 
-#include <fmt/format.h>
-
-#include "calibration/calibration_captures.h"
-#include "calibration/camera_truth.h"
-#include "calibration/checkerboard_calibration.h"
-#include "calibration/display_fit.h"
-#include "calibration/display_model_json.h"
-#include "calibration/display_presets.h"
-#include "calibration/fit_report.h"
-#include "calibration/observations_json.h"
-#include "calibration/ray_error.h"
+#include "calibration/camera/observations_json.h"
+#include "calibration/capture/calibration_captures.h"
+#include "calibration/capture/checkerboard_calibration.h"
+#include "calibration/display/display_model_json.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/display/ray_error.h"
+#include "calibration/fit/display_fit.h"
+#include "calibration/fit/fit_report.h"
+#include "calibration/simulation/camera_truth.h"
 #include "common/input_error.h"
 #include "common/progress_bar.h"
 #include "daemon/cli/commands.h"
-#include "hw/calibration_capture.h"
-#include "hw/camera.h"
-#include "hw/link_client.h"
-#include "hw/link_factory.h"
+#include "hw/camera/calibration_capture.h"
+#include "hw/camera/camera.h"
+#include "hw/link/link_client.h"
+#include "hw/link/link_factory.h"
 
 namespace parallax::cli {
 namespace {
@@ -88,12 +89,14 @@ struct CalibrateArgs {
 
 // The observations of the session and the file to blame for bad data in them.
 CalibrationObservations sessionObservations(const CalibrateArgs& args, const DisplayModel& nominal,
-                                            const CameraIntrinsics* cameraTruth, std::string* source) {
+                                            const CameraIntrinsics* cameraTruth,
+                                            std::string* source) {
   CaptureDecoderOptions decoder;
   decoder.pixelStep = args.pixelStep;
   namespace fs = std::filesystem;
   if (!args.captures.empty()) {
-    if (!fs::exists(args.captures + "/patterns.json") && fs::exists(args.captures + "/decoded.json")) {
+    if (!fs::exists(args.captures + "/patterns.json") &&
+        fs::exists(args.captures + "/decoded.json")) {
       *source = args.captures + "/decoded.json";
       std::cout << "decoded correspondences from " << *source << " (no pictures)\n";
       return loadObservations(args.captures);
@@ -110,7 +113,8 @@ CalibrationObservations sessionObservations(const CalibrateArgs& args, const Dis
     } else {
       std::cout << "camera intrinsics from camera.json (no checkerboard pictures)\n";
     }
-    std::cout << fmt::format("decoding {} picture sets from {}\n", captures.stations.size(), args.captures);
+    std::cout << fmt::format("decoding {} picture sets from {}\n", captures.stations.size(),
+                             args.captures);
     try {
       return decodeCaptures(captures, nominal, decoder);
     } catch (const InputError& e) {
@@ -147,10 +151,12 @@ CalibrationObservations sessionObservations(const CalibrateArgs& args, const Dis
 
 void runCalibrate(const CalibrateArgs& args) {
   if (args.captures.empty() == args.link.empty()) {
-    throw InputError({"", "--captures", 0}, "give either --captures DIR or --link SPEC (with --camera camera.json)");
+    throw InputError({"", "--captures", 0},
+                     "give either --captures DIR or --link SPEC (with --camera camera.json)");
   }
   if (!args.link.empty() && args.camera.empty()) {
-    throw InputError({"", "--camera", 0}, "--link needs the camera's metadata (camera.json: intrinsics, stations)");
+    throw InputError({"", "--camera", 0},
+                     "--link needs the camera's metadata (camera.json: intrinsics, stations)");
   }
   const DisplayModel nominal = resolveDisplay(args.nominal);
   const InterruptStopsCalibration interrupt;
@@ -174,7 +180,8 @@ void runCalibrate(const CalibrateArgs& args) {
   options.threads = args.threads;
   if (!args.transfer.empty()) {
     ScreenTransfer transfer;
-    if (!parseTransfer(args.transfer, &transfer)) throw InputError({"", "--transfer", 0}, "must be conical or linear");
+    if (!parseTransfer(args.transfer, &transfer))
+      throw InputError({"", "--transfer", 0}, "must be conical or linear");
     options.transfer = transfer;
   }
   // Three solves of up to maxIterations each; the bar counts iterations and finishes early.
@@ -188,51 +195,71 @@ void runCalibrate(const CalibrateArgs& args) {
     throw e.location().file.empty() ? e.inFile(source) : e;
   }
   progress.finish();
-  if (result.stopped) throw std::runtime_error(fmt::format("interrupted during the fit; {} was left untouched", args.out));
+  if (result.stopped)
+    throw std::runtime_error(
+        fmt::format("interrupted during the fit; {} was left untouched", args.out));
 
   std::cout << formatFitSummary(result);
   std::optional<DisplayModel> truth;
   if (!args.truth.empty()) truth = loadDisplayModel(args.truth);
   if (truth && truth->modules.size() != result.model.modules.size()) {
-    throw InputError({args.truth, "modules", 0}, "the ground truth has a different number of modules");
+    throw InputError({args.truth, "modules", 0},
+                     "the ground truth has a different number of modules");
   }
   if (args.report) std::cout << formatFitReport(result, truth ? &*truth : nullptr);
   if (truth) {
     const RayErrorStats rays = totalRayError(compareRays(*truth, result.model));
-    std::cout << fmt::format("against the ground truth: ray error rms {:.4f} max {:.3f} module px (nominal: rms {:.3f})\n",
-                             rays.rmsPx, rays.maxPx, totalRayError(compareRays(*truth, nominal)).rmsPx);
+    std::cout << fmt::format(
+        "against the ground truth: ray error rms {:.4f} max {:.3f} module px (nominal: rms "
+        "{:.3f})\n",
+        rays.rmsPx, rays.maxPx, totalRayError(compareRays(*truth, nominal)).rmsPx);
   }
   if (!result.passesQualityChecks()) {
-    throw std::runtime_error(fmt::format("the calibration failed its quality checks; {} was left untouched", args.out));
+    throw std::runtime_error(
+        fmt::format("the calibration failed its quality checks; {} was left untouched", args.out));
   }
   std::error_code ec;
   if (fs::exists(args.out, ec)) {
     fs::copy_file(args.out, args.out + ".previous", fs::copy_options::overwrite_existing, ec);
-    if (ec) throw InputError({args.out, "", 0}, "cannot keep the previous calibration: " + ec.message());
+    if (ec)
+      throw InputError({args.out, "", 0}, "cannot keep the previous calibration: " + ec.message());
   }
   saveDisplayModel(result.model, args.out);
   std::cout << fmt::format("calibration installed: {}{}\n", args.out,
-                           fs::exists(args.out + ".previous") ? fmt::format(" (previous kept as {}.previous)", args.out) : "");
+                           fs::exists(args.out + ".previous")
+                               ? fmt::format(" (previous kept as {}.previous)", args.out)
+                               : "");
 }
 
 }  // namespace
 
 void addCalibrateCommand(CLI::App& app) {
   auto args = std::make_shared<CalibrateArgs>();
-  CLI::App* command = app.add_subcommand("calibrate", "fit the display model to a calibration session's captures");
-  command->add_option("--captures", args->captures, "captures folder (camera.json, patterns.json and pictures, or decoded.json)");
-  command->add_option("--link", args->link, "calibrate through the link: auto, simhw:SOCKET or usb[...]");
+  CLI::App* command =
+      app.add_subcommand("calibrate", "fit the display model to a calibration session's captures");
+  command->add_option("--captures", args->captures,
+                      "captures folder (camera.json, patterns.json and pictures, or decoded.json)");
+  command->add_option("--link", args->link,
+                      "calibrate through the link: auto, simhw:SOCKET or usb[...]");
   command->add_option("--camera", args->camera, "with --link: the camera's metadata (camera.json)");
-  command->add_option("--stations", args->stations, "with --link: the stations to photograph from (default: all)")->delimiter(',');
-  command->add_option("--save-captures", args->saveCaptures, "with --link: also save the pictures as a captures folder");
+  command
+      ->add_option("--stations", args->stations,
+                   "with --link: the stations to photograph from (default: all)")
+      ->delimiter(',');
+  command->add_option("--save-captures", args->saveCaptures,
+                      "with --link: also save the pictures as a captures folder");
   command->add_option("--pixel-step", args->pixelStep, "decode every n-th camera pixel each way");
   command->add_option("--nominal", args->nominal, "nominal display: JSON file or built-in name");
   command->add_option("--out", args->out, "calibrated display JSON to write")->required();
   command->add_flag("--report", args->report, "print the per-module table");
-  command->add_option("--truth", args->truth, "ground truth JSON: adds error columns to the report (never used by the fit)");
+  command->add_option(
+      "--truth", args->truth,
+      "ground truth JSON: adds error columns to the report (never used by the fit)");
   command->add_option("--camera-truth", args->cameraTruth,
-                      "the camera's truth (camera_truth.json; default: beside --truth): adds its error to the camera report");
-  command->add_option("--transfer", args->transfer, "assumed screen transfer (default: the nominal's)");
+                      "the camera's truth (camera_truth.json; default: beside --truth): adds its "
+                      "error to the camera report");
+  command->add_option("--transfer", args->transfer,
+                      "assumed screen transfer (default: the nominal's)");
   command->add_option("--threads", args->threads, "solver threads");
   command->callback([args] { runCalibrate(*args); });
 }

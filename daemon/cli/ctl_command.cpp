@@ -45,7 +45,10 @@ const char* positionalKey(const std::string& request) {
 }
 
 nlohmann::json requestFromWords(const std::vector<std::string>& words) {
-  if (words.empty()) throw InputError({"", "REQUEST", 0}, "name a request: status, stats, load, play, pause, set, frame, view, calibrate, cancel, reload, shutdown, identify, testcard, rollback");
+  if (words.empty())
+    throw InputError({"", "REQUEST", 0},
+                     "name a request: status, stats, load, play, pause, set, frame, view, "
+                     "calibrate, cancel, reload, shutdown, identify, testcard, rollback");
   nlohmann::json request = {{"request", words[0]}};
   bool positionalUsed = false;
   for (size_t i = 1; i < words.size(); ++i) {
@@ -93,9 +96,11 @@ int runCtl(const CtlArgs& args, const std::vector<std::string>& words) {
 
 void addCtlCommand(CLI::App& app) {
   auto args = std::make_shared<CtlArgs>();
-  CLI::App* command = app.add_subcommand("ctl", "talk to a running parallaxd (status, load, play, view, ...)");
+  CLI::App* command =
+      app.add_subcommand("ctl", "talk to a running parallaxd (status, load, play, view, ...)");
   command->prefix_command();  // everything after the request is the request's own
-  command->add_option("--socket", args->socket, "control socket (default: where parallaxd with no config listens)");
+  command->add_option("--socket", args->socket,
+                      "control socket (default: where parallaxd with no config listens)");
   command->add_option("--json", args->json, "send this JSON request as it is");
   command->add_option("--timeout", args->timeoutSeconds, "seconds to wait for the reply");
   command->callback([args, command] {

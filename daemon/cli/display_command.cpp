@@ -2,14 +2,14 @@
 //                  [--transfer conical|linear] [--out f.json]
 // Writes a nominal DisplayModel (to stdout without --out).
 
+#include <fmt/format.h>
+
 #include <iostream>
 #include <memory>
 #include <regex>
 
-#include <fmt/format.h>
-
-#include "calibration/display_model_json.h"
-#include "calibration/display_presets.h"
+#include "calibration/display/display_model_json.h"
+#include "calibration/display/display_presets.h"
 #include "common/input_error.h"
 #include "daemon/cli/commands.h"
 
@@ -34,8 +34,9 @@ void runDisplay(const DisplayArgs& args, const CLI::App& command) {
     std::smatch match;
     static const std::regex kPattern(R"((\d{1,6})x(\d{1,6}))");
     if (!std::regex_match(args.resolution, match, kPattern)) {
-      throw InputError({"", "--resolution", 0},
-                       fmt::format("expected WIDTHxHEIGHT such as 1024x768, got \"{}\"", args.resolution));
+      throw InputError(
+          {"", "--resolution", 0},
+          fmt::format("expected WIDTHxHEIGHT such as 1024x768, got \"{}\"", args.resolution));
     }
     options.width = std::stoi(match[1]);
     options.height = std::stoi(match[2]);
@@ -54,12 +55,12 @@ void runDisplay(const DisplayArgs& args, const CLI::App& command) {
     return;
   }
   saveDisplayModel(model, args.out);
-  std::cerr << fmt::format("wrote {}: {} modules of {}x{}, screen {} x {} m, k = {} 1/m, "
-                           "{} transfer, diffusion {:.3g} deg\n",
-                           args.out, model.modules.size(), model.modules.front().width,
-                           model.modules.front().height, model.screen.width, model.screen.height,
-                           model.screen.curvature, transferName(model.screen.transfer),
-                           model.screen.diffusionDeg);
+  std::cerr << fmt::format(
+      "wrote {}: {} modules of {}x{}, screen {} x {} m, k = {} 1/m, "
+      "{} transfer, diffusion {:.3g} deg\n",
+      args.out, model.modules.size(), model.modules.front().width, model.modules.front().height,
+      model.screen.width, model.screen.height, model.screen.curvature,
+      transferName(model.screen.transfer), model.screen.diffusionDeg);
 }
 
 }  // namespace
@@ -67,7 +68,9 @@ void runDisplay(const DisplayArgs& args, const CLI::App& command) {
 void addDisplayCommand(CLI::App& app) {
   auto args = std::make_shared<DisplayArgs>();
   CLI::App* command = app.add_subcommand("display", "write a nominal display model (JSON)");
-  command->add_option("--preset", args->preset, "built-in layout: default (72x1024x768) or demo (16x512x384)")
+  command
+      ->add_option("--preset", args->preset,
+                   "built-in layout: default (72x1024x768) or demo (16x512x384)")
       ->check(CLI::IsMember({"default", "demo"}));
   command->add_option("--modules", args->modules, "number of modules");
   command->add_option("--resolution", args->resolution, "module resolution WIDTHxHEIGHT");

@@ -5,22 +5,22 @@
 // sRGB PNG (and float EXR with --float). --explain prints what the scene needs, what ran and
 // what was left out, with the per-frame counters. --spp N (a square): N sub-pixel rays a pixel.
 
+#include <fmt/format.h>
+
 #include <chrono>
 #include <filesystem>
 #include <iostream>
 #include <memory>
 
-#include <fmt/format.h>
-
-#include "calibration/display_presets.h"
-#include "calibration/ray_textures.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/display/ray_textures.h"
 #include "common/input_error.h"
 #include "common/progress_bar.h"
 #include "daemon/cli/commands.h"
-#include "tracer/physical_scene.h"
-#include "tracer/supersampled_render.h"
 #include "scripts/scene_argument.h"
+#include "tracer/physical_scene.h"
 #include "tracer/scene_source.h"
+#include "tracer/supersampled_render.h"
 #include "tracer/whitted_integrator.h"
 
 namespace parallax::cli {
@@ -54,7 +54,8 @@ std::vector<int> moduleIndices(const std::string& text, size_t count) {
     index = -1;
   }
   if (index < 0 || index >= static_cast<int>(count)) {
-    throw InputError({"", "--module", 0}, fmt::format("must be all or 0..{}, got \"{}\"", count - 1, text));
+    throw InputError({"", "--module", 0},
+                     fmt::format("must be all or 0..{}, got \"{}\"", count - 1, text));
   }
   return {index};
 }
@@ -88,7 +89,8 @@ void runRender(const RenderArgs& args) {
     RenderCounters counters;
     const auto start = std::chrono::steady_clock::now();
     const Frame frame = renderFrame(physical, model, index, textures, options, &counters);
-    renderMs += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    renderMs +=
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     total += counters;
     const std::string stem = moduleFrameStem(args.out, index);
     writePng(frame, stem + ".png");
@@ -97,22 +99,28 @@ void runRender(const RenderArgs& args) {
   }
   progress.finish();
   const SceneBuildCounters& b = physical.counters();
-  std::cout << fmt::format("scene \"{}\" on display \"{}\": {} module frame(s) of {}x{} written to {}\n", scene.name,
-                           model.name, indices.size(), model.modules[static_cast<size_t>(indices[0])].width,
-                           model.modules[static_cast<size_t>(indices[0])].height,
-                           std::filesystem::absolute(args.out).string());
+  std::cout << fmt::format(
+      "scene \"{}\" on display \"{}\": {} module frame(s) of {}x{} written to {}\n", scene.name,
+      model.name, indices.size(), model.modules[static_cast<size_t>(indices[0])].width,
+      model.modules[static_cast<size_t>(indices[0])].height,
+      std::filesystem::absolute(args.out).string());
   std::cout << fmt::format("  {:.1f} ms a frame on average ({} traversal), BVH build {:.1f} ms\n",
-                           renderMs / static_cast<double>(indices.size()), traversalName(options.traversal), b.buildMs);
+                           renderMs / static_cast<double>(indices.size()),
+                           traversalName(options.traversal), b.buildMs);
   if (!args.explain) return;
   std::cout << "scene analysis (what runs and what is left out):\n";
   for (const std::string& line : physical.features().explain()) std::cout << line << "\n";
   std::cout << fmt::format(
-      "geometry: {} triangles drawn, {} in the BVH; {} degenerate dropped, {} outside B_P dropped, {} clipped to B_P\n",
-      b.trianglesIn, b.trianglesBuilt, b.trianglesDegenerate, b.trianglesOutside, b.trianglesClipped);
-  std::cout << fmt::format("vertex normals left out on {} flat mesh(es): they equal the face normals\n",
-                           b.flatNormalMeshes);
-  std::cout << fmt::format("textures: {} loaded, {} failed (fallback colour), {} never read (unused)\n",
-                           b.texturesLoaded, b.texturesFailed, b.texturesSkipped);
+      "geometry: {} triangles drawn, {} in the BVH; {} degenerate dropped, {} outside B_P dropped, "
+      "{} clipped to B_P\n",
+      b.trianglesIn, b.trianglesBuilt, b.trianglesDegenerate, b.trianglesOutside,
+      b.trianglesClipped);
+  std::cout << fmt::format(
+      "vertex normals left out on {} flat mesh(es): they equal the face normals\n",
+      b.flatNormalMeshes);
+  std::cout << fmt::format(
+      "textures: {} loaded, {} failed (fallback colour), {} never read (unused)\n",
+      b.texturesLoaded, b.texturesFailed, b.texturesSkipped);
   std::cout << fmt::format("counters over {} frame(s):\n", indices.size());
   for (const std::string& line : total.lines()) std::cout << line << "\n";
 }
@@ -121,17 +129,24 @@ void runRender(const RenderArgs& args) {
 
 void addRenderCommand(CLI::App& app) {
   auto args = std::make_shared<RenderArgs>();
-  CLI::App* command = app.add_subcommand("render", "ray trace module frames of a scene (PNG, EXR with --float)");
-  command->add_option("--display", args->display, "display JSON file or built-in name (default, demo)");
-  command->add_option("--scene", args->scene, "built-in scene (cornell, shapes, statue, xyz), a scene script (.lua) or a model file")
+  CLI::App* command =
+      app.add_subcommand("render", "ray trace module frames of a scene (PNG, EXR with --float)");
+  command->add_option("--display", args->display,
+                      "display JSON file or built-in name (default, demo)");
+  command
+      ->add_option(
+          "--scene", args->scene,
+          "built-in scene (cornell, shapes, statue, xyz), a scene script (.lua) or a model file")
       ->required();
   command->add_option("--set", args->sets, "scene script parameter name=value (repeatable)");
   command->add_option("--time", args->time, "animation time in seconds (scene scripts)");
   command->add_option("--module", args->module, "module index, or all");
   command->add_option("--out", args->out, "output folder");
   command->add_option("--traversal", args->traversal, "Embree traversal: single, packet16, stream");
-  command->add_option("--spp", args->samplesPerPixel, "anti-aliasing: sub-pixel rays a pixel, a square (1, 4, 9, ...)");
-  command->add_flag("--explain", args->explain, "print what ran, what was left out, and the counters");
+  command->add_option("--spp", args->samplesPerPixel,
+                      "anti-aliasing: sub-pixel rays a pixel, a square (1, 4, 9, ...)");
+  command->add_flag("--explain", args->explain,
+                    "print what ran, what was left out, and the counters");
   command->add_flag("--float", args->floatOutput, "also write float EXR frames");
   command->callback([args] { runRender(*args); });
 }

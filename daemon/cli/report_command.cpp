@@ -3,10 +3,10 @@
 // (daemon/report/). Without flags: the `default` display at full resolution, one module, in a
 // few minutes; --quick: `demo` at a quarter of its resolution, in seconds (CI).
 
+#include <fmt/format.h>
+
 #include <iostream>
 #include <memory>
-
-#include <fmt/format.h>
 
 #include "daemon/cli/commands.h"
 #include "daemon/report/report.h"
@@ -16,11 +16,15 @@ namespace parallax::cli {
 void addReportCommand(CLI::App& app, const std::string& commandLine) {
   auto options = std::make_shared<report::ReportOptions>();
   options->commandLine = commandLine;
-  CLI::App* command = app.add_subcommand("report", "error-against-run-time report: markdown, CSV tables, SVG plots");
+  CLI::App* command = app.add_subcommand(
+      "report", "error-against-run-time report: markdown, CSV tables, SVG plots");
   command->add_option("--out", options->out, "output folder (created)");
-  command->add_option("--display", options->display, "display JSON file or built-in name (default: default; demo with --quick)");
-  command->add_option("--scale", options->scale, "module resolution factor in [0.05, 1] (default 1; 0.25 with --quick)");
-  command->add_flag("--quick", options->quick, "small and fast: demo display, reduced resolution and levels (CI)");
+  command->add_option("--display", options->display,
+                      "display JSON file or built-in name (default: default; demo with --quick)");
+  command->add_option("--scale", options->scale,
+                      "module resolution factor in [0.05, 1] (default 1; 0.25 with --quick)");
+  command->add_flag("--quick", options->quick,
+                    "small and fast: demo display, reduced resolution and levels (CI)");
   command->callback([options] {
     const std::string path = report::writeReport(*options);
     std::cout << fmt::format("report written to {}\n", path);

@@ -8,29 +8,31 @@
 //                       places — and its intrinsics only when there are no checkerboard pictures
 //   checkerboard.json, checkerboard/board_NN.png   the camera's pictures of a checkerboard
 //                       (--boards N, default 12; 0 = none), what its intrinsics are calibrated from
-//   patterns.json, set*.png   the pictures of every station and module group (calibration_captures.h)
+//   patterns.json, set*.png   the pictures of every station and module group
+//   (calibration_captures.h)
 // and, for the simulator and tests only (a calibration never opens them):
 //   ground_truth.json   the perturbed display
-//   camera_truth.json   the camera's true intrinsics, station poses and sensor (parallax-simhw --camera)
+//   camera_truth.json   the camera's true intrinsics, station poses and sensor (parallax-simhw
+//   --camera)
 // The true camera is the datasheet's (cameraOfSize) with a seeded manufacturing spread
 // (cameraAsBuilt), so the checkerboard calibration has something to find.
 // --synthetic writes decoded.json instead of pictures: correspondences straight from the
 // truth with --noise-px of camera noise (synthetic_observations.h), for fast experiments on
 // large displays. --noise-px only applies there; the pictures carry sensor noise instead.
 
+#include <fmt/format.h>
+
 #include <filesystem>
 #include <iostream>
 #include <memory>
 #include <regex>
 
-#include <fmt/format.h>
-
-#include "calibration/display_model_json.h"
-#include "calibration/display_presets.h"
-#include "calibration/ground_truth.h"
-#include "calibration/observations_json.h"
-#include "calibration/simulated_session.h"
-#include "calibration/synthetic_observations.h"
+#include "calibration/camera/observations_json.h"
+#include "calibration/display/display_model_json.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/simulation/ground_truth.h"
+#include "calibration/simulation/simulated_session.h"
+#include "calibration/simulation/synthetic_observations.h"
 #include "common/input_error.h"
 #include "daemon/cli/commands.h"
 
@@ -94,9 +96,11 @@ void runSimulate(const SimulateArgs& args) {
   saveDisplayModel(nominal, args.out + "/nominal.json");
   saveCameraTruth(camera.truth, args.out + "/camera_truth.json");
   const std::string header = fmt::format(
-      "simulated display \"{}\" (seed {}): {} modules, truth k = {:.5f} 1/m, {} transfer; {} camera stations, camera {}x{}\n",
-      nominal.name, args.seed, truth.modules.size(), truth.screen.curvature, transferName(truth.screen.transfer),
-      args.stations, rig.intrinsics.width, rig.intrinsics.height);
+      "simulated display \"{}\" (seed {}): {} modules, truth k = {:.5f} 1/m, {} transfer; {} "
+      "camera stations, camera {}x{}\n",
+      nominal.name, args.seed, truth.modules.size(), truth.screen.curvature,
+      transferName(truth.screen.transfer), args.stations, rig.intrinsics.width,
+      rig.intrinsics.height);
   const std::string where = std::filesystem::absolute(args.out).string();
   if (args.synthetic) {
     SyntheticOptions sim;
@@ -106,10 +110,14 @@ void runSimulate(const SimulateArgs& args) {
     const SyntheticCalibration data = simulateObservations(truth, sim);
     saveObservations(data.observations, args.out);
     std::cout << header
-              << fmt::format("  synthetic decode (no pictures), noise {} px: {} correspondences, {} stripe centres, {} fiducial sightings\n"
-                             "  written to {}: nominal.json, camera.json, decoded.json; ground_truth.json, camera_truth.json (simulator and tests only)\n",
-                             args.noisePx, data.observations.correspondences.size(), data.observations.stripes.size(),
-                             data.observations.fiducialSightings.size(), where);
+              << fmt::format(
+                     "  synthetic decode (no pictures), noise {} px: {} correspondences, {} stripe "
+                     "centres, {} fiducial sightings\n"
+                     "  written to {}: nominal.json, camera.json, decoded.json; ground_truth.json, "
+                     "camera_truth.json (simulator and tests only)\n",
+                     args.noisePx, data.observations.correspondences.size(),
+                     data.observations.stripes.size(), data.observations.fiducialSightings.size(),
+                     where);
     return;
   }
   CalibrationCaptures captures = renderSession(truth, camera.truth, camera.metadata, {});
@@ -121,13 +129,19 @@ void runSimulate(const SimulateArgs& args) {
   }
   saveCaptures(captures, args.out);
   size_t pictures = 0;
-  for (const StationCaptures& s : captures.stations) pictures += s.columnFrames.size() + s.rowFrames.size();
+  for (const StationCaptures& s : captures.stations)
+    pictures += s.columnFrames.size() + s.rowFrames.size();
   std::cout << header
-            << fmt::format("  {} pictures ({} station × group sets){}\n"
-                           "  written to {}: nominal.json, camera.json, patterns.json, set*.png{}; ground_truth.json, camera_truth.json (simulator and tests only)\n",
-                           pictures, captures.stations.size(),
-                           args.boards > 0 ? fmt::format(", {} checkerboard pictures (camera.json without intrinsics)", args.boards) : "",
-                           where, args.boards > 0 ? ", checkerboard.json, checkerboard/" : "");
+            << fmt::format(
+                   "  {} pictures ({} station × group sets){}\n"
+                   "  written to {}: nominal.json, camera.json, patterns.json, set*.png{}; "
+                   "ground_truth.json, camera_truth.json (simulator and tests only)\n",
+                   pictures, captures.stations.size(),
+                   args.boards > 0
+                       ? fmt::format(", {} checkerboard pictures (camera.json without intrinsics)",
+                                     args.boards)
+                       : "",
+                   where, args.boards > 0 ? ", checkerboard.json, checkerboard/" : "");
 }
 
 }  // namespace
@@ -136,18 +150,25 @@ void addSimulateCommand(CLI::App& app) {
   auto args = std::make_shared<SimulateArgs>();
   CLI::App* command = app.add_subcommand(
       "simulate", "make a seeded ground-truth display and the calibration pictures of it");
-  command->add_option("--display", args->display, "nominal display: JSON file or built-in name (default, demo)");
+  command->add_option("--display", args->display,
+                      "nominal display: JSON file or built-in name (default, demo)");
   command->add_option("--seed", args->seed, "seed: the same seed gives the same files");
   command->add_option("--out", args->out, "output folder")->required();
   command->add_option("--stations", args->stations, "camera stations along the observer line");
   command->add_option("--span", args->spanM, "distance from the first to the last station (m)");
-  command->add_option("--camera-resolution", args->cameraResolution, "calibration camera WIDTHxHEIGHT (field of view fixed)");
-  command->add_option("--noise-px", args->noisePx, "camera noise (σ, px) of --synthetic correspondences");
-  command->add_option("--truth-transfer", args->truthTransfer, "screen transfer of the ground truth (conical, linear)");
-  command->add_option("--truth-curvature", args->truthCurvature, "curvature k of the ground truth's screen (1/m)");
-  command->add_flag("--synthetic", args->synthetic, "write decoded.json (synthetic correspondences) instead of pictures");
-  command->add_option("--boards", args->boards,
-                      "checkerboard pictures for the camera's intrinsics (0: none, camera.json then carries them)");
+  command->add_option("--camera-resolution", args->cameraResolution,
+                      "calibration camera WIDTHxHEIGHT (field of view fixed)");
+  command->add_option("--noise-px", args->noisePx,
+                      "camera noise (σ, px) of --synthetic correspondences");
+  command->add_option("--truth-transfer", args->truthTransfer,
+                      "screen transfer of the ground truth (conical, linear)");
+  command->add_option("--truth-curvature", args->truthCurvature,
+                      "curvature k of the ground truth's screen (1/m)");
+  command->add_flag("--synthetic", args->synthetic,
+                    "write decoded.json (synthetic correspondences) instead of pictures");
+  command->add_option(
+      "--boards", args->boards,
+      "checkerboard pictures for the camera's intrinsics (0: none, camera.json then carries them)");
   command->callback([args] { runSimulate(*args); });
 }
 

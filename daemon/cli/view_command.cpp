@@ -5,19 +5,19 @@
 // display physics. With --traced-scene it also traces the same view directly and prints the
 // PSNR between the two over the part of the screen the modules light for that viewer.
 
+#include <fmt/format.h>
+
 #include <filesystem>
 #include <iostream>
 #include <memory>
 #include <regex>
 
-#include <fmt/format.h>
-
-#include "calibration/display_presets.h"
+#include "calibration/display/display_presets.h"
 #include "common/input_error.h"
 #include "daemon/cli/commands.h"
+#include "scripts/scene_argument.h"
 #include "tracer/observer_view.h"
 #include "tracer/physical_scene.h"
-#include "scripts/scene_argument.h"
 #include "tracer/whitted_integrator.h"
 
 namespace parallax::cli {
@@ -39,13 +39,14 @@ std::vector<Frame> readModuleFrames(const DisplayModel& model, const std::string
     const std::string stem = moduleFrameStem(directory, static_cast<int>(i));
     const std::string path = std::filesystem::exists(stem + ".exr") ? stem + ".exr" : stem + ".png";
     if (!std::filesystem::exists(path)) {
-      throw InputError({path, "", 0}, fmt::format("module {} has no frame (expected {}.png or .exr)", i, stem));
+      throw InputError({path, "", 0},
+                       fmt::format("module {} has no frame (expected {}.png or .exr)", i, stem));
     }
     Frame frame = readFrame(path);
     const OpticalModule& m = model.modules[i];
     if (frame.width != m.width || frame.height != m.height) {
-      throw InputError({path, "", 0}, fmt::format("is {}x{} but module {} is {}x{}", frame.width, frame.height, i,
-                                                  m.width, m.height));
+      throw InputError({path, "", 0}, fmt::format("is {}x{} but module {} is {}x{}", frame.width,
+                                                  frame.height, i, m.width, m.height));
     }
     frames.push_back(std::move(frame));
   }
@@ -58,12 +59,14 @@ void runView(const ViewArgs& args) {
   static const std::regex kSize(R"((\d{1,5})x(\d{1,5}))");
   std::smatch match;
   if (!std::regex_match(args.size, match, kSize)) {
-    throw InputError({"", "--size", 0}, fmt::format("expected WIDTHxHEIGHT, got \"{}\"", args.size));
+    throw InputError({"", "--size", 0},
+                     fmt::format("expected WIDTHxHEIGHT, got \"{}\"", args.size));
   }
   options.width = std::stoi(match[1]);
   options.height = std::stoi(match[2]);
   options.validate();
-  const Eigen::Vector3d viewer(args.x, args.y.value_or(model.observer.y), args.z.value_or(model.observer.z));
+  const Eigen::Vector3d viewer(args.x, args.y.value_or(model.observer.y),
+                               args.z.value_or(model.observer.z));
   if (!viewer.allFinite() || !(viewer.z() > 0.0)) {
     throw InputError({"", "--z", 0}, "the viewer must stand in front of the screen (z > 0)");
   }
@@ -71,18 +74,22 @@ void runView(const ViewArgs& args) {
   std::vector<float> coverage;
   const Frame view = synthesizeObserverView(model, frames, viewer, options, &coverage);
   writePng(view, args.out);
-  const long covered = std::count_if(coverage.begin(), coverage.end(), [](float w) { return w >= 0.5f; });
-  std::cout << fmt::format("view from ({:.3f}, {:.3f}, {:.3f}) m written to {} ({}x{}); the modules light {:.1f}% "
-                           "of the screen for this viewer\n",
-                           viewer.x(), viewer.y(), viewer.z(), args.out, options.width, options.height,
-                           100.0 * static_cast<double>(covered) / static_cast<double>(coverage.size()));
+  const long covered =
+      std::count_if(coverage.begin(), coverage.end(), [](float w) { return w >= 0.5f; });
+  std::cout << fmt::format(
+      "view from ({:.3f}, {:.3f}, {:.3f}) m written to {} ({}x{}); the modules light {:.1f}% "
+      "of the screen for this viewer\n",
+      viewer.x(), viewer.y(), viewer.z(), args.out, options.width, options.height,
+      100.0 * static_cast<double>(covered) / static_cast<double>(coverage.size()));
   if (!args.tracedScene.empty()) {
     const PhysicalScene scene(loadSceneArgument(args.tracedScene, {}, 0.0), model.displayableBox);
-    const Frame traced = renderFrame(scene, observerViewRays(model, viewer, options), RenderOptions{});
-    const std::string tracedPath = std::filesystem::path(args.out).replace_extension("").string() + "_traced.png";
+    const Frame traced =
+        renderFrame(scene, observerViewRays(model, viewer, options), RenderOptions{});
+    const std::string tracedPath =
+        std::filesystem::path(args.out).replace_extension("").string() + "_traced.png";
     writePng(traced, tracedPath);
-    std::cout << fmt::format("traced reference written to {}; PSNR over the lit part: {:.2f} dB\n", tracedPath,
-                             psnrDb(view, traced, &coverage));
+    std::cout << fmt::format("traced reference written to {}; PSNR over the lit part: {:.2f} dB\n",
+                             tracedPath, psnrDb(view, traced, &coverage));
   }
 }
 
@@ -90,15 +97,19 @@ void runView(const ViewArgs& args) {
 
 void addViewCommand(CLI::App& app) {
   auto args = std::make_shared<ViewArgs>();
-  CLI::App* command = app.add_subcommand("view", "what a viewer sees, assembled from module frames");
-  command->add_option("--display", args->display, "display JSON file or built-in name (default, demo)");
-  command->add_option("--frames", args->frames, "folder with module_NNN.png (or .exr) frames")->required();
+  CLI::App* command =
+      app.add_subcommand("view", "what a viewer sees, assembled from module frames");
+  command->add_option("--display", args->display,
+                      "display JSON file or built-in name (default, demo)");
+  command->add_option("--frames", args->frames, "folder with module_NNN.png (or .exr) frames")
+      ->required();
   command->add_option("--x", args->x, "viewer position along the observer line (m)")->required();
   command->add_option("--y", args->y, "viewer height (m); default: the observer line's");
   command->add_option("--z", args->z, "viewer distance (m); default: the observer line's");
   command->add_option("--out", args->out, "output PNG");
   command->add_option("--size", args->size, "view resolution WIDTHxHEIGHT (spans the screen)");
-  command->add_option("--traced-scene", args->tracedScene, "also trace this scene directly and print the PSNR");
+  command->add_option("--traced-scene", args->tracedScene,
+                      "also trace this scene directly and print the PSNR");
   command->callback([args] { runView(*args); });
 }
 

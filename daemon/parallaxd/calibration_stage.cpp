@@ -4,20 +4,22 @@
 
 #include <stdexcept>
 
-#include "calibration/calibration_captures.h"
-#include "calibration/display_fit.h"
-#include "calibration/fit_report.h"
-#include "hw/calibration_capture.h"
-#include "hw/camera.h"
+#include "calibration/capture/calibration_captures.h"
+#include "calibration/fit/display_fit.h"
+#include "calibration/fit/fit_report.h"
+#include "hw/camera/calibration_capture.h"
+#include "hw/camera/camera.h"
 
 namespace parallax::daemon {
 
-CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& nominal, const DisplayModel& start,
-                                    const CalibrationConfig& config, std::optional<int> onlyModule,
+CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& nominal,
+                                    const DisplayModel& start, const CalibrationConfig& config,
+                                    std::optional<int> onlyModule,
                                     const std::function<void(const std::string&)>& progress,
                                     const std::atomic<bool>* cancel) {
   if (config.camera.empty()) {
-    throw InputError({"", "calibration.camera", 0}, "calibrating needs the camera's metadata (camera.json)");
+    throw InputError({"", "calibration.camera", 0},
+                     "calibrating needs the camera's metadata (camera.json)");
   }
   const CameraMetadata camera = loadCameraMetadata(config.camera);
   requireKnownIntrinsics(camera, config.camera, "calibrating through the link");
@@ -26,7 +28,10 @@ CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& no
   hw::CalibrationCaptureOptions capture;
   const CalibrationCaptures captures = hw::captureCalibration(
       link, device, nominal, camera, capture,
-      [&progress](int done, int total) { progress(fmt::format("pictures: {} of {}", done, total)); }, cancel);
+      [&progress](int done, int total) {
+        progress(fmt::format("pictures: {} of {}", done, total));
+      },
+      cancel);
   // Decoding takes seconds and is not interrupted: a `cancel` meanwhile is seen after it.
   const auto cancelled = [cancel] { return cancel && cancel->load(); };
   const auto stopIfCancelled = [&cancelled] {
@@ -36,7 +41,8 @@ CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& no
   progress("decoding the pictures");
   CaptureDecoderOptions decoder;
   decoder.patterns = capture.patterns;
-  decoder.pixelStep = 6;  // every 6th camera pixel each way: plenty of correspondences, seconds not minutes
+  decoder.pixelStep =
+      6;  // every 6th camera pixel each way: plenty of correspondences, seconds not minutes
   const CalibrationObservations observations = decodeCaptures(captures, nominal, decoder);
   progress(fmt::format("fitting ({} correspondences)", observations.correspondences.size()));
   FitOptions fit;
@@ -54,7 +60,8 @@ CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& no
   stopIfCancelled();
   CalibrationRun run{result.model, formatFitSummary(result), formatFitReport(result)};
   if (!result.passesQualityChecks()) {
-    throw std::runtime_error("the fit failed its quality checks, nothing installed: " + run.summary);
+    throw std::runtime_error("the fit failed its quality checks, nothing installed: " +
+                             run.summary);
   }
   return run;
 }

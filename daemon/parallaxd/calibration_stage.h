@@ -9,9 +9,9 @@
 #include <optional>
 #include <string>
 
-#include "calibration/display_model.h"
+#include "calibration/display/display_model.h"
 #include "daemon/parallaxd/daemon_config.h"
-#include "hw/link_client.h"
+#include "hw/link/link_client.h"
 
 namespace parallax::daemon {
 
@@ -25,8 +25,9 @@ struct CalibrationRun {
 // refit of one module: `onlyModule`, every other module held). Throws std::runtime_error
 // (or InputError for bad camera metadata) with a one-line reason, and hw::CalibrationCancelled
 // once *cancel is true (seen between pictures, between stages and at every solver iteration).
-CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& nominal, const DisplayModel& start,
-                                    const CalibrationConfig& config, std::optional<int> onlyModule,
+CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& nominal,
+                                    const DisplayModel& start, const CalibrationConfig& config,
+                                    std::optional<int> onlyModule,
                                     const std::function<void(const std::string&)>& progress,
                                     const std::atomic<bool>* cancel);
 

@@ -7,7 +7,7 @@
 #include <optional>
 #include <string>
 
-#include "calibration/display_model.h"
+#include "calibration/display/display_model.h"
 
 namespace parallax::daemon {
 
@@ -28,7 +28,8 @@ class CalibrationStore {
   DisplayModel rollback(const DisplayModel& nominal) const;
 
   // InputError unless `candidate` has the nominal's module count and resolutions.
-  static void requireSameDisplay(const DisplayModel& nominal, const DisplayModel& candidate, const std::string& file);
+  static void requireSameDisplay(const DisplayModel& nominal, const DisplayModel& candidate,
+                                 const std::string& file);
 
  private:
   std::string path_;

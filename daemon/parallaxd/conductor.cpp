@@ -6,15 +6,15 @@
 #include <cmath>
 #include <thread>
 
-#include "calibration/display_model_json.h"
-#include "calibration/display_presets.h"
+#include "calibration/display/display_model_json.h"
+#include "calibration/display/display_presets.h"
 #include "common/atomic_file.h"
 #include "common/input_error.h"
 #include "daemon/parallaxd/calibration_stage.h"
 #include "daemon/parallaxd/installer_patterns.h"
 #include "daemon/parallaxd/module_renderer.h"
-#include "hw/calibration_capture.h"
-#include "hw/link_transport.h"
+#include "hw/camera/calibration_capture.h"
+#include "hw/link/link_transport.h"
 #include "scripts/scene_argument.h"
 #include "tracer/observer_view.h"
 
@@ -26,10 +26,12 @@ namespace {
 std::string scriptPathOf(const std::string& argument) {
   if (const std::string library = librarySceneScript(argument); !library.empty()) return library;
   if (isSceneScript(argument)) return argument;
-  throw InputError({"", "scene", 0},
-                   fmt::format("\"{}\" is not a scene script: give a library name (cornell, shapes, statue, orbit) "
-                               "or a .lua file",
-                               argument));
+  throw InputError(
+      {"", "scene", 0},
+      fmt::format(
+          "\"{}\" is not a scene script: give a library name (cornell, shapes, statue, orbit) "
+          "or a .lua file",
+          argument));
 }
 
 }  // namespace
@@ -94,7 +96,8 @@ void Conductor::startUp() {
   } catch (const InputError& e) {
     state_.fail("loading the calibration", e.what(), DaemonState::kStarting);
   }
-  if (!haveCalibration && options_.config.calibration.autoCalibrate && link_) calibrate(std::nullopt);
+  if (!haveCalibration && options_.config.calibration.autoCalibrate && link_)
+    calibrate(std::nullopt);
   if (texturesVersion_ == 0) regenerate(calibration_);
   if (textures_.size() == nominal_.modules.size()) {
     try {
@@ -111,7 +114,8 @@ bool Conductor::connectLink(int timeoutMs) {
   const auto deadline = Clock::now() + std::chrono::milliseconds(timeoutMs);
   do {
     try {
-      link_ = std::make_unique<hw::LinkClient>(hw::createLinkTransport(options_.linkSpec), options_.link);
+      link_ = std::make_unique<hw::LinkClient>(hw::createLinkTransport(options_.linkSpec),
+                                               options_.link);
       linkSessions_ = link_->sessions();
       lastLinkActivity_ = Clock::now();
       linkError_.clear();
@@ -121,12 +125,14 @@ bool Conductor::connectLink(int timeoutMs) {
         linkError_ = fmt::format("the link has {} modules but the display has {}", modules.size(),
                                  nominal_.modules.size());
       }
-      for (size_t i = 0; i < modules.size() && linkError_.empty() && i < nominal_.modules.size(); ++i) {
+      for (size_t i = 0; i < modules.size() && linkError_.empty() && i < nominal_.modules.size();
+           ++i) {
         const hw::DeviceInfo& info = modules[i].info;
         const OpticalModule& m = nominal_.modules[i];
         if (static_cast<int>(info.width) != m.width || static_cast<int>(info.height) != m.height) {
-          linkError_ = fmt::format("module {} ({}) takes {}x{} frames but the display model says {}x{}", i,
-                                   info.serial, info.width, info.height, m.width, m.height);
+          linkError_ =
+              fmt::format("module {} ({}) takes {}x{} frames but the display model says {}x{}", i,
+                          info.serial, info.width, info.height, m.width, m.height);
         }
       }
       if (!linkError_.empty()) {
@@ -155,12 +161,14 @@ void Conductor::calibrate(std::optional<int> onlyModule) {
   // Reset before the state says "calibrating", which is when a `cancel` is accepted.
   cancel_ = shutdown_.load();
   calibrationCancelled_ = false;
-  state_.enter(DaemonState::kCalibrating, onlyModule ? fmt::format("module {}", *onlyModule) : "all modules");
+  state_.enter(DaemonState::kCalibrating,
+               onlyModule ? fmt::format("module {}", *onlyModule) : "all modules");
   publish();
   try {
     if (!link_) throw std::runtime_error("no link to the modules: " + linkError_);
     const CalibrationRun run = calibrateThroughLink(
-        *link_, nominal_, onlyModule ? calibration_ : nominal_, options_.config.calibration, onlyModule,
+        *link_, nominal_, onlyModule ? calibration_ : nominal_, options_.config.calibration,
+        onlyModule,
         [this](const std::string& stage) {
           state_.setStage(stage);
           if (options_.onHeartbeat) options_.onHeartbeat();
@@ -176,7 +184,8 @@ void Conductor::calibrate(std::optional<int> onlyModule) {
       calibrationSource_ = store_.path();
       // The fit's report beside the calibration it describes, for the installer.
       writeFileAtomically(store_.path() + ".report.txt", run.summary + "\n" + run.report);
-      spdlog::info("calibration installed: {} (report: {}.report.txt)\n{}", store_.path(), store_.path(), run.summary);
+      spdlog::info("calibration installed: {} (report: {}.report.txt)\n{}", store_.path(),
+                   store_.path(), run.summary);
     }
     // Whatever the modules showed during the patterns is gone: show the scene again.
     needsPush_ = true;
@@ -190,7 +199,8 @@ void Conductor::calibrate(std::optional<int> onlyModule) {
     state_.fail("calibrating", e.what(), back);
     needsPush_ = !currentImages_.empty();  // the patterns may have replaced our frames
   }
-  if (state_.state() == DaemonState::kCalibrating) state_.enter(back == DaemonState::kStarting ? DaemonState::kStarting : back);
+  if (state_.state() == DaemonState::kCalibrating)
+    state_.enter(back == DaemonState::kStarting ? DaemonState::kStarting : back);
 }
 
 void Conductor::regenerate(const DisplayModel& model) {
@@ -199,23 +209,25 @@ void Conductor::regenerate(const DisplayModel& model) {
   publish();
   try {
     RayTextureCacheStats stats;
-    std::vector<RayTextures> textures = cache_.texturesFor(model, &stats, [this](int done, int total) {
-      state_.setStage(fmt::format("ray textures: module {} of {}", done, total));
-      if (options_.onHeartbeat) options_.onHeartbeat();  // a long stage is not a hang
-    });
+    std::vector<RayTextures> textures =
+        cache_.texturesFor(model, &stats, [this](int done, int total) {
+          state_.setStage(fmt::format("ray textures: module {} of {}", done, total));
+          if (options_.onHeartbeat) options_.onHeartbeat();  // a long stage is not a hang
+        });
     textures_ = std::move(textures);
     cacheStats_ = stats;
     texturesHash_ = displayContentHash(model);
     ++texturesVersion_;
-    spdlog::info("ray textures {}: {} from the cache, {} generated", hashHex(texturesHash_), stats.loaded,
-                 stats.generated);
+    spdlog::info("ray textures {}: {} from the cache, {} generated", hashHex(texturesHash_),
+                 stats.loaded, stats.generated);
     if (back != DaemonState::kError) state_.enter(back);
   } catch (const std::exception& e) {
     state_.fail("regenerating the ray textures", e.what(), back);
   }
 }
 
-void Conductor::loadScene(const std::string& argument, const std::map<std::string, double>& parameters) {
+void Conductor::loadScene(const std::string& argument,
+                          const std::map<std::string, double>& parameters) {
   const DaemonState back = script_ ? showingState() : DaemonState::kError;
   state_.enter(DaemonState::kLoading, argument);
   publish();
@@ -243,7 +255,8 @@ void Conductor::loadScene(const std::string& argument, const std::map<std::strin
 std::chrono::milliseconds Conductor::timeToNextTurn() const {
   using std::chrono::milliseconds;
   const auto idle = milliseconds(std::min(250, options_.keepAliveMs));
-  if (state_.state() != DaemonState::kPlaying || !script_ || !script_->script().animated()) return idle;
+  if (state_.state() != DaemonState::kPlaying || !script_ || !script_->script().animated())
+    return idle;
   const auto left = std::chrono::duration_cast<milliseconds>(nextFrameDue_ - Clock::now());
   return std::clamp(left, milliseconds(0), idle);
 }
@@ -265,13 +278,15 @@ void Conductor::turn() {
       const auto missed = static_cast<uint64_t>(std::floor(late / period));
       stats_.droppedFrames += missed;
       const double step = period * static_cast<double>(missed + 1);
-      nextFrameDue_ += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(step));
+      nextFrameDue_ +=
+          std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(step));
       if (renderedSceneVersion_ != 0) sceneTime_ += step;
       if (!script_->setTime(sceneTime_)) sceneError_ = script_->lastError();
       due = true;
     }
     if (due && textures_.size() == nominal_.modules.size() &&
-        (script_->version() != renderedSceneVersion_ || texturesVersion_ != renderedTexturesVersion_)) {
+        (script_->version() != renderedSceneVersion_ ||
+         texturesVersion_ != renderedTexturesVersion_)) {
       renderAndPush();
     }
   }
@@ -322,13 +337,18 @@ void Conductor::push(const std::vector<std::shared_ptr<const hw::Image>>& images
   }
   for (const hw::FrameOutcome& o : link_->takeOutcomes()) {
     switch (o.status) {
-      case hw::FrameStatus::kDelivered: ++stats_.moduleFramesSent; break;
-      case hw::FrameStatus::kSkippedUnchanged: ++stats_.moduleFramesUnchanged; break;
+      case hw::FrameStatus::kDelivered:
+        ++stats_.moduleFramesSent;
+        break;
+      case hw::FrameStatus::kSkippedUnchanged:
+        ++stats_.moduleFramesUnchanged;
+        break;
       case hw::FrameStatus::kFailed:
         ++stats_.moduleFramesFailed;
         needsPush_ = true;  // try again on the next turn (the link may be back by then)
         break;
-      default: break;
+      default:
+        break;
     }
   }
   stats_.push.add(std::chrono::duration<double, std::milli>(Clock::now() - started).count());
@@ -350,7 +370,8 @@ void Conductor::keepLinkAlive() {
   if (link_->sessions() != linkSessions_) {
     // The link came back: the modules behind it may have restarted blank. Send them the
     // current frames again (LinkClient forgot their content, so nothing is skipped).
-    spdlog::warn("link: reconnected (session {}); sending the current frames again", link_->sessions());
+    spdlog::warn("link: reconnected (session {}); sending the current frames again",
+                 link_->sessions());
     linkSessions_ = link_->sessions();
     needsPush_ = !currentImages_.empty();
   }
@@ -363,8 +384,9 @@ void Conductor::showOverlay(const std::string& kind, std::optional<int> module) 
     const OpticalModule& m = nominal_.modules[i];
     const int index = static_cast<int>(i);
     if (!module || index == *module) {
-      images[i] = encodeForLink(kind == "identify" ? identifyFrame(m.width, m.height, index, m.mirror)
-                                                   : testCardFrame(m.width, m.height, index, m.mirror));
+      images[i] =
+          encodeForLink(kind == "identify" ? identifyFrame(m.width, m.height, index, m.mirror)
+                                           : testCardFrame(m.width, m.height, index, m.mirror));
     } else if (!images[i] || images[i]->width != m.width || images[i]->height != m.height) {
       images[i] = encodeForLink(Frame(m.width, m.height));  // nothing shown there yet: black
     }
@@ -419,7 +441,8 @@ nlohmann::json Conductor::handle(const nlohmann::json& request) {
   {
     // Queued even during a long start-up stage: answered once the loop runs.
     std::lock_guard lock(jobsMutex_);
-    if (!acceptingJobs_ || shutdown_.load()) return {{"ok", false}, {"error", "the daemon is stopping"}};
+    if (!acceptingJobs_ || shutdown_.load())
+      return {{"ok", false}, {"error", "the daemon is stopping"}};
     jobs_.push_back(job);
   }
   jobsChanged_.notify_all();
@@ -501,8 +524,10 @@ void Conductor::applyConfig(const DaemonConfig& config) {
   }
   if (config.controlSocketPath() != old.controlSocketPath()) needRestart.push_back("daemon.socket");
   if (config.cacheDirPath() != old.cacheDirPath()) needRestart.push_back("daemon.cache_dir");
-  if (config.calibrationFilePath() != old.calibrationFilePath()) needRestart.push_back("calibration.file");
-  const bool sceneChanged = config.scene.script != old.scene.script || config.scene.parameters != old.scene.parameters;
+  if (config.calibrationFilePath() != old.calibrationFilePath())
+    needRestart.push_back("calibration.file");
+  const bool sceneChanged =
+      config.scene.script != old.scene.script || config.scene.parameters != old.scene.parameters;
   if (!needRestart.empty()) {
     // Check what the restart will build before stopping anything that works.
     try {
@@ -542,7 +567,8 @@ nlohmann::json Conductor::dispatch(const nlohmann::json& request) {
     if (!request[key].is_number_integer()) throw InputError({"", key, 0}, "must be a module index");
     const int m = request[key].get<int>();
     if (m < 0 || m >= static_cast<int>(nominal_.modules.size())) {
-      throw InputError({"", key, 0}, fmt::format("no module {} (0..{})", m, nominal_.modules.size() - 1));
+      throw InputError({"", key, 0},
+                       fmt::format("no module {} (0..{})", m, nominal_.modules.size() - 1));
     }
     return m;
   };
@@ -559,22 +585,29 @@ nlohmann::json Conductor::dispatch(const nlohmann::json& request) {
     if (texturesHash_ == hashBefore) {
       const StateSnapshot s = state_.snapshot();
       if (calibrationCancelled_) {
-        return {{"ok", false}, {"error", "calibration cancelled; the installed one stays: " + calibrationSource_}};
+        return {{"ok", false},
+                {"error", "calibration cancelled; the installed one stays: " + calibrationSource_}};
       }
-      return {{"ok", false}, {"error", s.lastError.empty() || s.lastError == before ? "calibration not installed" : s.lastError}};
+      return {{"ok", false},
+              {"error", s.lastError.empty() || s.lastError == before ? "calibration not installed"
+                                                                     : s.lastError}};
     }
-    return ok({{"calibration", calibrationSource_}, {"hash", hashHex(texturesHash_)}, {"summary", lastCalibrationSummary_}});
+    return ok({{"calibration", calibrationSource_},
+               {"hash", hashHex(texturesHash_)},
+               {"summary", lastCalibrationSummary_}});
   }
   if (name == "rollback") {
     const DisplayModel previous = store_.rollback(nominal_);
     regenerate(previous);
-    if (texturesHash_ != displayContentHash(previous)) throw std::runtime_error(state_.snapshot().lastError);
+    if (texturesHash_ != displayContentHash(previous))
+      throw std::runtime_error(state_.snapshot().lastError);
     calibration_ = previous;
     calibrationSource_ = store_.path() + " (rolled back)";
     return ok({{"calibration", calibrationSource_}, {"hash", hashHex(texturesHash_)}});
   }
   if (name == "load") {
-    if (!request.contains("scene") || !request["scene"].is_string()) throw InputError({"", "scene", 0}, "load needs \"scene\"");
+    if (!request.contains("scene") || !request["scene"].is_string())
+      throw InputError({"", "scene", 0}, "load needs \"scene\"");
     std::map<std::string, double> parameters;
     if (request.contains("parameters") && request["parameters"].is_object()) {
       for (const auto& [k, v] : request["parameters"].items()) {
@@ -601,8 +634,10 @@ nlohmann::json Conductor::dispatch(const nlohmann::json& request) {
   }
   if (name == "set") {
     if (!script_) throw std::runtime_error("no scene loaded");
-    if (!request.contains("name") || !request["name"].is_string()) throw InputError({"", "name", 0}, "set needs \"name\"");
-    if (!request.contains("value") || !request["value"].is_number()) throw InputError({"", "value", 0}, "set needs a number \"value\"");
+    if (!request.contains("name") || !request["name"].is_string())
+      throw InputError({"", "name", 0}, "set needs \"name\"");
+    if (!request.contains("value") || !request["value"].is_number())
+      throw InputError({"", "value", 0}, "set needs a number \"value\"");
     const std::string parameter = request["name"].get<std::string>();
     if (!script_->setParameter(parameter, request["value"].get<double>())) {
       sceneError_ = script_->lastError();
@@ -614,12 +649,15 @@ nlohmann::json Conductor::dispatch(const nlohmann::json& request) {
   if (name == "frame") return writeModuleFrame(request);
   if (name == "view") return writeObserverView(request);
   if (name == "reload") {
-    if (!options_.config.sourceFile.empty()) applyConfig(loadDaemonConfig(options_.config.sourceFile));
+    if (!options_.config.sourceFile.empty())
+      applyConfig(loadDaemonConfig(options_.config.sourceFile));
     if (script_ && script_->reloadIfChanged() == ScriptedScene::Reload::kFailed) {
       sceneError_ = script_->lastError();
-      throw std::runtime_error("scene reload failed, the previous version keeps playing: " + sceneError_);
+      throw std::runtime_error("scene reload failed, the previous version keeps playing: " +
+                               sceneError_);
     }
-    return ok({{"config", options_.config.sourceFile.empty() ? "built-in" : options_.config.sourceFile}});
+    return ok(
+        {{"config", options_.config.sourceFile.empty() ? "built-in" : options_.config.sourceFile}});
   }
   if (name == "identify" || name == "testcard") {
     if (textures_.empty() && nominal_.modules.empty()) throw std::runtime_error("no display");
@@ -627,7 +665,8 @@ nlohmann::json Conductor::dispatch(const nlohmann::json& request) {
     return ok({{"message", "`play` returns to the scene"}});
   }
   throw InputError({"", "request", 0},
-                   fmt::format("unknown request \"{}\" (status, calibrate, cancel, load, play, pause, set, frame, view, stats, "
+                   fmt::format("unknown request \"{}\" (status, calibrate, cancel, load, play, "
+                               "pause, set, frame, view, stats, "
                                "reload, shutdown, identify, testcard, rollback)",
                                name));
 }
@@ -638,11 +677,14 @@ nlohmann::json Conductor::writeModuleFrame(const nlohmann::json& request) {
   }
   const int m = request["module"].get<int>();
   if (m < 0 || m >= static_cast<int>(currentImages_.size())) {
-    throw InputError({"", "module", 0}, fmt::format("no frame for module {} ({} modules show frames)", m, currentImages_.size()));
+    throw InputError(
+        {"", "module", 0},
+        fmt::format("no frame for module {} ({} modules show frames)", m, currentImages_.size()));
   }
-  const std::string path = request.contains("path") && request["path"].is_string()
-                               ? request["path"].get<std::string>()
-                               : moduleFrameStem(options_.config.cacheDirPath() + "/frames", m) + ".png";
+  const std::string path =
+      request.contains("path") && request["path"].is_string()
+          ? request["path"].get<std::string>()
+          : moduleFrameStem(options_.config.cacheDirPath() + "/frames", m) + ".png";
   std::error_code ec;
   std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
   hw::writePng(*currentImages_[static_cast<size_t>(m)], path);
@@ -650,10 +692,13 @@ nlohmann::json Conductor::writeModuleFrame(const nlohmann::json& request) {
 }
 
 nlohmann::json Conductor::writeObserverView(const nlohmann::json& request) {
-  if (!request.contains("x") || !request["x"].is_number()) throw InputError({"", "x", 0}, "view needs a number \"x\" (m)");
-  if (currentImages_.size() != calibration_.modules.size()) throw std::runtime_error("the modules show no frames yet");
+  if (!request.contains("x") || !request["x"].is_number())
+    throw InputError({"", "x", 0}, "view needs a number \"x\" (m)");
+  if (currentImages_.size() != calibration_.modules.size())
+    throw std::runtime_error("the modules show no frames yet");
   const double x = request["x"].get<double>();
-  if (!std::isfinite(x) || std::abs(x) > 100.0) throw InputError({"", "x", 0}, "must be within ±100 m");
+  if (!std::isfinite(x) || std::abs(x) > 100.0)
+    throw InputError({"", "x", 0}, "must be within ±100 m");
   ObserverViewOptions vo;
   if (request.contains("width")) vo.width = request["width"].get<int>();
   if (request.contains("height")) vo.height = request["height"].get<int>();
@@ -664,9 +709,10 @@ nlohmann::json Conductor::writeObserverView(const nlohmann::json& request) {
   shown.reserve(currentImages_.size());
   for (const auto& image : currentImages_) shown.push_back(frameShownBy(*image));
   const Frame view = synthesizeObserverView(calibration_, shown, viewer, vo);
-  const std::string path = request.contains("path") && request["path"].is_string()
-                               ? request["path"].get<std::string>()
-                               : fmt::format("{}/views/view_x{:+.3f}.png", options_.config.cacheDirPath(), x);
+  const std::string path =
+      request.contains("path") && request["path"].is_string()
+          ? request["path"].get<std::string>()
+          : fmt::format("{}/views/view_x{:+.3f}.png", options_.config.cacheDirPath(), x);
   std::error_code ec;
   std::filesystem::create_directories(std::filesystem::path(path).parent_path(), ec);
   writePng(view, path);
@@ -675,19 +721,23 @@ nlohmann::json Conductor::writeObserverView(const nlohmann::json& request) {
 
 nlohmann::json Conductor::statusJson() const {
   const StateSnapshot s = state_.snapshot();
-  nlohmann::json j = {{"ok", true},
-                      {"state", daemonStateName(s.state)},
-                      {"stage", s.stage},
-                      {"seconds_in_state", s.secondsInState},
-                      {"display", {{"name", nominal_.name}, {"modules", nominal_.modules.size()}}},
-                      {"calibration", {{"source", calibrationSource_}, {"hash", hashHex(texturesHash_)}}},
-                      {"ray_textures", {{"from_cache", cacheStats_.loaded}, {"generated", cacheStats_.generated}}},
-                      {"link", {{"up", link_ != nullptr}, {"sessions", linkSessions_}, {"error", linkError_}}},
-                      {"fps", options_.config.scene.fps}};
+  nlohmann::json j = {
+      {"ok", true},
+      {"state", daemonStateName(s.state)},
+      {"stage", s.stage},
+      {"seconds_in_state", s.secondsInState},
+      {"display", {{"name", nominal_.name}, {"modules", nominal_.modules.size()}}},
+      {"calibration", {{"source", calibrationSource_}, {"hash", hashHex(texturesHash_)}}},
+      {"ray_textures", {{"from_cache", cacheStats_.loaded}, {"generated", cacheStats_.generated}}},
+      {"link", {{"up", link_ != nullptr}, {"sessions", linkSessions_}, {"error", linkError_}}},
+      {"fps", options_.config.scene.fps}};
   if (!s.lastError.empty()) j["last_error"] = {{"stage", s.lastErrorStage}, {"error", s.lastError}};
   if (script_) {
-    j["scene"] = {{"name", sceneArgument_}, {"animated", script_->script().animated()}, {"time", sceneTime_},
-                  {"reloads", script_->reloads()}, {"failed_reloads", script_->failedReloads()}};
+    j["scene"] = {{"name", sceneArgument_},
+                  {"animated", script_->script().animated()},
+                  {"time", sceneTime_},
+                  {"reloads", script_->reloads()},
+                  {"failed_reloads", script_->failedReloads()}};
     nlohmann::json params = nlohmann::json::object();
     for (const ScriptParameter& p : script_->script().parameters()) params[p.name] = p.value;
     j["scene"]["parameters"] = params;
@@ -704,9 +754,14 @@ nlohmann::json Conductor::statsJson() const {
   j["render_counters"] = lastCounters_.lines();
   if (link_) {
     const hw::LinkStats& l = link_->stats();
-    j["link"] = {{"submitted", l.submitted}, {"delivered", l.delivered},     {"skipped_unchanged", l.skipped},
-                 {"failed", l.failed},       {"retries", l.retries},         {"reconnects", l.reconnects},
-                 {"bytes_sent", l.payloadBytesSent}, {"sessions", link_->sessions()}};
+    j["link"] = {{"submitted", l.submitted},
+                 {"delivered", l.delivered},
+                 {"skipped_unchanged", l.skipped},
+                 {"failed", l.failed},
+                 {"retries", l.retries},
+                 {"reconnects", l.reconnects},
+                 {"bytes_sent", l.payloadBytesSent},
+                 {"sessions", link_->sessions()}};
   }
   return j;
 }

@@ -22,15 +22,15 @@
 #include <string>
 #include <vector>
 
-#include "calibration/display_model.h"
-#include "calibration/ray_textures.h"
+#include "calibration/display/display_model.h"
+#include "calibration/display/ray_textures.h"
 #include "daemon/parallaxd/calibration_store.h"
 #include "daemon/parallaxd/daemon_config.h"
 #include "daemon/parallaxd/daemon_state.h"
 #include "daemon/parallaxd/loop_stats.h"
 #include "daemon/parallaxd/ray_texture_cache.h"
-#include "hw/image.h"
-#include "hw/link_client.h"
+#include "hw/link/image.h"
+#include "hw/link/link_client.h"
 #include "scripts/scripted_scene.h"
 #include "tracer/frame.h"
 #include "tracer/physical_scene.h"
@@ -152,11 +152,12 @@ class Conductor {
   std::atomic<bool> shutdown_{false};
   std::optional<DaemonConfig> restartWith_;
   std::atomic<bool> cancel_{false};  // set by `cancel` and `shutdown`: the calibration stops
-  bool calibrationCancelled_ = false;  // the last calibration stopped at a `cancel` (conductor thread)
+  bool calibrationCancelled_ =
+      false;  // the last calibration stopped at a `cancel` (conductor thread)
 
   mutable std::mutex publishedMutex_;
   nlohmann::json publishedStatus_, publishedStats_;
-  std::optional<DaemonConfig> pendingConfig_;  // guarded by jobsMutex_
+  std::optional<DaemonConfig> pendingConfig_;     // guarded by jobsMutex_
   std::optional<std::string> pendingConfigPath_;  // guarded by jobsMutex_
 };
 

@@ -1,11 +1,10 @@
 #include "daemon/parallaxd/control_client.h"
 
+#include <fmt/format.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
-
-#include <fmt/format.h>
 
 #include <cerrno>
 #include <cstring>
@@ -14,17 +13,20 @@
 
 namespace parallax::daemon {
 
-std::string exchangeControlLine(const std::string& socketPath, const std::string& line, double timeoutSeconds) {
+std::string exchangeControlLine(const std::string& socketPath, const std::string& line,
+                                double timeoutSeconds) {
   sockaddr_un addr{};
   addr.sun_family = AF_UNIX;
-  if (socketPath.size() >= sizeof addr.sun_path) throw InputError({"", "socket", 0}, "path too long");
+  if (socketPath.size() >= sizeof addr.sun_path)
+    throw InputError({"", "socket", 0}, "path too long");
   std::memcpy(addr.sun_path, socketPath.c_str(), socketPath.size() + 1);
   const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   if (fd < 0) throw std::runtime_error(std::string("socket: ") + std::strerror(errno));
   if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
     const std::string why = std::strerror(errno);
     ::close(fd);
-    throw ControlUnreachable(fmt::format("no daemon at {} ({}): is parallaxd running?", socketPath, why));
+    throw ControlUnreachable(
+        fmt::format("no daemon at {} ({}): is parallaxd running?", socketPath, why));
   }
   const std::string out = line + "\n";
   if (::send(fd, out.data(), out.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(out.size())) {
@@ -51,12 +53,14 @@ std::string exchangeControlLine(const std::string& socketPath, const std::string
   return reply.substr(0, reply.find('\n'));
 }
 
-nlohmann::json askDaemon(const std::string& socketPath, const nlohmann::json& request, double timeoutSeconds) {
-  return nlohmann::json::parse(exchangeControlLine(socketPath, request.dump(), timeoutSeconds), nullptr, false);
+nlohmann::json askDaemon(const std::string& socketPath, const nlohmann::json& request,
+                         double timeoutSeconds) {
+  return nlohmann::json::parse(exchangeControlLine(socketPath, request.dump(), timeoutSeconds),
+                               nullptr, false);
 }
 
-std::optional<nlohmann::json> tryAskDaemon(const std::string& socketPath, const nlohmann::json& request,
-                                           double timeoutSeconds) {
+std::optional<nlohmann::json> tryAskDaemon(const std::string& socketPath,
+                                           const nlohmann::json& request, double timeoutSeconds) {
   try {
     return askDaemon(socketPath, request, timeoutSeconds);
   } catch (const std::runtime_error&) {

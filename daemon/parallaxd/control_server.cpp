@@ -1,14 +1,13 @@
 #include "daemon/parallaxd/control_server.h"
 
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <poll.h>
+#include <spdlog/spdlog.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
 #include <unistd.h>
-
-#include <fmt/format.h>
-#include <spdlog/spdlog.h>
 
 #include <cerrno>
 #include <cstring>
@@ -23,7 +22,8 @@ namespace {
 sockaddr_un addressOf(const std::string& path) {
   sockaddr_un addr{};
   addr.sun_family = AF_UNIX;
-  if (path.size() >= sizeof addr.sun_path) throw std::runtime_error("control socket path too long: " + path);
+  if (path.size() >= sizeof addr.sun_path)
+    throw std::runtime_error("control socket path too long: " + path);
   std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
   return addr;
 }
@@ -52,17 +52,20 @@ nlohmann::json errorReply(const std::string& why) { return {{"ok", false}, {"err
 
 }  // namespace
 
-ControlServer::ControlServer(std::string path, Handler handler) : path_(std::move(path)), handler_(std::move(handler)) {
+ControlServer::ControlServer(std::string path, Handler handler)
+    : path_(std::move(path)), handler_(std::move(handler)) {
   namespace fs = std::filesystem;
   const fs::path folder = fs::path(path_).parent_path();
   if (!folder.empty() && !fs::exists(folder)) {
     std::error_code ec;
     fs::create_directories(folder, ec);
-    if (ec) throw std::runtime_error(fmt::format("cannot create {}: {}", folder.string(), ec.message()));
+    if (ec)
+      throw std::runtime_error(fmt::format("cannot create {}: {}", folder.string(), ec.message()));
     ::chmod(folder.c_str(), 0700);
   }
   if (fs::exists(fs::symlink_status(path_))) {
-    if (someoneListens(path_)) throw std::runtime_error("another daemon already answers on " + path_);
+    if (someoneListens(path_))
+      throw std::runtime_error("another daemon already answers on " + path_);
     fs::remove(path_);  // stale: its daemon is gone
   }
   listenFd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
@@ -115,7 +118,8 @@ void ControlServer::acceptLoop() {
     const int fd = ::accept4(listenFd_, nullptr, nullptr, SOCK_CLOEXEC);
     if (fd < 0) continue;
     if (clients_.load() >= kMaxClients) {
-      writeAll(fd, errorReply(fmt::format("too many clients (at most {})", kMaxClients)).dump() + "\n");
+      writeAll(fd,
+               errorReply(fmt::format("too many clients (at most {})", kMaxClients)).dump() + "\n");
       ::close(fd);
       continue;
     }
@@ -147,8 +151,10 @@ std::string ControlServer::replyTo(const std::string& line, const Handler& handl
   nlohmann::json reply;
   nlohmann::json request = nlohmann::json::parse(line, nullptr, /*allow_exceptions=*/false);
   if (request.is_discarded()) {
-    reply = errorReply("malformed request: not JSON (one JSON object a line, e.g. {\"request\": \"status\"})");
-  } else if (!request.is_object() || !request.contains("request") || !request["request"].is_string()) {
+    reply = errorReply(
+        "malformed request: not JSON (one JSON object a line, e.g. {\"request\": \"status\"})");
+  } else if (!request.is_object() || !request.contains("request") ||
+             !request["request"].is_string()) {
     reply = errorReply("malformed request: expected an object with a string \"request\"");
   } else {
     try {
@@ -173,13 +179,17 @@ void ControlServer::serveClient(int fd) {
     for (ssize_t i = 0; i < n && alive; ++i) {
       const char c = chunk[i];
       if (c == '\n') {
-        if (!discarding && !buffer.empty() && buffer != "\r") alive = writeAll(fd, replyTo(buffer, handler_));
+        if (!discarding && !buffer.empty() && buffer != "\r")
+          alive = writeAll(fd, replyTo(buffer, handler_));
         buffer.clear();
         discarding = false;
       } else if (!discarding) {
         buffer.push_back(c);
         if (buffer.size() > kMaxRequestBytes) {
-          alive = writeAll(fd, errorReply(fmt::format("request too large (over {} bytes)", kMaxRequestBytes)).dump() + "\n");
+          alive = writeAll(
+              fd, errorReply(fmt::format("request too large (over {} bytes)", kMaxRequestBytes))
+                          .dump() +
+                      "\n");
           buffer.clear();
           discarding = true;
         }

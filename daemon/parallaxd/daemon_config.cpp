@@ -1,17 +1,17 @@
 #include "daemon/parallaxd/daemon_config.h"
 
 #include <fmt/format.h>
+#include <toml++/toml.h>
 #include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
 #include <set>
-#include <vector>
 #include <span>
-#include <toml++/toml.h>
+#include <vector>
 
-#include "calibration/display_model_json.h"
-#include "calibration/display_presets.h"
+#include "calibration/display/display_model_json.h"
+#include "calibration/display/display_presets.h"
 
 namespace parallax::daemon {
 namespace {
@@ -23,7 +23,8 @@ class TableReader {
   TableReader(const toml::table& table, std::string file, std::string prefix)
       : table_(table), file_(std::move(file)), prefix_(std::move(prefix)) {}
 
-  [[noreturn]] void fail(const toml::node& node, const std::string& key, const std::string& why) const {
+  [[noreturn]] void fail(const toml::node& node, const std::string& key,
+                         const std::string& why) const {
     throw InputError({file_, prefix_ + key, static_cast<int>(node.source().begin.line)}, why);
   }
   const toml::node* find(const std::string& key) {
@@ -61,7 +62,8 @@ class TableReader {
       } else {
         fail(*n, key, "must be a number");
       }
-      if (!std::isfinite(v) || v < lo || v > hi) fail(*n, key, fmt::format("must be in {}..{}, got {}", lo, hi, v));
+      if (!std::isfinite(v) || v < lo || v > hi)
+        fail(*n, key, fmt::format("must be in {}..{}, got {}", lo, hi, v));
       *out = v;
     }
   }
@@ -89,9 +91,11 @@ void readDisplay(TableReader& r, DisplayConfig* d) {
   const bool hasPreset = r.find("preset") != nullptr;
   r.readString("preset", &d->preset);
   r.readString("file", &d->file);
-  if (const toml::node* n = r.find("file"); n && hasPreset) r.fail(*n, "file", "give either preset or file, not both");
+  if (const toml::node* n = r.find("file"); n && hasPreset)
+    r.fail(*n, "file", "give either preset or file, not both");
   if (d->file.empty() && !isBuiltInDisplay(d->preset)) {
-    r.fail(*r.find("preset"), "preset", fmt::format("no built-in display \"{}\" (default, demo)", d->preset));
+    r.fail(*r.find("preset"), "preset",
+           fmt::format("no built-in display \"{}\" (default, demo)", d->preset));
   }
   int modules = 0;
   if (const toml::node* n = r.find("modules")) {
@@ -105,7 +109,8 @@ void readDisplay(TableReader& r, DisplayConfig* d) {
       r.fail(*n, "resolution", "must be [width, height] in pixels");
     }
     const long long w = (*a)[0].as_integer()->get(), h = (*a)[1].as_integer()->get();
-    if (w < 8 || h < 8 || w > 8192 || h > 8192) r.fail(*n, "resolution", "each side must be in 8..8192");
+    if (w < 8 || h < 8 || w > 8192 || h > 8192)
+      r.fail(*n, "resolution", "each side must be in 8..8192");
     if (!d->file.empty()) r.fail(*n, "resolution", "overrides a preset only, not a display file");
     d->width = static_cast<int>(w);
     d->height = static_cast<int>(h);
@@ -115,7 +120,8 @@ void readDisplay(TableReader& r, DisplayConfig* d) {
 
 void readHardware(TableReader& r, HardwareConfig* h) {
   r.readString("kind", &h->kind);
-  if (h->kind != "sim" && h->kind != "usb") r.fail(*r.find("kind"), "kind", "must be \"sim\" or \"usb\"");
+  if (h->kind != "sim" && h->kind != "usb")
+    r.fail(*r.find("kind"), "kind", "must be \"sim\" or \"usb\"");
   r.readString("socket", &h->socket);
   r.readInt("seed", &h->seed, 0, 2147483647);
   r.readString("dump", &h->dump);
@@ -123,7 +129,8 @@ void readHardware(TableReader& r, HardwareConfig* h) {
     const toml::array* a = n->as_array();
     if (!a) r.fail(*n, "faults", "must be an array of strings such as \"2:disconnect\"");
     for (const toml::node& f : *a) {
-      if (!f.is_string()) r.fail(f, "faults", "must be an array of strings such as \"2:disconnect\"");
+      if (!f.is_string())
+        r.fail(f, "faults", "must be an array of strings such as \"2:disconnect\"");
       h->faults.push_back(f.as_string()->get());
     }
   }
@@ -139,8 +146,10 @@ void readHardware(TableReader& r, HardwareConfig* h) {
   }
   const char* usbOnly[] = {"vid", "pid", "modules"};
   const char* simOnly[] = {"socket", "seed", "faults", "dump"};
-  for (const char* key : h->kind == "sim" ? std::span<const char* const>(usbOnly) : std::span<const char* const>(simOnly)) {
-    if (const toml::node* n = r.find(key)) r.fail(*n, key, fmt::format("does not apply to kind = \"{}\"", h->kind));
+  for (const char* key : h->kind == "sim" ? std::span<const char* const>(usbOnly)
+                                          : std::span<const char* const>(simOnly)) {
+    if (const toml::node* n = r.find(key))
+      r.fail(*n, key, fmt::format("does not apply to kind = \"{}\"", h->kind));
   }
   if (h->kind == "usb") {
     for (const char* key : {"vid", "pid"}) {
@@ -159,7 +168,8 @@ void readCalibration(TableReader& r, CalibrationConfig* c) {
 
 void readScene(TableReader& r, SceneConfig* s) {
   r.readString("script", &s->script);
-  if (const toml::node* n = r.find("script"); n && s->script.empty()) r.fail(*n, "script", "must not be empty");
+  if (const toml::node* n = r.find("script"); n && s->script.empty())
+    r.fail(*n, "script", "must not be empty");
   r.readNumber("fps", &s->fps, 0.1, 240.0);
   if (const toml::table* p = r.subTable("parameters")) {
     TableReader params(*p, r.file(), "scene.parameters.");
@@ -176,9 +186,11 @@ void readDaemon(TableReader& r, DaemonConfig* c) {
   r.readString("socket", &c->controlSocket);
   r.readString("cache_dir", &c->cacheDir);
   r.readString("log_level", &c->logLevel);
-  static const std::set<std::string> kLevels = {"trace", "debug", "info", "warn", "error", "critical", "off"};
+  static const std::set<std::string> kLevels = {"trace", "debug",    "info", "warn",
+                                                "error", "critical", "off"};
   if (!kLevels.count(c->logLevel)) {
-    r.fail(*r.find("log_level"), "log_level", "must be trace, debug, info, warn, error, critical or off");
+    r.fail(*r.find("log_level"), "log_level",
+           "must be trace, debug, info, warn, error, critical or off");
   }
   if (c->controlSocket.size() > 100) {
     r.fail(*r.find("socket"), "socket", "a Unix socket path must be shorter than 100 bytes");
@@ -192,18 +204,23 @@ void DaemonConfig::validate() const {
   auto require = [](bool ok, const char* key, const std::string& why) {
     if (!ok) throw InputError({"", key, 0}, why);
   };
-  require(!display.file.empty() || isBuiltInDisplay(display.preset), "display.preset", "must be default or demo");
+  require(!display.file.empty() || isBuiltInDisplay(display.preset), "display.preset",
+          "must be default or demo");
   require(hardware.kind == "sim" || hardware.kind == "usb", "hardware.kind", "must be sim or usb");
-  require(hardware.kind != "usb" || (hardware.vid > 0 && hardware.pid > 0), "hardware.vid", "usb needs vid and pid");
+  require(hardware.kind != "usb" || (hardware.vid > 0 && hardware.pid > 0), "hardware.vid",
+          "usb needs vid and pid");
   require(scene.fps > 0.0 && scene.fps <= 240.0, "scene.fps", "must be in (0, 240]");
   require(!scene.script.empty(), "scene.script", "must not be empty");
-  require(controlSocketPath().size() < 100, "daemon.socket", "a Unix socket path must be shorter than 100 bytes");
+  require(controlSocketPath().size() < 100, "daemon.socket",
+          "a Unix socket path must be shorter than 100 bytes");
 }
 
 std::string DaemonConfig::controlSocketPath() const {
   return controlSocket.empty() ? defaultControlSocketPath() : controlSocket;
 }
-std::string DaemonConfig::cacheDirPath() const { return cacheDir.empty() ? defaultCacheDir() : cacheDir; }
+std::string DaemonConfig::cacheDirPath() const {
+  return cacheDir.empty() ? defaultCacheDir() : cacheDir;
+}
 std::string DaemonConfig::calibrationFilePath() const {
   return calibration.file.empty() ? cacheDirPath() + "/calibration.json" : calibration.file;
 }
@@ -213,7 +230,8 @@ DaemonConfig parseDaemonConfig(const std::string& text, const std::string& name)
   try {
     root = toml::parse(text, name);
   } catch (const toml::parse_error& e) {
-    throw InputError({name, "", static_cast<int>(e.source().begin.line)}, std::string(e.description()));
+    throw InputError({name, "", static_cast<int>(e.source().begin.line)},
+                     std::string(e.description()));
   }
   DaemonConfig config;
   config.sourceFile = name;
@@ -273,10 +291,13 @@ std::string linkSpecOf(const HardwareConfig& hardware, int modules) {
   std::vector<std::string> serials(static_cast<size_t>(modules));
   for (const auto& [serial, module] : hardware.serialToModule) {
     if (module >= modules) {
-      throw InputError({"", "hardware.modules." + serial, 0}, fmt::format("module {} does not exist (0..{})", module, modules - 1));
+      throw InputError({"", "hardware.modules." + serial, 0},
+                       fmt::format("module {} does not exist (0..{})", module, modules - 1));
     }
     if (!serials[static_cast<size_t>(module)].empty()) {
-      throw InputError({"", "hardware.modules." + serial, 0}, fmt::format("module {} is also {}", module, serials[static_cast<size_t>(module)]));
+      throw InputError(
+          {"", "hardware.modules." + serial, 0},
+          fmt::format("module {} is also {}", module, serials[static_cast<size_t>(module)]));
     }
     serials[static_cast<size_t>(module)] = serial;
   }
@@ -297,8 +318,10 @@ std::string defaultControlSocketPath() {
 }
 
 std::string defaultCacheDir() {
-  if (const char* cache = std::getenv("XDG_CACHE_HOME"); cache && *cache) return std::string(cache) + "/parallax";
-  if (const char* home = std::getenv("HOME"); home && *home) return std::string(home) + "/.cache/parallax";
+  if (const char* cache = std::getenv("XDG_CACHE_HOME"); cache && *cache)
+    return std::string(cache) + "/parallax";
+  if (const char* home = std::getenv("HOME"); home && *home)
+    return std::string(home) + "/.cache/parallax";
   return fmt::format("/tmp/parallax-{}/cache", ::getuid());
 }
 

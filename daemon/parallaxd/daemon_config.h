@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "calibration/display_model.h"
+#include "calibration/display/display_model.h"
 #include "common/input_error.h"
 
 namespace parallax::daemon {
@@ -31,18 +31,18 @@ struct DisplayConfig {
 };
 
 struct HardwareConfig {
-  std::string kind = "sim";  // "sim" or "usb"
-  std::string socket;        // sim: empty → start our own parallax-simhw
-  int seed = 7;              // our own simulator's ground-truth seed
+  std::string kind = "sim";         // "sim" or "usb"
+  std::string socket;               // sim: empty → start our own parallax-simhw
+  int seed = 7;                     // our own simulator's ground-truth seed
   std::vector<std::string> faults;  // our own simulator: parallax-simhw --fault specs (tests)
   std::string dump;                 // our own simulator: where it saves what the modules show
-  int vid = 0, pid = 0;      // usb
+  int vid = 0, pid = 0;             // usb
   std::map<std::string, int> serialToModule;  // usb
 };
 
 struct CalibrationConfig {
-  std::string file;    // the installed calibration (empty: in cache_dir)
-  std::string camera;  // camera metadata (intrinsics, tape-measured stations)
+  std::string file;           // the installed calibration (empty: in cache_dir)
+  std::string camera;         // camera metadata (intrinsics, tape-measured stations)
   bool autoCalibrate = true;  // calibrate at start when there is no valid calibration
 };
 

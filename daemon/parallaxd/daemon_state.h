@@ -13,7 +13,16 @@
 
 namespace parallax::daemon {
 
-enum class DaemonState { kStarting, kCalibrating, kRegenerating, kLoading, kPlaying, kPaused, kError, kStopping };
+enum class DaemonState {
+  kStarting,
+  kCalibrating,
+  kRegenerating,
+  kLoading,
+  kPlaying,
+  kPaused,
+  kError,
+  kStopping
+};
 
 std::string_view daemonStateName(DaemonState state);
 

@@ -67,8 +67,9 @@ Frame identifyFrame(int width, int height, int moduleIndex, bool mirrored) {
 Frame testCardFrame(int width, int height, int moduleIndex, bool mirrored) {
   Frame f(width, height);
   // Colour bars: white, yellow, cyan, green, magenta, red, blue, black (75% SMPTE order).
-  const std::array<Rgb, 8> bars = {Rgb(0.75f, 0.75f, 0.75f), Rgb(0.75f, 0.75f, 0.0f), Rgb(0.0f, 0.75f, 0.75f),
-                                   Rgb(0.0f, 0.75f, 0.0f),   Rgb(0.75f, 0.0f, 0.75f), Rgb(0.75f, 0.0f, 0.0f),
+  const std::array<Rgb, 8> bars = {Rgb(0.75f, 0.75f, 0.75f), Rgb(0.75f, 0.75f, 0.0f),
+                                   Rgb(0.0f, 0.75f, 0.75f),  Rgb(0.0f, 0.75f, 0.0f),
+                                   Rgb(0.75f, 0.0f, 0.75f),  Rgb(0.75f, 0.0f, 0.0f),
                                    Rgb(0.0f, 0.0f, 0.75f),   Rgb(0.0f, 0.0f, 0.0f)};
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) f.at(x, y) = bars[static_cast<size_t>(x * 8 / width)];

@@ -25,16 +25,20 @@ nlohmann::json LoopStats::toJson() const {
           {"dropped_frames", droppedFrames},
           {"resends_after_reconnect", resendsAfterReconnect},
           {"render_failures", renderFailures},
-          {"timings", {{"render", render.toJson()}, {"encode", encode.toJson()}, {"push", push.toJson()},
-                       {"end_to_end", latency.toJson()}}}};
+          {"timings",
+           {{"render", render.toJson()},
+            {"encode", encode.toJson()},
+            {"push", push.toJson()},
+            {"end_to_end", latency.toJson()}}}};
 }
 
 std::string LoopStats::summary() const {
   return fmt::format(
-      "{} display frames; module frames: {} sent, {} unchanged (not re-sent), {} failed; {} dropped; "
+      "{} display frames; module frames: {} sent, {} unchanged (not re-sent), {} failed; {} "
+      "dropped; "
       "mean ms: render {:.1f}, encode {:.1f}, push {:.1f}, end to end {:.1f}",
-      displayFrames, moduleFramesSent, moduleFramesUnchanged, moduleFramesFailed, droppedFrames, render.meanMs(),
-      encode.meanMs(), push.meanMs(), latency.meanMs());
+      displayFrames, moduleFramesSent, moduleFramesUnchanged, moduleFramesFailed, droppedFrames,
+      render.meanMs(), encode.meanMs(), push.meanMs(), latency.meanMs());
 }
 
 }  // namespace parallax::daemon

@@ -19,11 +19,13 @@ std::shared_ptr<const hw::Image> encodeForLink(const Frame& frame) {
 }
 
 Frame frameShownBy(const hw::Image& image) {
-  if (image.format != hw::PixelFormat::kRgb8) throw std::invalid_argument("frameShownBy: not an RGB8 image");
+  if (image.format != hw::PixelFormat::kRgb8)
+    throw std::invalid_argument("frameShownBy: not an RGB8 image");
   return frameFromSrgb8(image.width, image.height, image.pixels);
 }
 
-DisplayFrame renderDisplayFrame(const PhysicalScene& scene, const std::vector<RayTextures>& textures,
+DisplayFrame renderDisplayFrame(const PhysicalScene& scene,
+                                const std::vector<RayTextures>& textures,
                                 const RenderOptions& options) {
   using Clock = std::chrono::steady_clock;
   DisplayFrame out;

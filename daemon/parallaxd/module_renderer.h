@@ -6,8 +6,8 @@
 #include <memory>
 #include <vector>
 
-#include "calibration/ray_textures.h"
-#include "hw/image.h"
+#include "calibration/display/ray_textures.h"
+#include "hw/link/image.h"
 #include "tracer/frame.h"
 #include "tracer/physical_scene.h"
 #include "tracer/whitted_integrator.h"
@@ -32,7 +32,8 @@ Frame frameShownBy(const hw::Image& image);
 // A module's float frame lives only in a worker's scratch buffer until it is encoded: the
 // display keeps one 8-bit image per module. On `default` (72 modules of 1024×768) that is
 // 170 MB where keeping the float frames too held another 680 MB.
-DisplayFrame renderDisplayFrame(const PhysicalScene& scene, const std::vector<RayTextures>& textures,
+DisplayFrame renderDisplayFrame(const PhysicalScene& scene,
+                                const std::vector<RayTextures>& textures,
                                 const RenderOptions& options);
 
 }  // namespace parallax::daemon

@@ -10,7 +10,6 @@
 // WATCHDOG, RELOADING, STOPPING).
 
 #include <signal.h>
-
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
@@ -36,18 +35,21 @@ using namespace parallax::daemon;
 // One life of the pipeline: simulator (when configured), conductor, control socket and the
 // signal thread, from one config. Returns the config to build it again from when a SIGHUP
 // reload changed what cannot change under a running loop (display, hardware, socket, ...).
-std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& configPath, const sigset_t& signals,
-                                        SystemdNotifier& notifier) {
+std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& configPath,
+                                        const sigset_t& signals, SystemdNotifier& notifier) {
   const parallax::DisplayModel nominal = nominalDisplayOf(config.display);
   std::string linkSpec = linkSpecOf(config.hardware, static_cast<int>(nominal.modules.size()));
   std::unique_ptr<SimhwChild> simulator;
   if (linkSpec.empty()) {
-    const std::string folder = std::filesystem::path(config.controlSocketPath()).parent_path().string();
+    const std::string folder =
+        std::filesystem::path(config.controlSocketPath()).parent_path().string();
     std::filesystem::create_directories(folder);
-    simulator = std::make_unique<SimhwChild>(nominal, config.hardware, folder + "/simhw.sock", config.cacheDirPath());
+    simulator = std::make_unique<SimhwChild>(nominal, config.hardware, folder + "/simhw.sock",
+                                             config.cacheDirPath());
     linkSpec = simulator->linkSpec();
     // What a real installation measures once; the daemon never sees the simulator's truth.
-    if (config.calibration.camera.empty()) config.calibration.camera = simulator->cameraMetadataPath();
+    if (config.calibration.camera.empty())
+      config.calibration.camera = simulator->cameraMetadataPath();
   }
 
   std::atomic<bool> stop{false};
@@ -60,8 +62,9 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
   };
   options.onHeartbeat = [&notifier] { notifier.watchdog(); };
   Conductor conductor(options);
-  auto control = std::make_unique<ControlServer>(config.controlSocketPath(),
-                                                 [&conductor](const nlohmann::json& r) { return conductor.handle(r); });
+  auto control = std::make_unique<ControlServer>(
+      config.controlSocketPath(),
+      [&conductor](const nlohmann::json& r) { return conductor.handle(r); });
 
   std::thread signalThread([&] {
     const timespec tick{0, 200'000'000};
@@ -125,7 +128,8 @@ int main(int argc, char** argv) {
   spdlog::set_default_logger(spdlog::stderr_color_mt("parallaxd"));
   CLI::App app{"parallaxd: calibrates the display, traces the scene, pushes frames to the modules"};
   std::string config;
-  app.add_option("--config", config, "parallax.toml (default: built-in demo display on a simulator)");
+  app.add_option("--config", config,
+                 "parallax.toml (default: built-in demo display on a simulator)");
   try {
     app.parse(argc, argv);
     return run(config);

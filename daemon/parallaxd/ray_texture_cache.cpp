@@ -7,9 +7,9 @@
 #include <cstring>
 #include <filesystem>
 
-#include "calibration/display_model_json.h"
+#include "calibration/display/display_model_json.h"
 #include "common/atomic_file.h"
-#include "hw/content_hash.h"
+#include "hw/link/content_hash.h"
 
 namespace parallax::daemon {
 namespace {
@@ -42,7 +42,8 @@ bool readTextures(const std::string& path, const FileHeader& expected, RayTextur
   bool ok = std::fread(&h, sizeof h, 1, f) == 1 && std::memcmp(&h, &expected, sizeof h) == 0;
   if (ok) {
     std::span<CompactRay> rays = out->rays();
-    ok = std::fread(rays.data(), sizeof(CompactRay), rays.size(), f) == rays.size() && std::fgetc(f) == EOF;
+    ok = std::fread(rays.data(), sizeof(CompactRay), rays.size(), f) == rays.size() &&
+         std::fgetc(f) == EOF;
   }
   std::fclose(f);
   return ok;
@@ -64,15 +65,20 @@ uint64_t displayContentHash(const DisplayModel& model) {
 
 std::string hashHex(uint64_t hash) { return fmt::format("{:016x}", hash); }
 
-std::string RayTextureCache::folderFor(uint64_t hash) const { return directory_ + "/raytex/" + hashHex(hash); }
+std::string RayTextureCache::folderFor(uint64_t hash) const {
+  return directory_ + "/raytex/" + hashHex(hash);
+}
 
-std::vector<RayTextures> RayTextureCache::texturesFor(const DisplayModel& model, RayTextureCacheStats* stats,
-                                                      const std::function<void(int, int)>& progress) const {
+std::vector<RayTextures> RayTextureCache::texturesFor(
+    const DisplayModel& model, RayTextureCacheStats* stats,
+    const std::function<void(int, int)>& progress) const {
   const std::string folder = folderFor(displayContentHash(model));
   std::error_code ec;
   std::filesystem::create_directories(folder, ec);
   const bool canStore = !ec;
-  if (ec) spdlog::warn("ray-texture cache {} unusable ({}): generating without caching", folder, ec.message());
+  if (ec)
+    spdlog::warn("ray-texture cache {} unusable ({}): generating without caching", folder,
+                 ec.message());
   const RayFrame frame = rayFrameOf(model);
   const int total = static_cast<int>(model.modules.size());
   std::vector<RayTextures> all;

@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "calibration/display_model.h"
-#include "calibration/ray_textures.h"
+#include "calibration/display/display_model.h"
+#include "calibration/display/ray_textures.h"
 
 namespace parallax::daemon {
 
@@ -33,7 +33,8 @@ class RayTextureCache {
 
   // Every module's textures for `model`, from the cache where a valid file exists, else
   // generated and stored. `progress(done, total)` is called after each module.
-  std::vector<RayTextures> texturesFor(const DisplayModel& model, RayTextureCacheStats* stats = nullptr,
+  std::vector<RayTextures> texturesFor(const DisplayModel& model,
+                                       RayTextureCacheStats* stats = nullptr,
                                        const std::function<void(int, int)>& progress = {}) const;
 
   std::string folderFor(uint64_t hash) const;

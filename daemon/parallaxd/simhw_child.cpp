@@ -1,32 +1,30 @@
 #include "daemon/parallaxd/simhw_child.h"
 
-#include <algorithm>
-#include <cmath>
-
 #include <fcntl.h>
+#include <fmt/format.h>
 #include <signal.h>
 #include <spawn.h>
+#include <spdlog/spdlog.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
-#include <fmt/format.h>
-#include <spdlog/spdlog.h>
-
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <stdexcept>
 #include <thread>
 
-#include "calibration/calibration_captures.h"
-#include "calibration/camera_truth.h"
-#include "calibration/checkerboard_calibration.h"
-#include "calibration/checkerboard_captures.h"
-#include "calibration/display_model_json.h"
-#include "calibration/ground_truth.h"
-#include "calibration/simulated_session.h"
+#include "calibration/capture/calibration_captures.h"
+#include "calibration/capture/checkerboard_calibration.h"
+#include "calibration/capture/checkerboard_captures.h"
+#include "calibration/display/display_model_json.h"
+#include "calibration/simulation/camera_truth.h"
+#include "calibration/simulation/ground_truth.h"
+#include "calibration/simulation/simulated_session.h"
 
 extern char** environ;
 
@@ -38,18 +36,20 @@ std::string SimhwChild::findBinary() {
   if (ec) throw std::runtime_error("cannot find parallaxd's own path: " + ec.message());
   // Installed side by side, or in the build tree: daemon/parallaxd and hw/parallax-simhw.
   for (const std::filesystem::path& candidate :
-       {self.parent_path() / "parallax-simhw", self.parent_path().parent_path() / "hw" / "parallax-simhw"}) {
+       {self.parent_path() / "parallax-simhw",
+        self.parent_path().parent_path() / "hw" / "parallax-simhw"}) {
     if (::access(candidate.c_str(), X_OK) == 0) return candidate.string();
   }
-  throw std::runtime_error(fmt::format("parallax-simhw not found next to {}: build it or configure [hardware]", self.string()));
+  throw std::runtime_error(fmt::format(
+      "parallax-simhw not found next to {}: build it or configure [hardware]", self.string()));
 }
 
 std::string SimhwChild::folderFor(const std::string& cacheDir, int seed) {
   return fmt::format("{}/simulated-display/seed-{}", cacheDir, seed);
 }
 
-SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardware, const std::string& socketPath,
-                       const std::string& cacheDir)
+SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardware,
+                       const std::string& socketPath, const std::string& cacheDir)
     : socketPath_(socketPath), folder_(folderFor(cacheDir, hardware.seed)) {
   // The seeded truth and camera rig, as `parallax simulate` makes them: a 640×360 camera with
   // the default's field of view at five stations spread over four times the module row's half
@@ -60,11 +60,13 @@ SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardwa
   const DisplayModel truth = makeGroundTruth(nominal, truthOptions);
   CameraRigOptions rig;
   double rowHalfWidth = 0.0;
-  for (const OpticalModule& m : nominal.modules) rowHalfWidth = std::max(rowHalfWidth, std::abs(m.position.x()));
+  for (const OpticalModule& m : nominal.modules)
+    rowHalfWidth = std::max(rowHalfWidth, std::abs(m.position.x()));
   rig.stations = 5;
   rig.spanM = std::max(1.0, 4.0 * rowHalfWidth);
   rig.intrinsics = CameraIntrinsics::centred(640, 360, 2100.0 * 640.0 / 1920.0, -0.04);
-  SimulatedRig camera = makeSimulatedRig(truth, rig, static_cast<std::uint64_t>(hardware.seed) * 7919 + 1);
+  SimulatedRig camera =
+      makeSimulatedRig(truth, rig, static_cast<std::uint64_t>(hardware.seed) * 7919 + 1);
   std::filesystem::create_directories(folder_);
   // The daemon gets what an installer gives it: camera.json with the intrinsics the camera's
   // own checkerboard pictures give (kept beside it), never its truth. The link carries no
@@ -73,20 +75,30 @@ SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardwa
   // (cx 0.56 px off), with 20 0.4–2.3 dB.
   CheckerboardShotOptions shots;
   shots.pictures = 20;
-  const CheckerboardCaptures board = simulateCheckerboardCaptures(camera.truth, CheckerboardBoard{}, shots);
+  const CheckerboardCaptures board =
+      simulateCheckerboardCaptures(camera.truth, CheckerboardBoard{}, shots);
   saveCheckerboardCaptures(board, folder_);
-  const CheckerboardCalibration cameraFit =
-      calibrateFromCheckerboard(board.pictures, board.board, rig.intrinsics.width, rig.intrinsics.height);
+  const CheckerboardCalibration cameraFit = calibrateFromCheckerboard(
+      board.pictures, board.board, rig.intrinsics.width, rig.intrinsics.height);
   camera.metadata.intrinsics = cameraFit.intrinsics;
-  spdlog::info("simulated camera calibrated from {} checkerboard pictures: fx {:.2f} fy {:.2f} cx {:.2f} cy {:.2f} "
-               "k1 {:.4f} k2 {:.4f}, {:.3f} px RMS",
-               cameraFit.used.size(), cameraFit.intrinsics.fx, cameraFit.intrinsics.fy, cameraFit.intrinsics.cx,
-               cameraFit.intrinsics.cy, cameraFit.intrinsics.k1, cameraFit.intrinsics.k2, cameraFit.rmsPx);
+  spdlog::info(
+      "simulated camera calibrated from {} checkerboard pictures: fx {:.2f} fy {:.2f} cx {:.2f} cy "
+      "{:.2f} "
+      "k1 {:.4f} k2 {:.4f}, {:.3f} px RMS",
+      cameraFit.used.size(), cameraFit.intrinsics.fx, cameraFit.intrinsics.fy,
+      cameraFit.intrinsics.cx, cameraFit.intrinsics.cy, cameraFit.intrinsics.k1,
+      cameraFit.intrinsics.k2, cameraFit.rmsPx);
   saveDisplayModel(truth, groundTruthPath());
   saveCameraTruth(camera.truth, folder_ + "/camera_truth.json");
   saveCameraMetadata(camera.metadata, cameraMetadataPath());
 
-  arguments_ = {findBinary(), "--socket", socketPath_, "--truth", groundTruthPath(), "--camera", folder_ + "/camera_truth.json"};
+  arguments_ = {findBinary(),
+                "--socket",
+                socketPath_,
+                "--truth",
+                groundTruthPath(),
+                "--camera",
+                folder_ + "/camera_truth.json"};
   for (const std::string& fault : hardware.faults) {
     arguments_.push_back("--fault");
     arguments_.push_back(fault);
@@ -119,12 +131,14 @@ void SimhwChild::start() {
   posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
   const int rc = ::posix_spawn(&pid_, argv[0], nullptr, &attributes, argv.data(), environ);
   posix_spawnattr_destroy(&attributes);
-  if (rc != 0) throw std::runtime_error(fmt::format("cannot start {}: {}", argv[0], std::strerror(rc)));
+  if (rc != 0)
+    throw std::runtime_error(fmt::format("cannot start {}: {}", argv[0], std::strerror(rc)));
   spdlog::info("simulated display: {} (pid {}) on {}", arguments_[0], pid_, socketPath_);
   // Faults armed at start fire once: a restarted simulator comes back healthy.
   for (size_t i = 0; i + 1 < arguments_.size();) {
     if (arguments_[i] == "--fault") {
-      arguments_.erase(arguments_.begin() + static_cast<long>(i), arguments_.begin() + static_cast<long>(i) + 2);
+      arguments_.erase(arguments_.begin() + static_cast<long>(i),
+                       arguments_.begin() + static_cast<long>(i) + 2);
     } else {
       ++i;
     }
@@ -136,7 +150,8 @@ bool SimhwChild::superviseOnce() {
   int status = 0;
   if (::waitpid(pid_, &status, WNOHANG) != pid_) return false;
   spdlog::warn("simulated display (pid {}) {} {}; starting it again", pid_,
-               WIFSIGNALED(status) ? "died of signal" : "exited with", WIFSIGNALED(status) ? WTERMSIG(status) : WEXITSTATUS(status));
+               WIFSIGNALED(status) ? "died of signal" : "exited with",
+               WIFSIGNALED(status) ? WTERMSIG(status) : WEXITSTATUS(status));
   pid_ = -1;
   ++restarts_;
   start();

@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "calibration/display_model.h"
+#include "calibration/display/display_model.h"
 #include "daemon/parallaxd/daemon_config.h"
 
 namespace parallax::daemon {
@@ -25,8 +25,8 @@ namespace parallax::daemon {
 class SimhwChild {
  public:
   // Throws std::runtime_error when the binary is missing or the child cannot start.
-  SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardware, const std::string& socketPath,
-             const std::string& cacheDir);
+  SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardware,
+             const std::string& socketPath, const std::string& cacheDir);
   ~SimhwChild();
   SimhwChild(const SimhwChild&) = delete;
   SimhwChild& operator=(const SimhwChild&) = delete;

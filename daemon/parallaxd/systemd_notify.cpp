@@ -1,10 +1,9 @@
 #include "daemon/parallaxd/systemd_notify.h"
 
+#include <spdlog/spdlog.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
-
-#include <spdlog/spdlog.h>
 
 #include <cstdlib>
 #include <cstring>
@@ -12,7 +11,8 @@
 namespace parallax::daemon {
 
 SystemdNotifier::SystemdNotifier() {
-  if (const char* path = std::getenv("NOTIFY_SOCKET"); path && *path && std::strlen(path) < sizeof(sockaddr_un{}.sun_path)) {
+  if (const char* path = std::getenv("NOTIFY_SOCKET");
+      path && *path && std::strlen(path) < sizeof(sockaddr_un{}.sun_path)) {
     socketPath_ = path;
   }
   const char* usec = std::getenv("WATCHDOG_USEC");
@@ -30,10 +30,12 @@ bool SystemdNotifier::notify(const std::string& state) const {
   addr.sun_family = AF_UNIX;
   std::memcpy(addr.sun_path, socketPath_.data(), socketPath_.size());
   if (addr.sun_path[0] == '@') addr.sun_path[0] = '\0';  // abstract namespace
-  const socklen_t length = static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + socketPath_.size());
+  const socklen_t length =
+      static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + socketPath_.size());
   const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
   if (fd < 0) return false;
-  const ssize_t sent = ::sendto(fd, state.data(), state.size(), MSG_NOSIGNAL, reinterpret_cast<const sockaddr*>(&addr), length);
+  const ssize_t sent = ::sendto(fd, state.data(), state.size(), MSG_NOSIGNAL,
+                                reinterpret_cast<const sockaddr*>(&addr), length);
   ::close(fd);
   if (sent != static_cast<ssize_t>(state.size())) {
     spdlog::warn("sd_notify: cannot send \"{}\" to {}", state, socketPath_);

@@ -1,5 +1,6 @@
 #include "daemon/report/report.h"
 
+#include <fmt/format.h>
 #include <sys/utsname.h>
 #include <unistd.h>
 
@@ -10,9 +11,7 @@
 #include <fstream>
 #include <thread>
 
-#include <fmt/format.h>
-
-#include "calibration/display_presets.h"
+#include "calibration/display/display_presets.h"
 #include "common/atomic_file.h"
 #include "common/input_error.h"
 
@@ -86,10 +85,13 @@ Report::Report(const ReportOptions& options) : options_(options) {
   display_ = scaleDisplayResolution(resolveDisplay(options_.display), options_.scale);
   module_ = static_cast<int>(display_.modules.size() / 2);
   std::filesystem::create_directories(options_.out);
-  stamp_ = fmt::format("machine: {}; command: `{}`; date: {}", machine(), options_.commandLine, now());
+  stamp_ =
+      fmt::format("machine: {}; command: `{}`; date: {}", machine(), options_.commandLine, now());
 }
 
-std::string Report::path(const std::string& file) const { return (std::filesystem::path(options_.out) / file).string(); }
+std::string Report::path(const std::string& file) const {
+  return (std::filesystem::path(options_.out) / file).string();
+}
 
 void Report::table(const std::string& name, const Table& table) {
   std::ofstream csv(path(name + ".csv"));
@@ -121,9 +123,7 @@ void Report::image(const std::string& file, const std::string& caption) {
   markdown_ << fmt::format("\n![{0}]({1})\n*{0}* — {2}\n", caption, file, stamp_);
 }
 
-void Report::finish() {
-  writeFileAtomically(path("report.md"), markdown_.str());
-}
+void Report::finish() { writeFileAtomically(path("report.md"), markdown_.str()); }
 
 std::string fixed(double value, int decimals) {
   if (!std::isfinite(value)) return value > 0 ? "inf" : (value < 0 ? "-inf" : "nan");
@@ -140,7 +140,8 @@ std::string writeReport(const ReportOptions& options) {
   const DisplayModel& d = report.display();
   report.md() << fmt::format(
       "# Parallax: error against run time\n\n"
-      "Display `{}` ({} modules of {}x{}, transfer {}), module {} for the single-module sections.\n\n{}\n",
+      "Display `{}` ({} modules of {}x{}, transfer {}), module {} for the single-module "
+      "sections.\n\n{}\n",
       report.options().display, d.modules.size(), d.modules[0].width, d.modules[0].height,
       transferName(d.screen.transfer), report.module(), report.stamp());
   writeFig6Section(report);

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "calibration/display_model.h"
+#include "calibration/display/display_model.h"
 #include "daemon/report/svg_plot.h"
 
 namespace parallax::report {
@@ -33,7 +33,7 @@ class Report {
 
   const ReportOptions& options() const { return options_; }
   const DisplayModel& display() const { return display_; }
-  int module() const { return module_; }  // the module the single-module sections use
+  int module() const { return module_; }            // the module the single-module sections use
   std::string path(const std::string& file) const;  // inside the output folder
 
   std::ostringstream& md() { return markdown_; }

@@ -1,8 +1,8 @@
 // Anti-aliasing: samples per pixel against image error (vs a high-sample reference) and time.
 
-#include <cmath>
-
 #include <fmt/format.h>
+
+#include <cmath>
 
 #include "common/progress_bar.h"
 #include "daemon/report/report.h"
@@ -13,14 +13,16 @@ namespace parallax::report {
 namespace {
 
 // RMS and max difference of sRGB-encoded values in [0, 1] over the pixels lit by rays.
-void imageError(const Frame& a, const Frame& b, const RayTextures& textures, double* rms, double* max) {
+void imageError(const Frame& a, const Frame& b, const RayTextures& textures, double* rms,
+                double* max) {
   double sum = 0.0, worst = 0.0;
   long count = 0;
   const std::vector<std::uint8_t> ea = a.toSrgb8(), eb = b.toSrgb8();
   for (size_t i = 0; i < a.pixels.size(); ++i) {
     if (textures.rays()[i].masked()) continue;
     for (size_t k = 0; k < 3; ++k) {
-      const double d = (static_cast<double>(ea[3 * i + k]) - static_cast<double>(eb[3 * i + k])) / 255.0;
+      const double d =
+          (static_cast<double>(ea[3 * i + k]) - static_cast<double>(eb[3 * i + k])) / 255.0;
       sum += d * d;
       worst = std::max(worst, std::abs(d));
     }
@@ -46,23 +48,26 @@ void writeAntialiasingSection(Report& report) {
   options.samplesPerPixel = referenceSamples;
   const Frame reference = renderFrame(scene, display, module, textures, options);
   progress.advance();
-  Table table{{"samples per pixel", "trace ms", "sub-pixel ray generation ms", "RMS error (sRGB)", "max error (sRGB)",
-               "PSNR dB"},
+  Table table{{"samples per pixel", "trace ms", "sub-pixel ray generation ms", "RMS error (sRGB)",
+               "max error (sRGB)", "PSNR dB"},
               {}};
   PlotSeries curve{"cornell", {}, {}, true};
   for (int n : samples) {
     options.samplesPerPixel = n;
     Frame frame;
     SupersampleTimes times, best{1e300, 1e300};
-    timeMs([&] {
-      frame = renderFrame(scene, display, module, textures, options, nullptr, &times);
-      if (times.traceMs < best.traceMs) best = times;
-    }, 200.0, 3);
+    timeMs(
+        [&] {
+          frame = renderFrame(scene, display, module, textures, options, nullptr, &times);
+          if (times.traceMs < best.traceMs) best = times;
+        },
+        200.0, 3);
     double rms = 0.0, max = 0.0;
     imageError(frame, reference, textures, &rms, &max);
-    const double psnr = rms > 0.0 ? -20.0 * std::log10(rms) : std::numeric_limits<double>::infinity();
-    table.rows.push_back({std::to_string(n), fixed(best.traceMs, 1), fixed(best.rayGenerationMs, 1), general(rms),
-                          general(max), rms > 0.0 ? fixed(psnr, 2) : "identical"});
+    const double psnr =
+        rms > 0.0 ? -20.0 * std::log10(rms) : std::numeric_limits<double>::infinity();
+    table.rows.push_back({std::to_string(n), fixed(best.traceMs, 1), fixed(best.rayGenerationMs, 1),
+                          general(rms), general(max), rms > 0.0 ? fixed(psnr, 2) : "identical"});
     curve.x.push_back(best.traceMs);
     curve.y.push_back(rms);
     progress.advance();
@@ -70,10 +75,14 @@ void writeAntialiasingSection(Report& report) {
   progress.finish();
   report.md() << fmt::format(
       "\n## Anti-aliasing\n\n"
-      "The Cornell box on module {}: n×n sub-pixel rays at the stratum centres, from the ray function "
-      "(`RenderOptions::samplesPerPixel`), against a {}-sample reference. Error over the unmasked pixels, "
-      "sRGB-encoded values in [0, 1]. Trace time is the frames' tracing and shading; the sub-pixel ray "
-      "textures are constants of the display (a daemon would cache them), so their generation is listed apart.\n",
+      "The Cornell box on module {}: n×n sub-pixel rays at the stratum centres, from the ray "
+      "function "
+      "(`RenderOptions::samplesPerPixel`), against a {}-sample reference. Error over the unmasked "
+      "pixels, "
+      "sRGB-encoded values in [0, 1]. Trace time is the frames' tracing and shading; the sub-pixel "
+      "ray "
+      "textures are constants of the display (a daemon would cache them), so their generation is "
+      "listed apart.\n",
       module, referenceSamples);
   report.table("antialiasing", table);
   SvgPlot plot;

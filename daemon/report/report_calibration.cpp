@@ -2,16 +2,16 @@
 // camera stations (capture count), on synthetic observations of a seeded ground truth of
 // `demo` (calibration/synthetic_observations.h; bench/calibration_fit_bench.cpp has more axes).
 
+#include <fmt/format.h>
+
 #include <chrono>
 #include <ctime>
 
-#include <fmt/format.h>
-
-#include "calibration/display_fit.h"
-#include "calibration/display_presets.h"
-#include "calibration/ground_truth.h"
-#include "calibration/ray_error.h"
-#include "calibration/synthetic_observations.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/display/ray_error.h"
+#include "calibration/fit/display_fit.h"
+#include "calibration/simulation/ground_truth.h"
+#include "calibration/simulation/synthetic_observations.h"
 #include "common/progress_bar.h"
 #include "daemon/report/report.h"
 
@@ -42,13 +42,21 @@ FitRow fitOnce(const DisplayModel& nominal, const DisplayModel& truth, const Syn
 }
 
 std::vector<std::string> cells(const std::string& value, const FitRow& r) {
-  return {value, std::to_string(r.correspondences), fixed(r.fitSeconds, 2), fixed(r.cpuSeconds, 2),
-          std::to_string(r.iterations), general(r.rays.rmsPx), general(r.rays.maxPx), general(r.rays.rmsScreenMm),
-          general(r.rays.rmsObserverMm), r.passes ? "pass" : "refused"};
+  return {value,
+          std::to_string(r.correspondences),
+          fixed(r.fitSeconds, 2),
+          fixed(r.cpuSeconds, 2),
+          std::to_string(r.iterations),
+          general(r.rays.rmsPx),
+          general(r.rays.maxPx),
+          general(r.rays.rmsScreenMm),
+          general(r.rays.rmsObserverMm),
+          r.passes ? "pass" : "refused"};
 }
 
-const std::vector<std::string> kHeader = {"", "correspondences", "fit wall s", "fit CPU s", "iterations",
-                                          "ray px RMS", "ray px max", "screen mm RMS", "observer mm RMS", "gate"};
+const std::vector<std::string> kHeader = {
+    "",           "correspondences", "fit wall s",    "fit CPU s",       "iterations",
+    "ray px RMS", "ray px max",      "screen mm RMS", "observer mm RMS", "gate"};
 
 }  // namespace
 
@@ -67,9 +75,11 @@ void writeCalibrationSection(Report& report) {
   base.rowStepPx = quick ? 48.0 : 16.0;
   FitOptions fit;
   fit.threads = 2;
-  const std::vector<int> iterations = quick ? std::vector<int>{1, 3, 100} : std::vector<int>{1, 2, 3, 5, 10, 100};
+  const std::vector<int> iterations =
+      quick ? std::vector<int>{1, 3, 100} : std::vector<int>{1, 2, 3, 5, 10, 100};
   const std::vector<int> stations = quick ? std::vector<int>{3, 5} : std::vector<int>{2, 3, 5, 9};
-  ProgressBar progress("calibration", static_cast<std::int64_t>(iterations.size() + stations.size()));
+  ProgressBar progress("calibration",
+                       static_cast<std::int64_t>(iterations.size() + stations.size()));
 
   Table byIterations{kHeader, {}};
   byIterations.header[0] = "max iterations per solve";
@@ -98,10 +108,14 @@ void writeCalibrationSection(Report& report) {
   progress.finish();
   report.md() << fmt::format(
       "\n## Calibration: error against solver time and capture count\n\n"
-      "`fitDisplay` (Ceres, 2 threads) on synthetic observations of a seeded ground truth of `demo` ({} modules, "
-      "seed 2026): {} camera stations over 3.2 m unless varied, 0.3 px camera noise, rows every {:.0f} px. Ray "
-      "error of the fitted model against the truth on a 16 px grid of every module (calibration/ray_error.h). "
-      "The gate is the quality check that decides whether `parallax calibrate` installs a fit. More axes: "
+      "`fitDisplay` (Ceres, 2 threads) on synthetic observations of a seeded ground truth of "
+      "`demo` ({} modules, "
+      "seed 2026): {} camera stations over 3.2 m unless varied, 0.3 px camera noise, rows every "
+      "{:.0f} px. Ray "
+      "error of the fitted model against the truth on a 16 px grid of every module "
+      "(calibration/ray_error.h). "
+      "The gate is the quality check that decides whether `parallax calibrate` installs a fit. "
+      "More axes: "
       "`build/bench/calibration_fit_bench`.\n",
       nominal.modules.size(), base.rig.stations, base.rowStepPx);
   report.table("calibration_iterations", byIterations);

@@ -1,10 +1,10 @@
 // Error against run time: the rasterizer at tessellation levels 0..5 (linear and
 // perspective-correct) and the ray tracer, on the xyz triangle and the three paper scenes.
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <memory>
-
-#include <fmt/format.h>
 
 #include "common/progress_bar.h"
 #include "daemon/report/report.h"
@@ -58,15 +58,24 @@ void writeErrorVsTimeSection(Report& report) {
 
   report.md() << fmt::format(
       "\n## Error against run time\n\n"
-      "Module {} of `{}`. Error: world position of what each pixel shows against the exact answer (the pixel "
-      "centre's ray from the ray function in double precision, met with the plane of the triangle the tracer "
-      "found), over the pixels both cover: in physical mm and in module pixels (the forward map of the shown "
-      "point against the pixel centre; taken on up to 20,000 pixels a frame). `coverage mismatch` counts pixels "
-      "that show a surface in one and not the other (silhouettes). Time: wall-clock ms for one frame, best of "
-      "up to 5 runs, on all cores: the rasterizer's includes projecting every vertex through the forward map "
-      "(a Newton solve per vertex under `conical`), scan conversion and its direct shading (`of which projection ms`: the projection alone, last run); the tracer's is the "
-      "full Whitted frame (`renderFrame`) and, as `tracer (depth 1)`, primary rays with shadow rays only. The "
-      "rasterizer cannot trace mirrors and glass (direct shading only), so times compare unequal work: the "
+      "Module {} of `{}`. Error: world position of what each pixel shows against the exact answer "
+      "(the pixel "
+      "centre's ray from the ray function in double precision, met with the plane of the triangle "
+      "the tracer "
+      "found), over the pixels both cover: in physical mm and in module pixels (the forward map of "
+      "the shown "
+      "point against the pixel centre; taken on up to 20,000 pixels a frame). `coverage mismatch` "
+      "counts pixels "
+      "that show a surface in one and not the other (silhouettes). Time: wall-clock ms for one "
+      "frame, best of "
+      "up to 5 runs, on all cores: the rasterizer's includes projecting every vertex through the "
+      "forward map "
+      "(a Newton solve per vertex under `conical`), scan conversion and its direct shading (`of "
+      "which projection ms`: the projection alone, last run); the tracer's is the "
+      "full Whitted frame (`renderFrame`) and, as `tracer (depth 1)`, primary rays with shadow "
+      "rays only. The "
+      "rasterizer cannot trace mirrors and glass (direct shading only), so times compare unequal "
+      "work: the "
       "tracer does more.\n",
       module, report.options().display);
 
@@ -75,11 +84,13 @@ void writeErrorVsTimeSection(Report& report) {
   const Rasterizer rasterizer(display, module);
   std::vector<Row> rows;
   std::vector<std::string> notes;
-  ProgressBar progress("error vs time", static_cast<std::int64_t>(names.size()) * (2 * (maxLevel + 1) + 2));
+  ProgressBar progress("error vs time",
+                       static_cast<std::int64_t>(names.size()) * (2 * (maxLevel + 1) + 2));
   for (const std::string& name : names) {
     std::unique_ptr<PhysicalScene> scene;
     try {
-      const Scene source = name == "xyz" ? makeXyzTriangleScene() : loadSceneArgument(name, {}, 0.0);
+      const Scene source =
+          name == "xyz" ? makeXyzTriangleScene() : loadSceneArgument(name, {}, 0.0);
       scene = std::make_unique<PhysicalScene>(source, display.displayableBox);
     } catch (const std::exception& e) {
       notes.push_back(fmt::format("scene `{}` left out: {}", name, e.what()));
@@ -89,7 +100,8 @@ void writeErrorVsTimeSection(Report& report) {
     const VisibilityBuffer traced = tracePrimaryVisibility(*scene, textures);
     const ExactSurface exact = exactSurface(*scene, display, module, traced);
     long sourceTriangles = 0;
-    for (const PhysicalMesh& m : scene->meshes()) sourceTriangles += static_cast<long>(m.triangles.size());
+    for (const PhysicalMesh& m : scene->meshes())
+      sourceTriangles += static_cast<long>(m.triangles.size());
 
     Row tracer;
     tracer.scene = name;
@@ -108,9 +120,10 @@ void writeErrorVsTimeSection(Report& report) {
       for (int level = 0; level <= maxLevel; ++level) {
         progress.advance();
         if (sourceTriangles * (1L << (2 * level)) > triangleBudget) {
-          notes.push_back(fmt::format("`{}` rasterizer {} level {} left out: {} triangles over the budget of {}", name,
-                                      interpolationName(mode), level, sourceTriangles * (1L << (2 * level)),
-                                      triangleBudget));
+          notes.push_back(fmt::format(
+              "`{}` rasterizer {} level {} left out: {} triangles over the budget of {}", name,
+              interpolationName(mode), level, sourceTriangles * (1L << (2 * level)),
+              triangleBudget));
           continue;
         }
         RasterOptions options;
@@ -122,10 +135,12 @@ void writeErrorVsTimeSection(Report& report) {
         row.level = level;
         RasterCounters counters;
         VisibilityBuffer visibility;
-        row.ms = timeMs([&] {
-          visibility = rasterizer.rasterize(*scene, textures, options, &counters);
-          shadeDirect(*scene, visibility, textures);
-        }, quick ? 100.0 : 300.0, quick ? 3 : 5);
+        row.ms = timeMs(
+            [&] {
+              visibility = rasterizer.rasterize(*scene, textures, options, &counters);
+              shadeDirect(*scene, visibility, textures);
+            },
+            quick ? 100.0 : 300.0, quick ? 3 : 5);
         row.error = positionError(*scene, visibility, exact, forwardMap);
         row.triangles = counters.drawnTriangles;
         row.projectMs = counters.projectMs;
@@ -137,11 +152,13 @@ void writeErrorVsTimeSection(Report& report) {
     rows.push_back(shallow);
 
     SvgPlot plot;
-    plot.title = fmt::format("{}: position error against time (module {} of {})", name, module, report.options().display);
+    plot.title = fmt::format("{}: position error against time (module {} of {})", name, module,
+                             report.options().display);
     plot.xLabel = "ms / frame";
     plot.yLabel = "RMS position error (mm, physical)";
     plot.logX = plot.logY = true;
-    for (const char* method : {"raster linear", "raster perspective", "tracer", "tracer (depth 1)"}) {
+    for (const char* method :
+         {"raster linear", "raster perspective", "tracer", "tracer (depth 1)"}) {
       PlotSeries s;
       s.label = method;
       s.lines = std::string(method).rfind("raster", 0) == 0;
@@ -156,8 +173,9 @@ void writeErrorVsTimeSection(Report& report) {
     report.figure("error_vs_time_" + name, plot);
   }
   progress.finish();
-  Table table{{"scene", "method", "level", "ms/frame", "of which projection ms", "RMS mm", "max mm", "RMS px", "max px", "pixels compared",
-               "coverage mismatch", "triangles drawn", "failed vertices"},
+  Table table{{"scene", "method", "level", "ms/frame", "of which projection ms", "RMS mm", "max mm",
+               "RMS px", "max px", "pixels compared", "coverage mismatch", "triangles drawn",
+               "failed vertices"},
               {}};
   for (const Row& r : rows) table.rows.push_back(cells(r));
   report.table("error_vs_time", table);

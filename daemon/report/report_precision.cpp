@@ -1,6 +1,7 @@
 // Ray-texture precision: float32 vs float16 vs the compact 12-byte form, error against memory
 // and time.
 
+#include <fmt/format.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -8,9 +9,7 @@
 #include <functional>
 #include <limits>
 
-#include <fmt/format.h>
-
-#include "calibration/ray_function.h"
+#include "calibration/display/ray_function.h"
 #include "common/progress_bar.h"
 #include "daemon/report/report.h"
 #include "scripts/scene_argument.h"
@@ -30,27 +29,31 @@ struct Format {
   std::function<bool(size_t pixel, Eigen::Vector3f* origin, Eigen::Vector3f* direction)> decode;
 };
 
-VisibilityBuffer traceDecoded(const PhysicalScene& scene, int width, int height, const Format& format) {
+VisibilityBuffer traceDecoded(const PhysicalScene& scene, int width, int height,
+                              const Format& format) {
   VisibilityBuffer out(width, height);
-  tbb::parallel_for(tbb::blocked_range<int>(0, height, 8), [&](const tbb::blocked_range<int>& rows) {
-    std::vector<RTCRayHit> rays;
-    std::vector<size_t> pixels;
-    for (int row = rows.begin(); row < rows.end(); ++row) {
-      for (int column = 0; column < width; ++column) {
-        const size_t pixel = static_cast<size_t>(row) * static_cast<size_t>(width) + static_cast<size_t>(column);
-        Eigen::Vector3f o, d;
-        if (!format.decode(pixel, &o, &d)) continue;
-        rays.push_back(makeRayHit(o, d));
-        pixels.push_back(pixel);
-      }
-    }
-    intersectBatch(scene.handle(), rays, Traversal::kStream, true);
-    for (size_t i = 0; i < rays.size(); ++i) {
-      const RTCRayHit& h = rays[i];
-      if (h.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
-      out.samples[pixels[i]] = {static_cast<int>(h.hit.geomID), static_cast<int>(h.hit.primID), h.hit.u, h.hit.v};
-    }
-  });
+  tbb::parallel_for(
+      tbb::blocked_range<int>(0, height, 8), [&](const tbb::blocked_range<int>& rows) {
+        std::vector<RTCRayHit> rays;
+        std::vector<size_t> pixels;
+        for (int row = rows.begin(); row < rows.end(); ++row) {
+          for (int column = 0; column < width; ++column) {
+            const size_t pixel =
+                static_cast<size_t>(row) * static_cast<size_t>(width) + static_cast<size_t>(column);
+            Eigen::Vector3f o, d;
+            if (!format.decode(pixel, &o, &d)) continue;
+            rays.push_back(makeRayHit(o, d));
+            pixels.push_back(pixel);
+          }
+        }
+        intersectBatch(scene.handle(), rays, Traversal::kStream, true);
+        for (size_t i = 0; i < rays.size(); ++i) {
+          const RTCRayHit& h = rays[i];
+          if (h.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+          out.samples[pixels[i]] = {static_cast<int>(h.hit.geomID), static_cast<int>(h.hit.primID),
+                                    h.hit.u, h.hit.v};
+        }
+      });
   return out;
 }
 
@@ -70,8 +73,8 @@ void writePrecisionSection(Report& report) {
   const RayFunction rayFunction(display, module);
   tbb::parallel_for(0, m.height, [&](int row) {
     for (int column = 0; column < m.width; ++column) {
-      exactRays[static_cast<size_t>(row) * static_cast<size_t>(m.width) + static_cast<size_t>(column)] =
-          rayFunction.atPixel(column, row);
+      exactRays[static_cast<size_t>(row) * static_cast<size_t>(m.width) +
+                static_cast<size_t>(column)] = rayFunction.atPixel(column, row);
     }
   });
   std::vector<float> full32(6 * pixels, std::numeric_limits<float>::quiet_NaN());
@@ -101,7 +104,8 @@ void writePrecisionSection(Report& report) {
   };
   const std::vector<Format> formats = {
       {"float32 origin + direction", 24, fromFull([&](size_t k) { return full32[k]; })},
-      {"float16 origin + direction", 12, fromFull([&](size_t k) { return static_cast<float>(full16[k]); })},
+      {"float16 origin + direction", 12,
+       fromFull([&](size_t k) { return static_cast<float>(full16[k]); })},
       {"compact float32 (o.x, s.x, s.y)", 12,
        [&](size_t i, Eigen::Vector3f* o, Eigen::Vector3f* d) {
          const CompactRay& r = compact.rays()[i];
@@ -112,7 +116,8 @@ void writePrecisionSection(Report& report) {
        }},
       {"compact float16 (o.x, s.x, s.y)", 6,
        [&](size_t i, Eigen::Vector3f* o, Eigen::Vector3f* d) {
-         const CompactRay r{static_cast<float>(compact16[3 * i]), static_cast<float>(compact16[3 * i + 1]),
+         const CompactRay r{static_cast<float>(compact16[3 * i]),
+                            static_cast<float>(compact16[3 * i + 1]),
                             static_cast<float>(compact16[3 * i + 2])};
          if (r.masked()) return false;
          *o = frame.origin(r);
@@ -123,8 +128,8 @@ void writePrecisionSection(Report& report) {
   const VisibilityBuffer reference = tracePrimaryVisibility(scene, compact);
   const ExactSurface exact = exactSurface(scene, display, module, reference);
   const ForwardMap forwardMap(display, module);
-  Table table{{"format", "bytes/pixel", "MB/module", "MB/display", "decode + primary trace ms", "RMS mm", "max mm",
-               "RMS px", "max px", "coverage mismatch"},
+  Table table{{"format", "bytes/pixel", "MB/module", "MB/display", "decode + primary trace ms",
+               "RMS mm", "max mm", "RMS px", "max px", "coverage mismatch"},
               {}};
   PlotSeries memory{"RMS mm against MB/module", {}, {}, false};
   ProgressBar progress("ray-texture precision", static_cast<std::int64_t>(formats.size()));
@@ -134,8 +139,8 @@ void writePrecisionSection(Report& report) {
     const PositionError e = positionError(scene, v, exact, forwardMap);
     const double mb = static_cast<double>(f.bytesPerPixel) * static_cast<double>(pixels) / 1e6;
     table.rows.push_back({f.name, std::to_string(f.bytesPerPixel), fixed(mb, 2),
-                          fixed(mb * static_cast<double>(display.modules.size()), 1), fixed(ms, 2), general(e.rmsMm),
-                          general(e.maxMm), general(e.rmsPx), general(e.maxPx),
+                          fixed(mb * static_cast<double>(display.modules.size()), 1), fixed(ms, 2),
+                          general(e.rmsMm), general(e.maxMm), general(e.rmsPx), general(e.maxPx),
                           std::to_string(e.candidateOnly + e.exactOnly)});
     memory.x.push_back(mb);
     memory.y.push_back(e.rmsMm);
@@ -144,9 +149,12 @@ void writePrecisionSection(Report& report) {
   progress.finish();
   report.md() << fmt::format(
       "\n## Ray-texture precision\n\n"
-      "Module {}, the Cornell box's primary hits. The exact rays (double) are stored four ways and traced "
-      "back; the error is the hit position against the exact one (as in the error-vs-time table), time the "
-      "decoding of the stored rays plus the primary trace. The compact forms keep o.y, o.z (the observer "
+      "Module {}, the Cornell box's primary hits. The exact rays (double) are stored four ways and "
+      "traced "
+      "back; the error is the hit position against the exact one (as in the error-vs-time table), "
+      "time the "
+      "decoding of the stored rays plus the primary trace. The compact forms keep o.y, o.z (the "
+      "observer "
       "line) and s.z (the sag) exact, so they spend their bits only where rays differ.\n",
       module);
   report.table("ray_texture_precision", table);

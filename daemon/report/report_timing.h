@@ -15,7 +15,8 @@ double timeMs(F&& run, double budgetMs, int maxRuns) {
   for (int i = 0; i < maxRuns && (i == 0 || spent < budgetMs || (i < 3 && best < 1000.0)); ++i) {
     const auto start = std::chrono::steady_clock::now();
     run();
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     best = std::min(best, ms);
     spent += ms;
   }

@@ -1,12 +1,12 @@
 // The screen transfer: `linear` vs `conical` on the same display, row by row: how far apart
 // their rays land at the observer line, and which pixel each would use for the same point.
 
-#include <cmath>
-
 #include <fmt/format.h>
 
-#include "calibration/forward_map.h"
-#include "calibration/ray_function.h"
+#include <cmath>
+
+#include "calibration/display/forward_map.h"
+#include "calibration/display/ray_function.h"
 #include "daemon/report/report.h"
 
 namespace parallax::report {
@@ -24,11 +24,14 @@ void writeTransferSection(Report& report) {
   // module image: the back and front faces of B_P.
   const double zBack = linear.displayableBox.min.z(), zFront = linear.displayableBox.max.z();
 
-  Table table{{"row", "observer-line mm mean", "observer-line mm max", "module px mean (back of B_P)",
-               "module px max (back)", "module px mean (front of B_P)", "module px max (front)", "columns"},
-              {}};
-  PlotSeries meanMm{"observer line: mean mm", {}, {}, true}, maxMm{"observer line: max mm", {}, {}, true};
-  PlotSeries backPx{"module px (back of B_P), max", {}, {}, true}, frontPx{"module px (front of B_P), max", {}, {}, true};
+  Table table{
+      {"row", "observer-line mm mean", "observer-line mm max", "module px mean (back of B_P)",
+       "module px max (back)", "module px mean (front of B_P)", "module px max (front)", "columns"},
+      {}};
+  PlotSeries meanMm{"observer line: mean mm", {}, {}, true},
+      maxMm{"observer line: max mm", {}, {}, true};
+  PlotSeries backPx{"module px (back of B_P), max", {}, {}, true},
+      frontPx{"module px (front of B_P), max", {}, {}, true};
   for (int row = 0; row < m.height; row += rowStep) {
     double sumMm = 0, worstMm = 0, sumBack = 0, worstBack = 0, sumFront = 0, worstFront = 0;
     long count = 0, countBack = 0, countFront = 0;
@@ -43,12 +46,15 @@ void writeTransferSection(Report& report) {
         const ForwardMapResult r = conicalMap.pixelOf(a.origin + t * d);
         if (!r.ok) continue;
         const double px = (r.pixel - Eigen::Vector2d(column + 0.5, row + 0.5)).norm();
-        if (back) sumBack += px, worstBack = std::max(worstBack, px), ++countBack;
-        else sumFront += px, worstFront = std::max(worstFront, px), ++countFront;
+        if (back)
+          sumBack += px, worstBack = std::max(worstBack, px), ++countBack;
+        else
+          sumFront += px, worstFront = std::max(worstFront, px), ++countFront;
       }
     }
     if (count == 0) continue;
-    table.rows.push_back({std::to_string(row), fixed(sumMm / static_cast<double>(count), 2), fixed(worstMm, 2),
+    table.rows.push_back({std::to_string(row), fixed(sumMm / static_cast<double>(count), 2),
+                          fixed(worstMm, 2),
                           countBack ? fixed(sumBack / static_cast<double>(countBack), 3) : "",
                           countBack ? fixed(worstBack, 3) : "",
                           countFront ? fixed(sumFront / static_cast<double>(countFront), 3) : "",
@@ -60,12 +66,18 @@ void writeTransferSection(Report& report) {
   }
   report.md() << fmt::format(
       "\n## Screen transfer: linear against conical\n\n"
-      "Module {} of the same display under both transfers. For every {}th row, over every {}th column: how far "
-      "apart the two rays of the same pixel land on the observer line (|Δo.x|, mm), and, in the module image, "
-      "how far from the pixel the conical display would draw the point the linear model shows there, taken "
-      "where the linear ray crosses the back (z = {:.2f} m) and front (z = {:.2f} m) faces of B_P (module px, "
-      "through the conical forward map). They agree on the row whose module ray already heads for the "
-      "observer line's height. Rows whose module rays all miss the screen (a 4:3 image covering a 16:9 screen's "
+      "Module {} of the same display under both transfers. For every {}th row, over every {}th "
+      "column: how far "
+      "apart the two rays of the same pixel land on the observer line (|Δo.x|, mm), and, in the "
+      "module image, "
+      "how far from the pixel the conical display would draw the point the linear model shows "
+      "there, taken "
+      "where the linear ray crosses the back (z = {:.2f} m) and front (z = {:.2f} m) faces of B_P "
+      "(module px, "
+      "through the conical forward map). They agree on the row whose module ray already heads for "
+      "the "
+      "observer line's height. Rows whose module rays all miss the screen (a 4:3 image covering a "
+      "16:9 screen's "
       "width overshoots its height) are left out.\n",
       module, rowStep, columnStep, zBack, zFront);
   report.table("transfer_linear_vs_conical", table);

@@ -1,12 +1,12 @@
 #include "daemon/report/svg_plot.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <limits>
 #include <sstream>
-
-#include <fmt/format.h>
 
 #include "common/input_error.h"
 
@@ -22,11 +22,20 @@ std::string escape(const std::string& text) {
   std::string out;
   for (char c : text) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -97,31 +106,38 @@ std::string SvgPlot::render() const {
   ay.fit(ys);
   const double plotW = kWidth - kLeft - kRight, plotH = kHeight - kTop - kBottom;
   auto px = [&](double x) { return kLeft + (ax.value(x) - ax.lo) / (ax.hi - ax.lo) * plotW; };
-  auto py = [&](double y) { return kTop + plotH - (ay.value(y) - ay.lo) / (ay.hi - ay.lo) * plotH; };
+  auto py = [&](double y) {
+    return kTop + plotH - (ay.value(y) - ay.lo) / (ay.hi - ay.lo) * plotH;
+  };
   std::ostringstream svg;
-  svg << fmt::format(R"(<svg xmlns="http://www.w3.org/2000/svg" width="{}" height="{}" font-family="sans-serif" font-size="12">)",
-                     kWidth, kHeight)
+  svg << fmt::format(
+             R"(<svg xmlns="http://www.w3.org/2000/svg" width="{}" height="{}" font-family="sans-serif" font-size="12">)",
+             kWidth, kHeight)
       << "\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n";
-  svg << fmt::format("<text x=\"{}\" y=\"22\" font-size=\"15\" text-anchor=\"middle\">{}</text>\n", kWidth / 2,
-                     escape(title));
-  svg << fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>\n", kLeft, kTop,
-                     plotW, plotH);
+  svg << fmt::format("<text x=\"{}\" y=\"22\" font-size=\"15\" text-anchor=\"middle\">{}</text>\n",
+                     kWidth / 2, escape(title));
+  svg << fmt::format(
+      "<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>\n",
+      kLeft, kTop, plotW, plotH);
   for (double t : ax.ticks()) {
     const double x = kLeft + (t - ax.lo) / (ax.hi - ax.lo) * plotW;
-    svg << fmt::format("<line x1=\"{0:.1f}\" y1=\"{1}\" x2=\"{0:.1f}\" y2=\"{2}\" stroke=\"#ddd\"/>"
-                       "<text x=\"{0:.1f}\" y=\"{3}\" text-anchor=\"middle\">{4}</text>\n",
-                       x, kTop, kTop + plotH, kTop + plotH + 16, ax.label(t));
+    svg << fmt::format(
+        "<line x1=\"{0:.1f}\" y1=\"{1}\" x2=\"{0:.1f}\" y2=\"{2}\" stroke=\"#ddd\"/>"
+        "<text x=\"{0:.1f}\" y=\"{3}\" text-anchor=\"middle\">{4}</text>\n",
+        x, kTop, kTop + plotH, kTop + plotH + 16, ax.label(t));
   }
   for (double t : ay.ticks()) {
     const double y = kTop + plotH - (t - ay.lo) / (ay.hi - ay.lo) * plotH;
-    svg << fmt::format("<line x1=\"{1}\" y1=\"{0:.1f}\" x2=\"{2}\" y2=\"{0:.1f}\" stroke=\"#ddd\"/>"
-                       "<text x=\"{3}\" y=\"{4:.1f}\" text-anchor=\"end\">{5}</text>\n",
-                       y, kLeft, kLeft + plotW, kLeft - 6, y + 4, ay.label(t));
+    svg << fmt::format(
+        "<line x1=\"{1}\" y1=\"{0:.1f}\" x2=\"{2}\" y2=\"{0:.1f}\" stroke=\"#ddd\"/>"
+        "<text x=\"{3}\" y=\"{4:.1f}\" text-anchor=\"end\">{5}</text>\n",
+        y, kLeft, kLeft + plotW, kLeft - 6, y + 4, ay.label(t));
   }
-  svg << fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>\n", kLeft + plotW / 2,
-                     kTop + plotH + 36, escape(xLabel + (logX ? " (log)" : "")));
-  svg << fmt::format("<text transform=\"translate(18,{}) rotate(-90)\" text-anchor=\"middle\">{}</text>\n",
-                     kTop + plotH / 2, escape(yLabel + (logY ? " (log)" : "")));
+  svg << fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>\n",
+                     kLeft + plotW / 2, kTop + plotH + 36, escape(xLabel + (logX ? " (log)" : "")));
+  svg << fmt::format(
+      "<text transform=\"translate(18,{}) rotate(-90)\" text-anchor=\"middle\">{}</text>\n",
+      kTop + plotH / 2, escape(yLabel + (logY ? " (log)" : "")));
   for (size_t k = 0; k < series.size(); ++k) {
     const PlotSeries& s = series[k];
     const char* colour = kColours[k % std::size(kColours)];
@@ -130,16 +146,19 @@ std::string SvgPlot::render() const {
       if (!ax.usable(s.x[i]) || !ay.usable(s.y[i])) continue;
       const double x = px(s.x[i]), y = py(s.y[i]);
       path += fmt::format("{}{:.1f},{:.1f} ", path.empty() ? "M" : "L", x, y);
-      svg << fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"3\" fill=\"{}\"/>\n", x, y, colour);
+      svg << fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"3\" fill=\"{}\"/>\n", x, y,
+                         colour);
     }
     if (s.lines && !path.empty()) {
-      svg << fmt::format("<path d=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\"/>\n", path, colour);
+      svg << fmt::format("<path d=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\"/>\n",
+                         path, colour);
     }
     const double ly = kTop + 10 + 18 * static_cast<double>(k);
-    svg << fmt::format("<line x1=\"{0}\" y1=\"{1}\" x2=\"{2}\" y2=\"{1}\" stroke=\"{3}\" stroke-width=\"2\"/>"
-                       "<text x=\"{4}\" y=\"{5}\">{6}</text>\n",
-                       kLeft + plotW + 10, ly, kLeft + plotW + 30, colour, kLeft + plotW + 36, ly + 4,
-                       escape(s.label));
+    svg << fmt::format(
+        "<line x1=\"{0}\" y1=\"{1}\" x2=\"{2}\" y2=\"{1}\" stroke=\"{3}\" stroke-width=\"2\"/>"
+        "<text x=\"{4}\" y=\"{5}\">{6}</text>\n",
+        kLeft + plotW + 10, ly, kLeft + plotW + 30, colour, kLeft + plotW + 36, ly + 4,
+        escape(s.label));
   }
   // The caption may be long: wrap it at ~120 characters a line.
   std::string rest = caption;

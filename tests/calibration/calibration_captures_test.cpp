@@ -2,17 +2,17 @@
 // --captures` reads. The pictures survive the round trip as the camera recorded them (8-bit),
 // and bad folders are refused with the file and field named.
 
+#include "calibration/capture/calibration_captures.h"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
-
 #include <opencv2/imgcodecs.hpp>
 
-#include "calibration/calibration_captures.h"
-#include "calibration/display_presets.h"
-#include "calibration/ground_truth.h"
-#include "calibration/simulated_session.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/simulation/ground_truth.h"
+#include "calibration/simulation/simulated_session.h"
 #include "common/input_error.h"
 
 namespace parallax {
@@ -64,7 +64,9 @@ TEST(CalibrationCaptures, FolderRoundTripKeepsPicturesAndDecodesTheSame) {
     ASSERT_EQ(loaded.stations[i].columnFrames.size(), s.captures.stations[i].columnFrames.size());
     for (size_t f = 0; f < loaded.stations[i].columnFrames.size(); ++f) {
       // Both already hold 8-bit recorded values: the round trip is exact up to float rounding.
-      EXPECT_LT(cv::norm(loaded.stations[i].columnFrames[f], s.captures.stations[i].columnFrames[f], cv::NORM_INF), 1e-5);
+      EXPECT_LT(cv::norm(loaded.stations[i].columnFrames[f], s.captures.stations[i].columnFrames[f],
+                         cv::NORM_INF),
+                1e-5);
     }
   }
   CaptureDecoderOptions decoder;
@@ -93,8 +95,8 @@ TEST(CalibrationCaptures, CheckerboardPicturesTravelWithTheFolderAndCameraJsonHa
   ASSERT_TRUE(loaded.checkerboard);
   ASSERT_EQ(loaded.checkerboard->pictures.size(), 3u);
   for (size_t i = 0; i < 3; ++i) {
-    EXPECT_EQ(cv::norm(loaded.checkerboard->pictures[i].recorded, s.captures.checkerboard->pictures[i].recorded,
-                       cv::NORM_INF),
+    EXPECT_EQ(cv::norm(loaded.checkerboard->pictures[i].recorded,
+                       s.captures.checkerboard->pictures[i].recorded, cv::NORM_INF),
               0.0);
   }
   // Not decodable until the camera is calibrated.
@@ -132,9 +134,11 @@ TEST(CalibrationCaptures, BadFoldersNameTheFileAndField) {
   fs::rename(dir / "moved.png", dir / "set000_c03.png");
   EXPECT_EQ(errorOf(dir.string()), "");
 
-  // patterns.json listing too few pictures, a file outside the folder, a station not in camera.json.
+  // patterns.json listing too few pictures, a file outside the folder, a station not in
+  // camera.json.
   std::ifstream in(dir / "patterns.json");
-  const std::string original((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string original((std::istreambuf_iterator<char>(in)),
+                             std::istreambuf_iterator<char>());
   auto withPatterns = [&](const std::string& from, const std::string& to) {
     std::string text = original;
     const size_t at = text.find(from);

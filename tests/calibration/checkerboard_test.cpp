@@ -4,23 +4,21 @@
 // (checkerboard_calibration.h); bad pictures and folders are refused with the file named.
 
 #include <gtest/gtest.h>
-
 #include <unistd.h>
 
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <functional>
-
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "calibration/calibration_captures.h"
-#include "calibration/checkerboard_calibration.h"
-#include "calibration/checkerboard_captures.h"
-#include "calibration/checkerboard_renderer.h"
-#include "calibration/conventions.h"
+#include "calibration/capture/calibration_captures.h"
+#include "calibration/capture/checkerboard_calibration.h"
+#include "calibration/capture/checkerboard_captures.h"
+#include "calibration/display/conventions.h"
+#include "calibration/simulation/checkerboard_renderer.h"
 #include "common/input_error.h"
 #include "tests/calibration/input_error_message.h"
 
@@ -43,16 +41,19 @@ CameraIntrinsics testCamera() {
   return in;
 }
 
-std::vector<CheckerboardPicture> photograph(const CameraIntrinsics& camera, int count, std::uint64_t seed,
+std::vector<CheckerboardPicture> photograph(const CameraIntrinsics& camera, int count,
+                                            std::uint64_t seed,
                                             std::vector<Eigen::Isometry3d>* posesOut = nullptr) {
   SeededRandom random(seed);
   CheckerboardShotOptions shots;
   shots.pictures = count;
   const auto poses = checkerboardPoses(CheckerboardBoard{}, camera, shots, random);
-  const auto pictures = photographCheckerboard(CheckerboardBoard{}, camera, poses, CameraRenderOptions{}, shots, random);
+  const auto pictures = photographCheckerboard(CheckerboardBoard{}, camera, poses,
+                                               CameraRenderOptions{}, shots, random);
   if (posesOut) *posesOut = poses;
   std::vector<CheckerboardPicture> out;
-  for (size_t i = 0; i < pictures.size(); ++i) out.push_back({"board_" + std::to_string(i) + ".png", pictures[i]});
+  for (size_t i = 0; i < pictures.size(); ++i)
+    out.push_back({"board_" + std::to_string(i) + ".png", pictures[i]});
   return out;
 }
 
@@ -75,14 +76,17 @@ TEST(Checkerboard, DistortionIsOpenCvsWithHalfPixelCentres) {
   const std::vector<double> distortion{in.k1, in.k2, 0.0, 0.0, 0.0};
   SeededRandom random(5);
   std::vector<cv::Point3d> points;
-  for (int i = 0; i < 200; ++i) points.emplace_back(random.uniform(-0.5, 0.5), random.uniform(-0.3, 0.3), random.uniform(0.8, 2.0));
+  for (int i = 0; i < 200; ++i)
+    points.emplace_back(random.uniform(-0.5, 0.5), random.uniform(-0.3, 0.3),
+                        random.uniform(0.8, 2.0));
   std::vector<cv::Point2d> projected;
   cv::projectPoints(points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), k, distortion, projected);
   double worst = 0.0;
   for (size_t i = 0; i < points.size(); ++i) {
     Eigen::Vector2d ours;
     ASSERT_TRUE(in.project({points[i].x, points[i].y, points[i].z}, &ours));
-    worst = std::max(worst, (openCvFromPixel(ours) - Eigen::Vector2d(projected[i].x, projected[i].y)).norm());
+    worst = std::max(
+        worst, (openCvFromPixel(ours) - Eigen::Vector2d(projected[i].x, projected[i].y)).norm());
   }
   EXPECT_LT(worst, 1e-9);
 }
@@ -115,7 +119,8 @@ TEST(Checkerboard, CornersAreFoundWhereTheTrueCameraSeesThem) {
   }
   std::sort(errors.begin(), errors.end());
   const double median = errors[errors.size() / 2], worst = errors.back();
-  std::printf("    corners vs truth: median %.3f px, worst %.3f px over %zu corners\n", median, worst, errors.size());
+  std::printf("    corners vs truth: median %.3f px, worst %.3f px over %zu corners\n", median,
+              worst, errors.size());
   // Measured median 0.041, worst 0.101 px (blur 0.6 px, noise ~1 code, 8-bit, 4 pictures).
   EXPECT_LT(median, 0.08);
   EXPECT_LT(worst, 0.25);
@@ -124,7 +129,8 @@ TEST(Checkerboard, CornersAreFoundWhereTheTrueCameraSeesThem) {
 TEST(Checkerboard, CalibrationRecoversTheCamera) {
   const CameraIntrinsics truth = testCamera();
   const auto pictures = photograph(truth, 12, 21);
-  const CheckerboardCalibration result = calibrateFromCheckerboard(pictures, CheckerboardBoard{}, truth.width, truth.height);
+  const CheckerboardCalibration result =
+      calibrateFromCheckerboard(pictures, CheckerboardBoard{}, truth.width, truth.height);
   std::printf("%s", formatCheckerboardCalibration(result, &truth).c_str());
   // Measured (seed 21): fx +0.15%, fy +0.11%, cx −0.60 px, cy +0.08 px, k1 −0.0027, 0.050 px RMS.
   // OpenCV's own σ for fx is ~0.14% at this resolution (640×360, 12 pictures), over eight
@@ -147,11 +153,13 @@ TEST(Checkerboard, PictureWithoutTheBoardIsSkippedAndNamed) {
   const CameraIntrinsics truth = testCamera();
   auto pictures = photograph(truth, 6, 31);
   pictures.insert(pictures.begin() + 2, emptyPicture(truth, "empty_wall.png"));
-  const CheckerboardCalibration result = calibrateFromCheckerboard(pictures, CheckerboardBoard{}, truth.width, truth.height);
+  const CheckerboardCalibration result =
+      calibrateFromCheckerboard(pictures, CheckerboardBoard{}, truth.width, truth.height);
   ASSERT_EQ(result.skipped.size(), 1u);
   EXPECT_EQ(result.skipped[0], "empty_wall.png");
   EXPECT_EQ(result.used.size(), 6u);
-  EXPECT_NE(formatCheckerboardCalibration(result).find("skipped empty_wall.png"), std::string::npos);
+  EXPECT_NE(formatCheckerboardCalibration(result).find("skipped empty_wall.png"),
+            std::string::npos);
   EXPECT_LT(std::abs(result.intrinsics.fx / truth.fx - 1.0), 0.01);
 }
 
@@ -160,22 +168,25 @@ TEST(Checkerboard, TooFewUsablePicturesIsAClearError) {
   auto pictures = photograph(truth, 2, 41);
   pictures.push_back(emptyPicture(truth, "a.png"));
   pictures.push_back(emptyPicture(truth, "b.png"));
-  const std::string message =
-      inputErrorOf([&] { calibrateFromCheckerboard(pictures, CheckerboardBoard{}, truth.width, truth.height); });
+  const std::string message = inputErrorOf(
+      [&] { calibrateFromCheckerboard(pictures, CheckerboardBoard{}, truth.width, truth.height); });
   EXPECT_NE(message.find("pictures"), std::string::npos) << message;
   EXPECT_NE(message.find("found in 2 of 4"), std::string::npos) << message;
   // A picture of another size is named.
   auto wrong = photograph(truth, 4, 41);
   cv::resize(wrong[1].recorded, wrong[1].recorded, cv::Size(320, 180));
-  const std::string sized = inputErrorOf([&] { calibrateFromCheckerboard(wrong, CheckerboardBoard{}, truth.width, truth.height); });
+  const std::string sized = inputErrorOf(
+      [&] { calibrateFromCheckerboard(wrong, CheckerboardBoard{}, truth.width, truth.height); });
   EXPECT_NE(sized.find("board_1.png"), std::string::npos) << sized;
   EXPECT_NE(sized.find("320x180"), std::string::npos) << sized;
 }
 
 TEST(Checkerboard, SameSeedSameBytes) {
   const CameraIntrinsics truth = testCamera();
-  const auto a = photograph(truth, 2, 51), b = photograph(truth, 2, 51), c = photograph(truth, 2, 52);
-  for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(cv::norm(a[i].recorded, b[i].recorded, cv::NORM_INF), 0.0);
+  const auto a = photograph(truth, 2, 51), b = photograph(truth, 2, 51),
+             c = photograph(truth, 2, 52);
+  for (size_t i = 0; i < a.size(); ++i)
+    EXPECT_EQ(cv::norm(a[i].recorded, b[i].recorded, cv::NORM_INF), 0.0);
   EXPECT_GT(cv::norm(a[0].recorded, c[0].recorded, cv::NORM_INF), 0.0);
 }
 
@@ -193,11 +204,14 @@ TEST(CheckerboardCaptures, FolderRoundTripAndErrorsNameTheFile) {
   const fs::path dir = freshDir("plx-checkerboard");
   saveCheckerboardCaptures(captures, dir.string());
   ASSERT_TRUE(hasCheckerboardCaptures(dir.string()));
-  const CheckerboardCaptures back = loadCheckerboardCaptures(dir.string(), truth.width, truth.height);
+  const CheckerboardCaptures back =
+      loadCheckerboardCaptures(dir.string(), truth.width, truth.height);
   ASSERT_EQ(back.pictures.size(), 4u);
   EXPECT_EQ(back.board.innerColumns, captures.board.innerColumns);
   EXPECT_EQ(back.board.squareM, captures.board.squareM);
-  for (size_t i = 0; i < 4; ++i) EXPECT_EQ(cv::norm(back.pictures[i].recorded, captures.pictures[i].recorded, cv::NORM_INF), 0.0);
+  for (size_t i = 0; i < 4; ++i)
+    EXPECT_EQ(cv::norm(back.pictures[i].recorded, captures.pictures[i].recorded, cv::NORM_INF),
+              0.0);
   EXPECT_NE(back.pictures[2].name.find("checkerboard/board_02.png"), std::string::npos);
 
   // Wrong size for the camera: the picture is named.
@@ -206,25 +220,29 @@ TEST(CheckerboardCaptures, FolderRoundTripAndErrorsNameTheFile) {
   EXPECT_NE(message.find("640x360"), std::string::npos) << message;
   // Unreadable: not an image.
   { std::ofstream(dir / "checkerboard/board_01.png") << "not a png"; }
-  message = inputErrorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
+  message =
+      inputErrorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
   EXPECT_NE(message.find("board_01.png"), std::string::npos) << message;
   EXPECT_NE(message.find("cannot read"), std::string::npos) << message;
   // Missing.
   fs::remove(dir / "checkerboard/board_01.png");
-  message = inputErrorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
+  message =
+      inputErrorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
   EXPECT_NE(message.find("board_01.png"), std::string::npos) << message;
   // A bad board description names checkerboard.json and the field; a path out of the folder too.
   {
     std::ofstream(dir / "checkerboard.json")
         << R"({"format": "parallax-checkerboard", "version": 1, "inner_corners": [9, 1], "square_m": 0.04, "pictures": ["x.png"]})";
   }
-  message = inputErrorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
+  message =
+      inputErrorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
   EXPECT_NE(message.find("checkerboard.json: inner_corners"), std::string::npos) << message;
   {
     std::ofstream(dir / "checkerboard.json")
         << R"({"format": "parallax-checkerboard", "version": 1, "inner_corners": [9, 6], "square_m": 0.04, "pictures": ["../x.png"]})";
   }
-  message = inputErrorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
+  message =
+      inputErrorOf([&] { loadCheckerboardCaptures(dir.string(), truth.width, truth.height); });
   EXPECT_NE(message.find("checkerboard.json: pictures[0]"), std::string::npos) << message;
   fs::remove_all(dir);
 }
@@ -248,12 +266,14 @@ TEST(CheckerboardCaptures, CameraJsonWithoutIntrinsicsNeedsTheBoard) {
   EXPECT_NE(message.find("camera.json: intrinsics.focal_px"), std::string::npos) << message;
   EXPECT_NE(message.find("checkerboard"), std::string::npos) << message;
   // The link path needs known intrinsics too.
-  message = inputErrorOf([&] { requireKnownIntrinsics(back, "camera.json", "calibrating through the link"); });
+  message = inputErrorOf(
+      [&] { requireKnownIntrinsics(back, "camera.json", "calibrating through the link"); });
   EXPECT_NE(message.find("camera.json: intrinsics.focal_px"), std::string::npos) << message;
   // Decoding with unknown intrinsics is refused rather than run on NaN.
   CalibrationCaptures captures;
   captures.camera = back;
-  message = inputErrorOf([&] { decodeCaptures(captures, DisplayModel{}, CaptureDecoderOptions{}); });
+  message =
+      inputErrorOf([&] { decodeCaptures(captures, DisplayModel{}, CaptureDecoderOptions{}); });
   EXPECT_NE(message.find("intrinsics"), std::string::npos) << message;
   fs::remove_all(dir);
 }

@@ -5,8 +5,9 @@
 // Ray errors are compared with the ground truth over each module's whole image, including
 // the parts no camera saw (the fit extrapolates there), so they are larger than the residuals.
 
-#include "calibration/display_fit.h"
+#include "calibration/fit/display_fit.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -14,13 +15,11 @@
 #include <cstdio>
 #include <numbers>
 
-#include <fmt/format.h>
-
-#include "calibration/display_presets.h"
-#include "calibration/ground_truth.h"
-#include "calibration/ray_error.h"
-#include "calibration/seeded_random.h"
-#include "calibration/synthetic_observations.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/display/ray_error.h"
+#include "calibration/simulation/ground_truth.h"
+#include "calibration/simulation/seeded_random.h"
+#include "calibration/simulation/synthetic_observations.h"
 #include "common/input_error.h"
 
 namespace parallax {
@@ -37,9 +36,9 @@ struct Case {
 
 struct Outcome {
   FitResult fit;
-  RayErrorStats rays;                // all observed modules
+  RayErrorStats rays;  // all observed modules
   std::vector<RayErrorStats> perModule;
-  RayErrorStats nominalRays;         // the nominal model's error, for scale
+  RayErrorStats nominalRays;  // the nominal model's error, for scale
   SyntheticCalibration data;
 };
 
@@ -65,7 +64,8 @@ Case demoCase(std::uint64_t seed, std::optional<double> truthCurvature = std::nu
 
 bool finite(const RayErrorStats& s) {
   return std::isfinite(s.rmsPx) && std::isfinite(s.maxPx) && std::isfinite(s.rmsScreenMm) &&
-         std::isfinite(s.maxScreenMm) && std::isfinite(s.rmsObserverMm) && std::isfinite(s.maxObserverMm);
+         std::isfinite(s.maxScreenMm) && std::isfinite(s.rmsObserverMm) &&
+         std::isfinite(s.maxObserverMm);
 }
 
 Outcome run(const std::string& name, const Case& c) {
@@ -78,7 +78,8 @@ Outcome run(const std::string& name, const Case& c) {
   }
   o.nominalRays = totalRayError(compareRays(c.truth, c.nominal));
   std::printf(
-      "STABILITY | %-28s | ray px rms %.4f max %.3f | screen mm rms %.3f max %.3f | observer mm rms "
+      "STABILITY | %-28s | ray px rms %.4f max %.3f | screen mm rms %.3f max %.3f | observer mm "
+      "rms "
       "%.2f max %.2f | k %.5f (true %.5f) | %.2f s, %d it | %s\n",
       name.c_str(), o.rays.rmsPx, o.rays.maxPx, o.rays.rmsScreenMm, o.rays.maxScreenMm,
       o.rays.rmsObserverMm, o.rays.maxObserverMm, o.fit.model.screen.curvature,
@@ -146,7 +147,8 @@ TEST(DisplayFit, LinearTruthFittedAsConicalIsReported) {
   ASSERT_TRUE(o.fit.otherTransferStripeRmsMm.has_value());
   EXPECT_LT(*o.fit.otherTransferStripeRmsMm, 0.2 * o.fit.stripeRmsMm);
   bool said = false;
-  for (const std::string& n : o.fit.notes) said |= n.find("follows the linear transfer") != std::string::npos;
+  for (const std::string& n : o.fit.notes)
+    said |= n.find("follows the linear transfer") != std::string::npos;
   EXPECT_TRUE(said) << "the report must name the transfer that fits";
 }
 
@@ -157,7 +159,8 @@ TEST(DisplayFit, ConicalTruthFittedAsLinearIsReported) {
   EXPECT_TRUE(o.fit.transferMismatch);
   EXPECT_FALSE(o.fit.passesQualityChecks());
   bool said = false;
-  for (const std::string& n : o.fit.notes) said |= n.find("follows the conical transfer") != std::string::npos;
+  for (const std::string& n : o.fit.notes)
+    said |= n.find("follows the conical transfer") != std::string::npos;
   EXPECT_TRUE(said);
 }
 
@@ -219,7 +222,8 @@ TEST(DisplayFit, UnseenModuleIsReportedAndKeptNominal) {
   EXPECT_FALSE(o.fit.modules[3].observed);
   EXPECT_EQ(o.fit.model.modules[3].position, c.nominal.modules[3].position);
   bool said = false;
-  for (const std::string& n : o.fit.notes) said |= n.find("module 3 was not seen") != std::string::npos;
+  for (const std::string& n : o.fit.notes)
+    said |= n.find("module 3 was not seen") != std::string::npos;
   EXPECT_TRUE(said);
   EXPECT_LT(o.rays.rmsPx, 0.1);  // the other modules are unaffected
 }
@@ -239,13 +243,18 @@ TEST(DisplayFit, RefitOfOneModuleHoldsTheOthers) {
   const FitResult fit = fitDisplay(start, data.observations, c.fit);
   for (int m = 0; m < 16; ++m) {
     if (m == 5) continue;
-    EXPECT_EQ(fit.model.modules[static_cast<size_t>(m)].position, c.truth.modules[static_cast<size_t>(m)].position) << m;
-    EXPECT_EQ(fit.model.modules[static_cast<size_t>(m)].fx, c.truth.modules[static_cast<size_t>(m)].fx) << m;
+    EXPECT_EQ(fit.model.modules[static_cast<size_t>(m)].position,
+              c.truth.modules[static_cast<size_t>(m)].position)
+        << m;
+    EXPECT_EQ(fit.model.modules[static_cast<size_t>(m)].fx,
+              c.truth.modules[static_cast<size_t>(m)].fx)
+        << m;
   }
   const std::vector<RayErrorStats> perModule = compareRays(c.truth, fit.model);
   const std::vector<RayErrorStats> before = compareRays(c.truth, start);
-  std::printf("STABILITY | %-28s | module 5 ray px rms %.4f (started at %.2f) | %s\n", "refit of one module",
-              perModule[5].rmsPx, before[5].rmsPx, fit.passesQualityChecks() ? "passes" : "REFUSED");
+  std::printf("STABILITY | %-28s | module 5 ray px rms %.4f (started at %.2f) | %s\n",
+              "refit of one module", perModule[5].rmsPx, before[5].rmsPx,
+              fit.passesQualityChecks() ? "passes" : "REFUSED");
   EXPECT_LT(perModule[5].rmsPx, 0.1);
   EXPECT_GT(before[5].rmsPx, 10.0 * perModule[5].rmsPx);
   EXPECT_TRUE(fit.passesQualityChecks());
@@ -272,7 +281,8 @@ TEST_P(NoiseLevel, RayErrorGrowsWithCameraNoise) {
   for (const ModuleFit& m : o.fit.modules) {
     if (!(m.worstPixelStdDevPx > c.fit.maxPixelStdDevPx)) continue;
     bool said = false;
-    for (const std::string& n : o.fit.notes) said |= n.find(fmt::format("module {}: pixel σ", m.module)) == 0;
+    for (const std::string& n : o.fit.notes)
+      said |= n.find(fmt::format("module {}: pixel σ", m.module)) == 0;
     EXPECT_TRUE(said) << "module " << m.module;
   }
 }
@@ -303,10 +313,14 @@ TEST(DisplayFit, BadStartFiveCentimetresFiveDegrees) {
   c.truth = makeGroundTruth(c.nominal, gt);
   SeededRandom random(99);
   for (OpticalModule& m : c.truth.modules) {
-    const Eigen::Vector3d dir = Eigen::Vector3d(random.normal(), random.normal(), random.normal()).normalized();
-    const Eigen::Vector3d axis = Eigen::Vector3d(random.normal(), random.normal(), random.normal()).normalized();
+    const Eigen::Vector3d dir =
+        Eigen::Vector3d(random.normal(), random.normal(), random.normal()).normalized();
+    const Eigen::Vector3d axis =
+        Eigen::Vector3d(random.normal(), random.normal(), random.normal()).normalized();
     m.position = c.nominal.modules[static_cast<size_t>(m.id)].position + 0.05 * dir;
-    m.orientation = (Eigen::AngleAxisd(5.0 * kDeg, axis) * c.nominal.modules[static_cast<size_t>(m.id)].orientation).normalized();
+    m.orientation = (Eigen::AngleAxisd(5.0 * kDeg, axis) *
+                     c.nominal.modules[static_cast<size_t>(m.id)].orientation)
+                        .normalized();
   }
   c.truth.validate();
   const Outcome o = run("bad start 5 cm 5°", c);
@@ -393,7 +407,8 @@ TEST(DisplayFit, TooFewStationsAreRefusedAtAnyNoise) {
   const Outcome o = run("2 stations, 2 px noise", c);
   EXPECT_FALSE(o.fit.passesQualityChecks());
   bool undetermined = false;
-  for (const Deficiency& d : o.fit.deficiencies) undetermined |= d.state == Conditioning::kUndetermined;
+  for (const Deficiency& d : o.fit.deficiencies)
+    undetermined |= d.state == Conditioning::kUndetermined;
   EXPECT_TRUE(undetermined);
 }
 
@@ -407,7 +422,8 @@ TEST(DisplayFit, StandardDeviationsMatchTheActualErrors) {
   int n = 0;
   for (size_t m = 0; m < c.truth.modules.size(); ++m) {
     for (int axis = 0; axis < 3; ++axis) {
-      const double err = 1e3 * (o.fit.model.modules[m].position[axis] - c.truth.modules[m].position[axis]);
+      const double err =
+          1e3 * (o.fit.model.modules[m].position[axis] - c.truth.modules[m].position[axis]);
       const double sd = o.fit.modules[m].stdDev[static_cast<size_t>(3 + axis)];
       ASSERT_GT(sd, 0.0);
       sumSq += (err / sd) * (err / sd);

@@ -1,4 +1,4 @@
-#include "calibration/display_model_json.h"
+#include "calibration/display/display_model_json.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <fstream>
 #include <functional>
 
-#include "calibration/display_presets.h"
+#include "calibration/display/display_presets.h"
 #include "common/input_error.h"
 #include "test_displays.h"
 
@@ -83,14 +83,16 @@ TEST_P(DisplayModelJsonErrors, NameTheFieldAndTheReason) {
 INSTANTIATE_TEST_SUITE_P(
     Each, DisplayModelJsonErrors,
     ::testing::Values(
-        BadInput{"missing_key", [](json& j) { j["screen"].erase("height"); }, "screen.height", "missing"},
+        BadInput{"missing_key", [](json& j) { j["screen"].erase("height"); }, "screen.height",
+                 "missing"},
         BadInput{"missing_module_key", [](json& j) { j["modules"][1].erase("focal_px"); },
                  "modules[1].focal_px", "missing"},
         BadInput{"wrong_type", [](json& j) { j["screen"]["width"] = "wide"; }, "screen.width",
                  "must be a number, got string"},
-        BadInput{"wrong_type_mirror", [](json& j) { j["modules"][0]["mirror"] = 1; }, "modules[0].mirror",
-                 "true or false"},
-        BadInput{"infinite", [](json& j) { j["observer"]["z"] = std::numeric_limits<double>::infinity(); },
+        BadInput{"wrong_type_mirror", [](json& j) { j["modules"][0]["mirror"] = 1; },
+                 "modules[0].mirror", "true or false"},
+        BadInput{"infinite",
+                 [](json& j) { j["observer"]["z"] = std::numeric_limits<double>::infinity(); },
                  "observer.z", "finite"},
         BadInput{"nan", [](json& j) { j["modules"][2]["position"][1] = std::nan(""); },
                  "modules[2].position[1]", "finite"},
@@ -100,22 +102,27 @@ INSTANTIATE_TEST_SUITE_P(
                  "modules[0].resolution", "between 1 and"},
         BadInput{"module_in_front", [](json& j) { j["modules"][1]["position"][2] = 0.1; },
                  "modules[1].position", "behind the screen"},
-        BadInput{"non_unit_quaternion", [](json& j) { j["modules"][0]["orientation"] = {1.0, 0.1, 0.0, 0.0}; },
+        BadInput{"non_unit_quaternion",
+                 [](json& j) {
+                   j["modules"][0]["orientation"] = {1.0, 0.1, 0.0, 0.0};
+                 },
                  "modules[0].orientation", "unit length"},
-        BadInput{"zero_focal", [](json& j) { j["modules"][2]["focal_px"][0] = 0.0; }, "modules[2].focal_px",
-                 "non-zero"},
-        BadInput{"folding_screen", [](json& j) { j["screen"]["curvature"] = 1.25; }, "screen.curvature",
-                 "fold"},
-        BadInput{"unknown_version", [](json& j) { j["version"] = 2; }, "version", "unknown version 2"},
+        BadInput{"zero_focal", [](json& j) { j["modules"][2]["focal_px"][0] = 0.0; },
+                 "modules[2].focal_px", "non-zero"},
+        BadInput{"folding_screen", [](json& j) { j["screen"]["curvature"] = 1.25; },
+                 "screen.curvature", "fold"},
+        BadInput{"unknown_version", [](json& j) { j["version"] = 2; }, "version",
+                 "unknown version 2"},
         BadInput{"wrong_format", [](json& j) { j["format"] = "something-else"; }, "format",
                  "parallax-display"},
-        BadInput{"unknown_transfer", [](json& j) { j["screen"]["transfer"] = "magic"; }, "screen.transfer",
-                 "conical"},
+        BadInput{"unknown_transfer", [](json& j) { j["screen"]["transfer"] = "magic"; },
+                 "screen.transfer", "conical"},
         BadInput{"observer_behind", [](json& j) { j["observer"]["z"] = -1.0; }, "observer.z",
                  "in front of the screen"},
-        BadInput{"duplicate_id", [](json& j) { j["modules"][2]["id"] = 0; }, "modules[2].id", "used twice"},
-        BadInput{"empty_box", [](json& j) { j["displayable_box"]["max"][2] = -1.0; }, "displayable_box",
-                 "max must exceed min"}),
+        BadInput{"duplicate_id", [](json& j) { j["modules"][2]["id"] = 0; }, "modules[2].id",
+                 "used twice"},
+        BadInput{"empty_box", [](json& j) { j["displayable_box"]["max"][2] = -1.0; },
+                 "displayable_box", "max must exceed min"}),
     [](const ::testing::TestParamInfo<BadInput>& p) { return p.param.name; });
 
 TEST(DisplayModelJson, SyntaxErrorsNameTheFileAndLine) {
@@ -177,7 +184,8 @@ TEST(DisplayPresets, DefaultAndDemoAreWhatTheDesignSays) {
       for (double x : {-0.8, 0.0, 0.8}) {
         for (double y : {-0.45, 0.45}) {
           Eigen::Vector2d pixel;
-          ASSERT_TRUE(optics.project((model->screen.pointAt(x, y) - m.position).normalized(), &pixel));
+          ASSERT_TRUE(
+              optics.project((model->screen.pointAt(x, y) - m.position).normalized(), &pixel));
           EXPECT_GE(pixel.x(), 0.0);
           EXPECT_LE(pixel.x(), m.width);
           EXPECT_GE(pixel.y(), 0.0);

@@ -2,17 +2,16 @@
 // pixels are exactly those whose module ray misses the screen or whose transfer has no
 // solution, both decided here by independent brute-force searches.
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numbers>
 #include <string>
 
-#include <fmt/format.h>
-
-#include "calibration/forward_map.h"
-#include "calibration/ray_function.h"
-#include "calibration/ray_textures.h"
+#include "calibration/display/forward_map.h"
+#include "calibration/display/ray_function.h"
+#include "calibration/display/ray_textures.h"
 #include "test_displays.h"
 
 namespace parallax {
@@ -22,8 +21,8 @@ enum class Verdict { kHit, kMiss, kAmbiguous };
 
 // Does p + t d cross the screen from behind inside its extent? Marches along the ray over the
 // part whose x lies on the screen, watching the sign of z − sag(x), then bisects.
-Verdict independentScreenHit(const Screen& screen, const Eigen::Vector3d& p, const Eigen::Vector3d& d,
-                             Eigen::Vector3d* hit) {
+Verdict independentScreenHit(const Screen& screen, const Eigen::Vector3d& p,
+                             const Eigen::Vector3d& d, Eigen::Vector3d* hit) {
   const double half = 0.5 * screen.width;
   double t0 = 0.0, t1 = 100.0;  // the ray's span over |x| ≤ W/2 (all of it when d.x = 0)
   if (d.x() != 0.0) {
@@ -52,7 +51,8 @@ Verdict independentScreenHit(const Screen& screen, const Eigen::Vector3d& p, con
       const Eigen::Vector3d x = p + hi * d;
       *hit = x;
       // Too close to an edge to call either way in floating point.
-      if (std::abs(std::abs(x.x()) - half) < 1e-9 || std::abs(std::abs(x.y()) - 0.5 * screen.height) < 1e-9) {
+      if (std::abs(std::abs(x.x()) - half) < 1e-9 ||
+          std::abs(std::abs(x.y()) - 0.5 * screen.height) < 1e-9) {
         return Verdict::kAmbiguous;
       }
       return std::abs(x.y()) <= 0.5 * screen.height ? Verdict::kHit : Verdict::kMiss;
@@ -88,7 +88,10 @@ Verdict independentConeReachesLine(const Screen& screen, const ObserverLine& obs
     double a0 = centre - step, b0 = centre + step;
     for (int k = 0; k < 100; ++k) {
       const double m1 = a0 + 0.382 * (b0 - a0), m2 = a0 + 0.618 * (b0 - a0);
-      if (sign * cosine(m1) > sign * cosine(m2)) b0 = m2; else a0 = m1;
+      if (sign * cosine(m1) > sign * cosine(m2))
+        b0 = m2;
+      else
+        a0 = m1;
     }
     return cosine(0.5 * (a0 + b0));
   };
@@ -114,8 +117,10 @@ DisplayModel makeExtreme(const Extreme& e, ScreenTransfer transfer) {
   DisplayModel model = testing::smallDisplay(e.curvature, transfer, 5, 192, 144);
   model.observer.z = e.observerZ;
   for (OpticalModule& m : model.modules) {
-    m.orientation = (Eigen::AngleAxisd(e.yawDeg * std::numbers::pi / 180.0, Eigen::Vector3d::UnitY()) *
-                     m.orientation).normalized();
+    m.orientation =
+        (Eigen::AngleAxisd(e.yawDeg * std::numbers::pi / 180.0, Eigen::Vector3d::UnitY()) *
+         m.orientation)
+            .normalized();
     if (e.focalPx > 0.0) m.fx = m.fy = e.focalPx;
     m.k1 = -0.05;  // a little barrel distortion exercises the undistortion everywhere
   }
@@ -170,7 +175,8 @@ TEST_P(ExtremeDisplays, NoNanRoundTripAndExactMask) {
             << "): " << rayStatusName(ray.status);
         if (!expectValid) {
           ++masked;
-          ASSERT_EQ(ray.status, onScreen == Verdict::kHit ? RayStatus::kNoTransfer : RayStatus::kMissesScreen);
+          ASSERT_EQ(ray.status,
+                    onScreen == Verdict::kHit ? RayStatus::kNoTransfer : RayStatus::kMissesScreen);
           continue;
         }
         ++valid;
@@ -178,7 +184,8 @@ TEST_P(ExtremeDisplays, NoNanRoundTripAndExactMask) {
         if ((row * 7 + column) % 11 == 0) {
           const Eigen::Vector3d point = ray.origin + 1.1 * (ray.screenPoint - ray.origin);
           const ForwardMapResult back = forward.pixelOf(point);
-          ASSERT_TRUE(back.ok) << extreme.name << " module " << index << " (" << column << ", " << row << ")";
+          ASSERT_TRUE(back.ok) << extreme.name << " module " << index << " (" << column << ", "
+                               << row << ")";
           const double error = (back.pixel - Eigen::Vector2d(column + 0.5, row + 0.5)).norm();
           worstRoundTrip = std::max(worstRoundTrip, error);
           ++roundTrips;
@@ -208,13 +215,14 @@ const Extreme kExtremes[] = {
     {"focal_20000px", 0.3, 0.0, 2.0, 20000.0},
 };
 
-INSTANTIATE_TEST_SUITE_P(
-    Stiff, ExtremeDisplays,
-    ::testing::Combine(::testing::ValuesIn(kExtremes),
-                       ::testing::Values(ScreenTransfer::kConical, ScreenTransfer::kLinear)),
-    [](const auto& p) {
-      return std::get<0>(p.param).name + "_" + transferName(std::get<1>(p.param));
-    });
+INSTANTIATE_TEST_SUITE_P(Stiff, ExtremeDisplays,
+                         ::testing::Combine(::testing::ValuesIn(kExtremes),
+                                            ::testing::Values(ScreenTransfer::kConical,
+                                                              ScreenTransfer::kLinear)),
+                         [](const auto& p) {
+                           return std::get<0>(p.param).name + "_" +
+                                  transferName(std::get<1>(p.param));
+                         });
 
 }  // namespace
 }  // namespace parallax

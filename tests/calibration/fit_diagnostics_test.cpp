@@ -1,7 +1,8 @@
-#include "calibration/fit_diagnostics.h"
+#include "calibration/fit/fit_diagnostics.h"
+
+#include <gtest/gtest.h>
 
 #include <Eigen/LU>
-#include <gtest/gtest.h>
 
 namespace parallax {
 namespace {

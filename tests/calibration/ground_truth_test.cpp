@@ -1,13 +1,13 @@
-#include "calibration/ground_truth.h"
+#include "calibration/simulation/ground_truth.h"
 
 #include <gtest/gtest.h>
 
 #include <numbers>
 
-#include "calibration/display_model_json.h"
-#include "calibration/display_presets.h"
-#include "calibration/seeded_random.h"
-#include "calibration/synthetic_observations.h"
+#include "calibration/display/display_model_json.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/simulation/seeded_random.h"
+#include "calibration/simulation/synthetic_observations.h"
 #include "common/input_error.h"
 
 namespace parallax {
@@ -77,7 +77,8 @@ TEST(SyntheticObservations, StripesAreNarrowAndDeterministic) {
   const SyntheticCalibration a = simulateObservations(truth, options);
   const SyntheticCalibration b = simulateObservations(truth, options);
   ASSERT_EQ(a.observations.correspondences.size(), b.observations.correspondences.size());
-  EXPECT_EQ(a.observations.correspondences.back().cameraPx, b.observations.correspondences.back().cameraPx);
+  EXPECT_EQ(a.observations.correspondences.back().cameraPx,
+            b.observations.correspondences.back().cameraPx);
   // From one station a module is seen only within half the diffusion width of its stripe:
   // its correspondences span a narrow range of module columns in any one row band.
   for (const Correspondence& c : a.observations.correspondences) {
@@ -88,8 +89,8 @@ TEST(SyntheticObservations, StripesAreNarrowAndDeterministic) {
     double t;
     Eigen::Vector3d s;
     ASSERT_TRUE(truth.screen.intersect(m.position, d, &t, &s));
-    const double angle = stripeAngle(truth.screen, s, m.position,
-                                     a.truePoses[static_cast<size_t>(c.camera)].centre);
+    const double angle =
+        stripeAngle(truth.screen, s, m.position, a.truePoses[static_cast<size_t>(c.camera)].centre);
     EXPECT_LE(std::abs(angle), 0.5 * truth.screen.diffusionDeg * std::numbers::pi / 180.0 + 1e-9);
   }
   // The tape is off from the truth by no more than its stated accuracy.

@@ -6,7 +6,7 @@
 
 #include <cmath>
 
-#include "calibration/ray_function.h"
+#include "calibration/display/ray_function.h"
 
 namespace parallax {
 namespace {
@@ -68,7 +68,8 @@ TEST(HandComputedRays, MatchTheClosedFormForBothTransfers) {
         EXPECT_NEAR(ray.origin.x(), ox, 1e-12);
         EXPECT_EQ(ray.origin.y(), 0.0);
         EXPECT_EQ(ray.origin.z(), 2.0);
-        const Eigen::Vector3d expected = (Eigen::Vector3d(sx, sy, 0.0) - Eigen::Vector3d(ox, 0.0, 2.0)).normalized();
+        const Eigen::Vector3d expected =
+            (Eigen::Vector3d(sx, sy, 0.0) - Eigen::Vector3d(ox, 0.0, 2.0)).normalized();
         EXPECT_LT((ray.direction() - expected).norm(), 1e-12);
         ++compared;
       }

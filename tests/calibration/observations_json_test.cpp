@@ -1,14 +1,14 @@
-#include "calibration/observations_json.h"
+#include "calibration/camera/observations_json.h"
 
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <functional>
 #include <fstream>
+#include <functional>
 
-#include "calibration/display_presets.h"
-#include "calibration/ground_truth.h"
-#include "calibration/synthetic_observations.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/simulation/ground_truth.h"
+#include "calibration/simulation/synthetic_observations.h"
 #include "common/input_error.h"
 #include "tests/calibration/input_error_message.h"
 
@@ -44,16 +44,19 @@ TEST(ObservationsJson, NamesTheBadField) {
   CalibrationObservations o = sample();
   nlohmann::json j = decodedToJson(o);
   j["correspondences"][3][4] = "left";
-  EXPECT_NE(inputErrorOf([&] { decodedFromJson(j, &o); }).find("correspondences[3][4]"), std::string::npos);
+  EXPECT_NE(inputErrorOf([&] { decodedFromJson(j, &o); }).find("correspondences[3][4]"),
+            std::string::npos);
   j = decodedToJson(o);
   j["stripes"][0][0] = -1;
   EXPECT_NE(inputErrorOf([&] { decodedFromJson(j, &o); }).find("stripes[0][0]"), std::string::npos);
   j = decodedToJson(o);
   j["correspondences"][1] = nlohmann::json::array({0, 1});
-  EXPECT_NE(inputErrorOf([&] { decodedFromJson(j, &o); }).find("correspondences[1]"), std::string::npos);
+  EXPECT_NE(inputErrorOf([&] { decodedFromJson(j, &o); }).find("correspondences[1]"),
+            std::string::npos);
   nlohmann::json c = cameraMetadataToJson(o);
   c["intrinsics"]["focal_px"] = {0.0, 100.0};
-  EXPECT_NE(inputErrorOf([&] { cameraMetadataFromJson(c, &o); }).find("intrinsics.focal_px"), std::string::npos);
+  EXPECT_NE(inputErrorOf([&] { cameraMetadataFromJson(c, &o); }).find("intrinsics.focal_px"),
+            std::string::npos);
   c = cameraMetadataToJson(o);
   c["format"] = "parallax-display";
   EXPECT_NE(inputErrorOf([&] { cameraMetadataFromJson(c, &o); }).find("format"), std::string::npos);

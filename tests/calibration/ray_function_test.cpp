@@ -2,17 +2,16 @@
 // observer line, passes through the screen point its module ray lands on, and keeps what its
 // transfer model says it keeps; the forward map inverts it.
 
-#include "calibration/ray_function.h"
+#include "calibration/display/ray_function.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
-#include <fmt/format.h>
-
-#include "calibration/forward_map.h"
-#include "calibration/screen_transfer.h"
+#include "calibration/display/forward_map.h"
+#include "calibration/display/screen_transfer.h"
 #include "test_displays.h"
 
 namespace parallax {
@@ -84,7 +83,8 @@ TEST_P(RayFunctionProperties, ForwardMapReturnsThePixelAlongTheRay) {
       for (double lambda : {0.7, 0.9, 1.0, 1.1, 1.3}) {
         const Eigen::Vector3d point = ray.origin + lambda * (ray.screenPoint - ray.origin);
         const ForwardMapResult back = forward.pixelOf(point);
-        ASSERT_TRUE(back.ok) << "module " << index << " pixel " << pixel.transpose() << " λ " << lambda;
+        ASSERT_TRUE(back.ok) << "module " << index << " pixel " << pixel.transpose() << " λ "
+                             << lambda;
         const double error = (back.pixel - pixel).norm();
         ++checked;
         if (error >= 1e-6) {
@@ -92,11 +92,12 @@ TEST_P(RayFunctionProperties, ForwardMapReturnsThePixelAlongTheRay) {
           // screen through two pixels (both rays pass through it): any such pixel is a right
           // answer, a pixel whose ray misses the point is not.
           const PixelRay other = rays.at(back.pixel.x(), back.pixel.y());
-          ASSERT_TRUE(other.valid()) << "module " << index << " pixel " << pixel.transpose() << " λ " << lambda;
+          ASSERT_TRUE(other.valid())
+              << "module " << index << " pixel " << pixel.transpose() << " λ " << lambda;
           const Eigen::Vector3d along = other.direction();
           const double missM = (point - other.origin).cross(along).norm();
-          EXPECT_LT(missM, 1e-9) << "module " << index << " pixel " << pixel.transpose() << " λ " << lambda
-                                 << " → " << back.pixel.transpose();
+          EXPECT_LT(missM, 1e-9) << "module " << index << " pixel " << pixel.transpose() << " λ "
+                                 << lambda << " → " << back.pixel.transpose();
           ++secondImages;
           continue;
         }

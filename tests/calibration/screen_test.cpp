@@ -1,4 +1,4 @@
-#include "calibration/screen.h"
+#include "calibration/display/screen.h"
 
 #include <gtest/gtest.h>
 
@@ -26,7 +26,8 @@ TEST(ScreenSag, CancellationFreeWhereTheNaiveFormLosesAllDigits) {
     const double relative = std::abs(static_cast<double>((sag - reference) / reference));
     worstRelative = std::max(worstRelative, relative);
     const double naive = radius - std::sqrt(radius * radius - x * x);
-    naiveWorst = std::max(naiveWorst, std::abs(static_cast<double>((naive - reference) / reference)));
+    naiveWorst =
+        std::max(naiveWorst, std::abs(static_cast<double>((naive - reference) / reference)));
   }
   // ≤ a few ulp of relative error (ulp = 2.2e-16).
   EXPECT_LE(worstRelative, 4 * std::numeric_limits<double>::epsilon());
@@ -63,7 +64,8 @@ TEST(ScreenIntersect, ExactOnAFlatScreenAndOnTheSurfaceWhenCurved) {
   screen.curvature = 1.0;
   ASSERT_TRUE(screen.intersect({0.1, 0.05, -0.7}, {0.5, -0.1, 1.0}, &t, &hit));
   EXPECT_EQ(hit.z(), screen.sag(hit.x()));
-  EXPECT_NEAR((Eigen::Vector3d(0.1, 0.05, -0.7) + t * Eigen::Vector3d(0.5, -0.1, 1.0) - hit).norm(), 0, 1e-15);
+  EXPECT_NEAR((Eigen::Vector3d(0.1, 0.05, -0.7) + t * Eigen::Vector3d(0.5, -0.1, 1.0) - hit).norm(),
+              0, 1e-15);
 }
 
 TEST(ScreenIntersect, GrazingRaysStayFiniteAndMissCleanly) {

@@ -1,12 +1,12 @@
 // Stripe centres along a camera row (stripe_peak.h): the lobe's peak, not the pixels' centroid,
 // with the neighbours' overlapping lobes taken out.
 
+#include "calibration/capture/stripe_peak.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <vector>
-
-#include "calibration/stripe_peak.h"
 
 namespace parallax {
 namespace {
@@ -14,10 +14,10 @@ namespace {
 // A row seen obliquely: module m's angle at camera x bends (quadratic term), the way an oblique
 // station maps equal angles to unequal pixel runs. Lobes: Gaussian in the true angle.
 struct SyntheticRow {
-  std::vector<double> peakX;   // where each module's angle is zero (the truth)
-  double sigma = 0.072;        // rad (demo's ~10° FWHM)
-  double slope = 0.0075;       // rad per camera px
-  double bend = 2.0e-5;        // rad per px²
+  std::vector<double> peakX;      // where each module's angle is zero (the truth)
+  double sigma = 0.072;           // rad (demo's ~10° FWHM)
+  double slope = 0.0075;          // rad per camera px
+  double bend = 2.0e-5;           // rad per px²
   double predictionOffset = 0.0;  // the nominal's angle error (rad), constant over the row
 
   double angle(int m, double x) const {
@@ -84,7 +84,9 @@ TEST(StripePeak, OverlappingNeighboursAreTakenOutOfEachOthersFlanks) {
   const auto biased = stripePeaksInRow(row, 3, single);
   double worst = 0.0;
   for (int m = 0; m < 3; ++m) {
-    if (biased[static_cast<size_t>(m)]) worst = std::max(worst, std::abs(*biased[static_cast<size_t>(m)] - truth.peakX[static_cast<size_t>(m)]));
+    if (biased[static_cast<size_t>(m)])
+      worst = std::max(
+          worst, std::abs(*biased[static_cast<size_t>(m)] - truth.peakX[static_cast<size_t>(m)]));
   }
   EXPECT_GT(worst, 0.2);
 }
@@ -101,8 +103,11 @@ TEST(StripePeak, FlatNoisyOrEmptyRowsGiveNoCentreAndNoNan) {
   for (int x = 0; x < 50; ++x) flat.push_back({x + 0.5, 0.5, 0, {0.001 * (x - 25)}});
   EXPECT_FALSE(stripePeaksInRow(flat, 1)[0].has_value());  // no peak inside: cut at both ends
   EXPECT_TRUE(stripePeaksInRow({}, 2).size() == 2);
-  std::vector<StripeRowSample> hostile = {{0.5, NAN, 0, {0.0}}, {1.5, 1.0, 0, {INFINITY}}, {2.5, -1.0, 0, {0.0}},
-                                          {3.5, 0.1, 7, {0.0}}, {4.5, 0.1, 0, {}}};
+  std::vector<StripeRowSample> hostile = {{0.5, NAN, 0, {0.0}},
+                                          {1.5, 1.0, 0, {INFINITY}},
+                                          {2.5, -1.0, 0, {0.0}},
+                                          {3.5, 0.1, 7, {0.0}},
+                                          {4.5, 0.1, 0, {}}};
   for (const auto& p : stripePeaksInRow(hostile, 1)) {
     if (p) EXPECT_TRUE(std::isfinite(*p));
   }

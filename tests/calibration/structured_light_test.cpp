@@ -2,15 +2,15 @@
 // ambient, blur, gamma, noise) the decoded module coordinates match where the truth says each
 // camera pixel's light comes from.
 
-#include "calibration/structured_light.h"
+#include "calibration/capture/structured_light.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 
-#include "calibration/camera_renderer.h"
-#include "calibration/display_presets.h"
-#include "calibration/ground_truth.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/simulation/camera_renderer.h"
+#include "calibration/simulation/ground_truth.h"
 
 namespace parallax {
 namespace {
@@ -21,7 +21,8 @@ TEST(StructuredLight, DecodesEveryPixelCentreExactly) {
     const int width = 200, height = 70;
     const auto frames = makePatternFrames(width, height, axis, options);
     const int extent = axis == PatternAxis::kColumns ? width : height;
-    ASSERT_EQ(static_cast<int>(frames.size()), 2 + grayBitCount(extent, options.periodPx) + options.phaseSteps);
+    ASSERT_EQ(static_cast<int>(frames.size()),
+              2 + grayBitCount(extent, options.periodPx) + options.phaseSteps);
     for (int i = 0; i < extent; ++i) {
       std::vector<float> intensities;
       for (const cv::Mat& f : frames) {
@@ -46,7 +47,8 @@ TEST(StructuredLight, ThroughTheSimulatedCameraDecodesWhereTheLightComesFrom) {
   // Demo display, one station at the centre of the observer line, every third module showing
   // its patterns (neighbouring lobes overlap at 1.5× the module pitch; every third one does not).
   const DisplayModel truth = makeGroundTruth(resolveDisplay("demo"), {});
-  const CameraIntrinsics intrinsics = CameraIntrinsics::centred(480, 270, 525.0, -0.05);  // small: a fast test
+  const CameraIntrinsics intrinsics =
+      CameraIntrinsics::centred(480, 270, 525.0, -0.05);  // small: a fast test
   CameraPose pose;
   pose.centre = {0.03, 0.01, 2.0};
   pose.physicalFromCamera = aimCameraAt(pose.centre, Eigen::Vector3d::Zero());
@@ -64,7 +66,8 @@ TEST(StructuredLight, ThroughTheSimulatedCameraDecodesWhereTheLightComesFrom) {
     for (const cv::Mat& pattern : makePatternFrames(mw, mh, axis, sl)) {
       std::vector<cv::Mat> images(truth.modules.size());
       for (int m : group) images[static_cast<size_t>(m)] = pattern;
-      recorded[static_cast<size_t>(a)].push_back(linearFromRecorded(renderFrame(view, images, render, random), render.gamma));
+      recorded[static_cast<size_t>(a)].push_back(
+          linearFromRecorded(renderFrame(view, images, render, random), render.gamma));
     }
   }
 
@@ -77,14 +80,18 @@ TEST(StructuredLight, ThroughTheSimulatedCameraDecodesWhereTheLightComesFrom) {
       float second = 0.0f;
       for (const LobeContribution& c : view.at(x, y)) {
         if (c.module < 0 || c.module % 3 != 0) continue;
-        if (!best) best = &c; else second = std::max(second, c.weight);
+        if (!best)
+          best = &c;
+        else
+          second = std::max(second, c.weight);
       }
       if (!best || best->weight < 0.5f || second > 0.05f * best->weight) continue;
       ++dominated;
       std::optional<double> uv[2];
       for (int a = 0; a < 2; ++a) {
         std::vector<float> intensities;
-        for (const cv::Mat& f : recorded[static_cast<size_t>(a)]) intensities.push_back(f.at<float>(y, x));
+        for (const cv::Mat& f : recorded[static_cast<size_t>(a)])
+          intensities.push_back(f.at<float>(y, x));
         uv[a] = decodePixel(intensities, a == 0 ? mw : mh, sl);
       }
       if (!uv[0] || !uv[1]) continue;
@@ -97,8 +104,10 @@ TEST(StructuredLight, ThroughTheSimulatedCameraDecodesWhereTheLightComesFrom) {
   std::sort(errors.begin(), errors.end());
   const double median = errors[errors.size() / 2];
   const double p95 = errors[errors.size() * 95 / 100];
-  std::printf("    decoded %d of %d lit pixels; module-pixel error median %.3f px, 95th percentile %.3f px\n",
-              decoded, dominated, median, p95);
+  std::printf(
+      "    decoded %d of %d lit pixels; module-pixel error median %.3f px, 95th percentile %.3f "
+      "px\n",
+      decoded, dominated, median, p95);
   // Blur and the camera's coarser sampling (a camera pixel covers ~1 module pixel here) set
   // the floor; a gross Gray-code error would be ≥ one period (16 px).
   EXPECT_LT(median, 0.3);

@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "calibration/display_presets.h"
+#include "calibration/display/display_presets.h"
 
 namespace parallax::testing {
 

@@ -1,4 +1,4 @@
-#include "calibration/world_to_physical.h"
+#include "calibration/display/world_to_physical.h"
 
 #include <gtest/gtest.h>
 
@@ -20,7 +20,8 @@ TEST(WorldToPhysical, UniformScaleCentredInsideTheDisplayableBox) {
     EXPECT_TRUE(displayable.contains(map.point(world.max) - Eigen::Vector3d::Constant(1e-9)));
     // No per-axis stretch: angles are kept.
     EXPECT_EQ(map.vector({1, 2, 3}).normalized(), Eigen::Vector3d(1, 2, 3).normalized());
-    EXPECT_NEAR((map.worldPoint(map.point({1, 2, 3})) - Eigen::Vector3d(1, 2, 3)).norm(), 0.0, 1e-9 * (1 + scale));
+    EXPECT_NEAR((map.worldPoint(map.point({1, 2, 3})) - Eigen::Vector3d(1, 2, 3)).norm(), 0.0,
+                1e-9 * (1 + scale));
   }
 }
 

@@ -13,10 +13,10 @@
 #include <thread>
 
 #include "../hw/sim_fixture.h"
-#include "calibration/calibration_captures.h"
-#include "calibration/ground_truth.h"
-#include "calibration/simulated_session.h"
-#include "hw/calibration_physics.h"
+#include "calibration/capture/calibration_captures.h"
+#include "calibration/simulation/ground_truth.h"
+#include "calibration/simulation/simulated_session.h"
+#include "hw/simulator/calibration_physics.h"
 #include "tracer/frame.h"
 
 namespace parallax::daemon {
@@ -42,8 +42,9 @@ px.world_box{min = {-2, 0, -1.25}, max = {2, 2.25, 1.25}}
 class ConductorTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    folder_ = fs::temp_directory_path() / ("plx-conductor-" + std::to_string(::getpid()) + "-" +
-                                           ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    folder_ = fs::temp_directory_path() /
+              ("plx-conductor-" + std::to_string(::getpid()) + "-" +
+               ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(folder_);
     fs::create_directories(folder_);
     script_ = (folder_ / "box.lua").string();
@@ -59,9 +60,7 @@ class ConductorTest : public ::testing::Test {
     fs::remove_all(folder_);
   }
 
-  void writeScript(const std::string& text) {
-    std::ofstream(script_) << text;
-  }
+  void writeScript(const std::string& text) { std::ofstream(script_) << text; }
 
   void startConductor() {
     ConductorOptions o;
@@ -81,7 +80,8 @@ class ConductorTest : public ::testing::Test {
     o.onReady = [this] { ready_ = true; };
     conductor_ = std::make_unique<Conductor>(o);
     thread_ = std::thread([this] { conductor_->run(stop_); });
-    for (int i = 0; i < 3000 && !ready_; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    for (int i = 0; i < 3000 && !ready_; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
     ASSERT_TRUE(ready_.load());
   }
   void stopConductor() {
@@ -103,7 +103,9 @@ class ConductorTest : public ::testing::Test {
   }
   // What module m currently shows according to the daemon (its `frame` request).
   std::vector<uint8_t> daemonFrame(int m) {
-    const json r = ask({{"request", "frame"}, {"module", m}, {"path", (folder_ / ("f" + std::to_string(m) + ".png")).string()}});
+    const json r = ask({{"request", "frame"},
+                        {"module", m},
+                        {"path", (folder_ / ("f" + std::to_string(m) + ".png")).string()}});
     EXPECT_EQ(r["ok"], true) << r.dump();
     return readFrame(r["path"].get<std::string>()).toSrgb8();
   }
@@ -149,7 +151,9 @@ TEST_F(ConductorTest, UnchangedFramesAreNotResent) {
   EXPECT_EQ(s["module_frames_sent"], kModules);
   // The same for a hot reload that changes nothing visible.
   writeScript(std::string(kScene) + "\n-- a comment\n");
-  s = waitFor([](const json& st) { return st["display_frames"] == 3 && st["module_frames_unchanged_not_sent"] == 2 * kModules; });
+  s = waitFor([](const json& st) {
+    return st["display_frames"] == 3 && st["module_frames_unchanged_not_sent"] == 2 * kModules;
+  });
   EXPECT_EQ(s["module_frames_sent"], kModules);
   stopConductor();
   sim_->stop();
@@ -193,14 +197,16 @@ TEST_F(ConductorTest, BadScenesAndReloadsKeepTheOldSceneUp) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   ASSERT_TRUE(status.contains("scene_error")) << status.dump();
-  EXPECT_NE(status["scene_error"].get<std::string>().find(":2"), std::string::npos) << status["scene_error"];
+  EXPECT_NE(status["scene_error"].get<std::string>().find(":2"), std::string::npos)
+      << status["scene_error"];
   EXPECT_EQ(status["state"], "playing");
   EXPECT_EQ(daemonFrame(0), before);
 
   // Requests that make no sense get an error, not a crash.
-  for (const json& bad : {json{{"request", "frame"}, {"module", 99}}, json{{"request", "view"}},
-                          json{{"request", "set"}, {"name", "nope"}, {"value", 1}}, json{{"request", "dance"}},
-                          json{{"request", "rollback"}}, json{{"request", "identify"}, {"module", -1}}}) {
+  for (const json& bad :
+       {json{{"request", "frame"}, {"module", 99}}, json{{"request", "view"}},
+        json{{"request", "set"}, {"name", "nope"}, {"value", 1}}, json{{"request", "dance"}},
+        json{{"request", "rollback"}}, json{{"request", "identify"}, {"module", -1}}}) {
     r = ask(bad);
     EXPECT_EQ(r["ok"], false) << bad.dump();
     EXPECT_TRUE(r.contains("error")) << bad.dump();
@@ -226,7 +232,11 @@ TEST_F(ConductorTest, InstallerPatternsPauseAndViews) {
   EXPECT_EQ(ask({{"request", "pause"}})["ok"], true);
   EXPECT_EQ(ask({{"request", "status"}})["state"], "paused");
 
-  const json v = ask({{"request", "view"}, {"x", 0.25}, {"width", 80}, {"height", 45}, {"path", (folder_ / "v.png").string()}});
+  const json v = ask({{"request", "view"},
+                      {"x", 0.25},
+                      {"width", 80},
+                      {"height", 45},
+                      {"path", (folder_ / "v.png").string()}});
   ASSERT_EQ(v["ok"], true) << v.dump();
   const Frame view = readFrame(v["path"].get<std::string>());
   EXPECT_EQ(view.width, 80);
@@ -264,7 +274,8 @@ TEST_F(ConductorTest, CancelledCalibrationKeepsTheInstalledOneAndBringsTheSceneB
   o.modules = kModules;
   o.width = kWidth;
   o.height = kHeight;
-  sim_ = std::make_unique<hw::InProcessSimhw>(o, std::make_unique<hw::CalibrationPhysics>(truth, camera.truth));
+  sim_ = std::make_unique<hw::InProcessSimhw>(
+      o, std::make_unique<hw::CalibrationPhysics>(truth, camera.truth));
   startConductor();
   waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });
   const std::vector<uint8_t> before = daemonFrame(1);

@@ -4,12 +4,11 @@
 
 #include "daemon/parallaxd/control_server.h"
 
+#include <gtest/gtest.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
 #include <unistd.h>
-
-#include <gtest/gtest.h>
 
 #include <atomic>
 #include <cstring>
@@ -20,7 +19,8 @@ namespace parallax::daemon {
 namespace {
 
 std::string tempSocket(const char* name) {
-  const auto folder = std::filesystem::temp_directory_path() / ("plx-ctl-" + std::to_string(::getpid()));
+  const auto folder =
+      std::filesystem::temp_directory_path() / ("plx-ctl-" + std::to_string(::getpid()));
   std::filesystem::create_directories(folder);
   return (folder / name).string();
 }
@@ -36,7 +36,10 @@ class Client {
   }
   ~Client() { ::close(fd_); }
   bool connected() const { return connected_; }
-  void send(const std::string& bytes) { ASSERT_EQ(::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL), static_cast<ssize_t>(bytes.size())); }
+  void send(const std::string& bytes) {
+    ASSERT_EQ(::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL),
+              static_cast<ssize_t>(bytes.size()));
+  }
   nlohmann::json reply() {
     while (buffer_.find('\n') == std::string::npos) {
       char chunk[4096];
@@ -81,7 +84,8 @@ TEST(ControlServer, AnswersGoodBadAndOversizedRequestsAndGoesOn) {
   EXPECT_EQ(r["ok"], true);
   EXPECT_EQ(r["echo"], "status");
 
-  for (const std::string bad : {"not json\n", "[1, 2]\n", "{\"request\": 5}\n", "{\"cmd\": \"status\"}\n", "{\"request\": \"boom\"}\n"}) {
+  for (const std::string bad : {"not json\n", "[1, 2]\n", "{\"request\": 5}\n",
+                                "{\"cmd\": \"status\"}\n", "{\"request\": \"boom\"}\n"}) {
     c.send(bad);
     r = c.reply();
     ASSERT_TRUE(r.is_object()) << bad;

@@ -86,7 +86,8 @@ TEST(DaemonConfig, ErrorsNameTheKeyAndTheLine) {
       {"[hardware]\nkind = \"usb\"\nvid = 1\n", "hardware.pid", 2},
       {"[daemon]\nlog_level = \"loud\"\n", "daemon.log_level", 2},
       {"[daemon]\nsokcet = \"/tmp/x\"\n", "daemon.sokcet", 2},  // a typo is not silently ignored
-      {"[scene]\nscript = \"cornell\"\n[scene.parameters]\ndepth = \"deep\"\n", "scene.parameters.depth", 4},
+      {"[scene]\nscript = \"cornell\"\n[scene.parameters]\ndepth = \"deep\"\n",
+       "scene.parameters.depth", 4},
       {"[calibration]\nauto = 1\n", "calibration.auto", 2},
       {"title = \"x\"\n", "title", 1},
   };

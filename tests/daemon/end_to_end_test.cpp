@@ -7,17 +7,15 @@
 // rendered with the ground truth's own ray textures; frames rendered with the uncalibrated
 // nominal model must be at least 10 dB worse. Both figures are printed.
 
+#include <fcntl.h>
+#include <fmt/format.h>
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
-
-#include <fmt/format.h>
-#include <gtest/gtest.h>
-
-#include <fcntl.h>
 
 #include <chrono>
 #include <cstring>
@@ -26,9 +24,9 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
-#include "calibration/display_model_json.h"
-#include "calibration/display_presets.h"
-#include "calibration/ray_textures.h"
+#include "calibration/display/display_model_json.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/display/ray_textures.h"
 #include "daemon/parallaxd/control_client.h"
 #include "scripts/scene_argument.h"
 #include "tracer/frame.h"
@@ -55,7 +53,8 @@ std::vector<Frame> renderWith(const DisplayModel& model, const Scene& scene) {
   const PhysicalScene physical(scene, model.displayableBox);
   std::vector<Frame> frames;
   for (size_t i = 0; i < model.modules.size(); ++i) {
-    frames.push_back(asShown(renderFrame(physical, generateRayTextures(model, static_cast<int>(i)), RenderOptions{})));
+    frames.push_back(asShown(
+        renderFrame(physical, generateRayTextures(model, static_cast<int>(i)), RenderOptions{})));
   }
   return frames;
 }
@@ -70,11 +69,13 @@ TEST(EndToEnd, CalibratedThroughTheLinkTheViewersSeeTheGroundTruthsViews) {
       "[calibration]\nauto = true\nfile = \"{0}/calibration.json\"\n[scene]\nscript = \"cornell\"\n"
       "[daemon]\nsocket = \"{1}\"\ncache_dir = \"{0}/cache\"\n",
       folder.string(), socket);
-  const std::string config = (folder / "parallax.toml").string(), log = (folder / "parallaxd.log").string();
+  const std::string config = (folder / "parallax.toml").string(),
+                    log = (folder / "parallaxd.log").string();
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  std::vector<char*> argv = {const_cast<char*>(PARALLAXD_PATH), const_cast<char*>("--config"), const_cast<char*>(config.c_str()), nullptr};
+  std::vector<char*> argv = {const_cast<char*>(PARALLAXD_PATH), const_cast<char*>("--config"),
+                             const_cast<char*>(config.c_str()), nullptr};
   pid_t pid = -1;
   ASSERT_EQ(posix_spawn(&pid, PARALLAXD_PATH, &actions, nullptr, argv.data(), environ), 0);
   posix_spawn_file_actions_destroy(&actions);
@@ -104,12 +105,15 @@ TEST(EndToEnd, CalibratedThroughTheLinkTheViewersSeeTheGroundTruthsViews) {
     stats = ask(socket, {{"request", "stats"}});
     if (!status.is_object() || !stats.is_object()) continue;
     if (status.contains("last_error") && status["last_error"]["stage"] == "calibrating") break;
-    playing = status["state"] == "playing" && status["calibration"]["source"] != "nominal (uncalibrated)" &&
+    playing = status["state"] == "playing" &&
+              status["calibration"]["source"] != "nominal (uncalibrated)" &&
               stats["module_frames_sent"].get<int>() >= 16 && stats["module_frames_failed"] == 0;
   }
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ASSERT_TRUE(playing) << status.dump(2) << "\n" << logText();
-  std::printf("E2E | daemon calibrated through the link and played cornell.lua after %.0f s\n", seconds);
+  std::printf("E2E | daemon calibrated through the link and played cornell.lua after %.0f s\n",
+              seconds);
   ask(socket, {{"request", "shutdown"}});
   int exit = 0;
   ASSERT_EQ(::waitpid(pid, &exit, 0), pid);
@@ -117,12 +121,14 @@ TEST(EndToEnd, CalibratedThroughTheLinkTheViewersSeeTheGroundTruthsViews) {
   ASSERT_TRUE(WIFEXITED(exit) && WEXITSTATUS(exit) == 0) << logText();
 
   // The physics of the truth (the daemon never read it), the scene, three viewers.
-  const DisplayModel truth = loadDisplayModel((folder / "cache/simulated-display/seed-7/ground_truth.json").string());
+  const DisplayModel truth =
+      loadDisplayModel((folder / "cache/simulated-display/seed-7/ground_truth.json").string());
   const DisplayModel nominal = resolveDisplay("demo");
   const Scene scene = loadSceneArgument("cornell", {}, 0.0);
   std::vector<Frame> received;
   for (size_t i = 0; i < truth.modules.size(); ++i) {
-    received.push_back(readFrame(moduleFrameStem((folder / "shown").string(), static_cast<int>(i)) + ".png"));
+    received.push_back(
+        readFrame(moduleFrameStem((folder / "shown").string(), static_cast<int>(i)) + ".png"));
   }
   const std::vector<Frame> reference = renderWith(truth, scene);
   const std::vector<Frame> uncalibrated = renderWith(nominal, scene);
@@ -135,9 +141,12 @@ TEST(EndToEnd, CalibratedThroughTheLinkTheViewersSeeTheGroundTruthsViews) {
     const Frame want = synthesizeObserverView(truth, reference, viewer, view, &coverage);
     const Frame got = synthesizeObserverView(truth, received, viewer, view);
     const Frame nominalView = synthesizeObserverView(truth, uncalibrated, viewer, view);
-    const double calibrated = psnrDb(got, want, &coverage), uncal = psnrDb(nominalView, want, &coverage);
-    std::printf("E2E | viewer at x = %+.1f m: calibrated %.1f dB, nominal %.1f dB (PSNR vs the ground truth's own textures)\n",
-                x, calibrated, uncal);
+    const double calibrated = psnrDb(got, want, &coverage),
+                 uncal = psnrDb(nominalView, want, &coverage);
+    std::printf(
+        "E2E | viewer at x = %+.1f m: calibrated %.1f dB, nominal %.1f dB (PSNR vs the ground "
+        "truth's own textures)\n",
+        x, calibrated, uncal);
     EXPECT_GE(calibrated, 40.0) << "x = " << x;
     EXPECT_LE(uncal, calibrated - 10.0) << "x = " << x;
   }

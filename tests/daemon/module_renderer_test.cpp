@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "calibration/display_presets.h"
+#include "calibration/display/display_presets.h"
 #include "tracer/scene_fixtures.h"
 
 namespace parallax::daemon {
@@ -31,7 +31,8 @@ TEST(ModuleRenderer, FusedRenderAndEncodeMatchesEachModuleAlone) {
       const Frame alone = renderFrame(scene, textures[i], RenderOptions{}, &counters);
       expectedCounters += counters;
       ASSERT_TRUE(frame.images[i]);
-      EXPECT_EQ(frame.images[i]->pixels, encodeForLink(alone)->pixels) << "module " << i << ", round " << round;
+      EXPECT_EQ(frame.images[i]->pixels, encodeForLink(alone)->pixels)
+          << "module " << i << ", round " << round;
     }
     EXPECT_EQ(frame.counters.rays(), expectedCounters.rays());
     EXPECT_GT(frame.counters.primary, 0);

@@ -4,16 +4,14 @@
 // showed), and a run with injected faults (a module that disconnects, a corrupt chunk, a bad
 // scene over the control socket) ends with every module showing the daemon's frame.
 
+#include <fcntl.h>
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
-
-#include <gtest/gtest.h>
-
-#include <fcntl.h>
 
 #include <chrono>
 #include <cstring>
@@ -35,7 +33,8 @@ using nlohmann::json;
 
 class Daemon {
  public:
-  Daemon(const fs::path& folder, const std::string& config, std::vector<std::string> extraEnv = {}) : folder_(folder) {
+  Daemon(const fs::path& folder, const std::string& config, std::vector<std::string> extraEnv = {})
+      : folder_(folder) {
     std::ofstream(folder / "parallax.toml") << config;
     std::vector<std::string> env;
     for (char** e = environ; *e; ++e) env.emplace_back(*e);
@@ -86,7 +85,8 @@ json ask(const std::string& socket, const json& request) {
   return daemon::tryAskDaemon(socket, request).value_or(nullptr);
 }
 
-json waitForStats(const std::string& socket, const std::function<bool(const json&)>& done, int ms = 30000) {
+json waitForStats(const std::string& socket, const std::function<bool(const json&)>& done,
+                  int ms = 30000) {
   json s;
   for (int i = 0; i < ms / 20; ++i) {
     s = ask(socket, {{"request", "stats"}});
@@ -113,20 +113,26 @@ std::pair<int, std::string> ctl(const std::vector<std::string>& args, const std:
 class ParallaxdProcess : public ::testing::Test {
  protected:
   void SetUp() override {
-    folder_ = fs::temp_directory_path() / ("plxd-" + std::to_string(::getpid()) + "-" +
-                                           ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    folder_ = fs::temp_directory_path() /
+              ("plxd-" + std::to_string(::getpid()) + "-" +
+               ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(folder_);
     fs::create_directories(folder_ / "run");
     socket_ = (folder_ / "run" / "parallax" / "parallaxd.sock").string();
   }
   void TearDown() override { fs::remove_all(folder_); }
   // A small demo display (4 modules of 64×48) on the simulator parallaxd starts itself.
-  std::string config(const std::string& hardwareExtra = "", const std::string& scene = "cornell") const {
+  std::string config(const std::string& hardwareExtra = "",
+                     const std::string& scene = "cornell") const {
     return "[display]\npreset = \"demo\"\nmodules = 4\nresolution = [64, 48]\n"
-           "[hardware]\nkind = \"sim\"\ndump = \"" + (folder_ / "shown").string() + "\"\n" + hardwareExtra +
-           "[scene]\nscript = \"" + scene + "\"\n"
-           "[calibration]\nauto = false\nfile = \"" + (folder_ / "calibration.json").string() + "\"\n"
-           "[daemon]\ncache_dir = \"" + (folder_ / "cache").string() + "\"\n";
+           "[hardware]\nkind = \"sim\"\ndump = \"" +
+           (folder_ / "shown").string() + "\"\n" + hardwareExtra + "[scene]\nscript = \"" + scene +
+           "\"\n"
+           "[calibration]\nauto = false\nfile = \"" +
+           (folder_ / "calibration.json").string() +
+           "\"\n"
+           "[daemon]\ncache_dir = \"" +
+           (folder_ / "cache").string() + "\"\n";
   }
   std::string runtimeEnv() const { return "XDG_RUNTIME_DIR=" + (folder_ / "run").string(); }
 
@@ -145,7 +151,8 @@ TEST_F(ParallaxdProcess, TellsSystemdItIsReadyAndStopsCleanlyOnSigterm) {
   timeval timeout{30, 0};
   ::setsockopt(notify, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
 
-  Daemon daemon(folder_, config(), {runtimeEnv(), "NOTIFY_SOCKET=" + notifyPath, "WATCHDOG_USEC=2000000"});
+  Daemon daemon(folder_, config(),
+                {runtimeEnv(), "NOTIFY_SOCKET=" + notifyPath, "WATCHDOG_USEC=2000000"});
   // READY=1 (a long start-up stage may feed the watchdog before it).
   char message[256] = {};
   bool ready = false;
@@ -167,7 +174,8 @@ TEST_F(ParallaxdProcess, TellsSystemdItIsReadyAndStopsCleanlyOnSigterm) {
   bool fed = false;
   for (int i = 0; i < 5 && !fed; ++i) {
     std::memset(message, 0, sizeof message);
-    fed = ::recv(notify, message, sizeof message - 1, 0) > 0 && std::string(message) == "WATCHDOG=1";
+    fed =
+        ::recv(notify, message, sizeof message - 1, 0) > 0 && std::string(message) == "WATCHDOG=1";
   }
   EXPECT_TRUE(fed);
 
@@ -184,7 +192,8 @@ TEST_F(ParallaxdProcess, TellsSystemdItIsReadyAndStopsCleanlyOnSigterm) {
   }
   EXPECT_TRUE(stopping);
   // The simulator was stopped, not killed: it wrote what its 4 modules showed.
-  for (int m = 0; m < 4; ++m) EXPECT_TRUE(fs::exists(moduleFrameStem((folder_ / "shown").string(), m) + ".png")) << m;
+  for (int m = 0; m < 4; ++m)
+    EXPECT_TRUE(fs::exists(moduleFrameStem((folder_ / "shown").string(), m) + ".png")) << m;
   ::close(notify);
 }
 
@@ -199,7 +208,9 @@ TEST_F(ParallaxdProcess, RefusesABadConfigNamingTheKeyAndLine) {
 TEST_F(ParallaxdProcess, SurvivesFaultsAndEveryModuleEndsWithItsFrame) {
   // Module 1 drops the link at its first frame, module 2 gets a corrupted chunk.
   Daemon daemon(folder_, config("faults = [\"1:disconnect\", \"2:flip:1\"]\n"), {runtimeEnv()});
-  waitForStats(socket_, [](const json& s) { return s["module_frames_sent"].get<int>() >= 4 && s["module_frames_failed"] == 0; });
+  waitForStats(socket_, [](const json& s) {
+    return s["module_frames_sent"].get<int>() >= 4 && s["module_frames_failed"] == 0;
+  });
   // A bad scene over the control socket: refused, the old one stays up.
   const json r = ask(socket_, {{"request", "load"}, {"scene", "no_such_scene.lua"}});
   EXPECT_EQ(r["ok"], false);
@@ -234,7 +245,8 @@ TEST_F(ParallaxdProcess, SighupReloadsTheConfig) {
   json status;
   for (int i = 0; i < 1000; ++i) {
     status = ask(socket_, {{"request", "status"}});
-    if (status.is_object() && status.contains("scene") && status["scene"]["name"] == "shapes") break;
+    if (status.is_object() && status.contains("scene") && status["scene"]["name"] == "shapes")
+      break;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   EXPECT_EQ(status["scene"]["name"], "shapes") << status.dump();
@@ -257,19 +269,23 @@ TEST_F(ParallaxdProcess, SighupRebuildsForANewDisplayRefusesABadOne) {
     json status;
     for (int i = 0; i < 1500; ++i) {
       status = ask(socket_, {{"request", "status"}});
-      if (status.is_object() && status["display"]["modules"] == modules && status["state"] == "playing") break;
+      if (status.is_object() && status["display"]["modules"] == modules &&
+          status["state"] == "playing")
+        break;
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
     return status;
   };
   // Three modules: the display changed, so simulator, link and loop are built again.
-  std::ofstream(folder_ / "parallax.toml") << withDisplay("preset = \"demo\"\nmodules = 3\nresolution = [64, 48]\n");
+  std::ofstream(folder_ / "parallax.toml")
+      << withDisplay("preset = \"demo\"\nmodules = 3\nresolution = [64, 48]\n");
   ASSERT_EQ(::kill(daemon.pid(), SIGHUP), 0);
   json status = waitForModules(3);
   EXPECT_EQ(status["display"]["modules"], 3) << status.dump() << daemon.log();
   waitForStats(socket_, [](const json& s) { return s["module_frames_sent"] == 3; });
   // A display file that does not exist: refused before anything stops; three modules play on.
-  std::ofstream(folder_ / "parallax.toml") << withDisplay("file = \"" + (folder_ / "no_such_display.json").string() + "\"\n");
+  std::ofstream(folder_ / "parallax.toml")
+      << withDisplay("file = \"" + (folder_ / "no_such_display.json").string() + "\"\n");
   ASSERT_EQ(::kill(daemon.pid(), SIGHUP), 0);
   for (int i = 0; i < 500; ++i) {
     status = ask(socket_, {{"request", "status"}});
@@ -279,7 +295,8 @@ TEST_F(ParallaxdProcess, SighupRebuildsForANewDisplayRefusesABadOne) {
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
-  EXPECT_NE(status.dump().find("no_such_display"), std::string::npos) << status.dump() << daemon.log();
+  EXPECT_NE(status.dump().find("no_such_display"), std::string::npos)
+      << status.dump() << daemon.log();
   EXPECT_EQ(status["display"]["modules"], 3) << status.dump();
   EXPECT_EQ(status["state"], "playing") << status.dump();
   ::kill(daemon.pid(), SIGTERM);

@@ -19,8 +19,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     } catch (const parallax::InputError&) {
     }
   } else {
-    const std::string reply = parallax::daemon::ControlServer::replyTo(
-        text, [](const nlohmann::json& r) { return nlohmann::json{{"ok", true}, {"echo", r}}; });
+    const std::string reply =
+        parallax::daemon::ControlServer::replyTo(text, [](const nlohmann::json& r) {
+          return nlohmann::json{{"ok", true}, {"echo", r}};
+        });
     if (reply.empty() || reply.back() != '\n') __builtin_trap();
   }
   return 0;

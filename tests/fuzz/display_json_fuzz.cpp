@@ -1,11 +1,10 @@
 // Hostile display files: any bytes must give a model or an InputError, never a crash.
 #include <cstddef>
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <string>
 
-#include <nlohmann/json.hpp>
-
-#include "calibration/display_model_json.h"
+#include "calibration/display/display_model_json.h"
 #include "common/input_error.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -8,8 +8,8 @@
 #include <cstring>
 #include <vector>
 
-#include "hw/link_protocol.h"
-#include "hw/simulated_hardware.h"
+#include "hw/link/link_protocol.h"
+#include "hw/simulator/simulated_hardware.h"
 
 namespace {
 

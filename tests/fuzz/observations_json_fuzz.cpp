@@ -2,11 +2,10 @@
 // InputError, never a crash; whatever parses must survive a round trip.
 #include <cstddef>
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <string>
 
-#include <nlohmann/json.hpp>
-
-#include "calibration/observations_json.h"
+#include "calibration/camera/observations_json.h"
 #include "common/input_error.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

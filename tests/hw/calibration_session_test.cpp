@@ -12,16 +12,16 @@
 #include <chrono>
 #include <filesystem>
 
-#include "calibration/display_fit.h"
-#include "calibration/display_model_json.h"
-#include "calibration/display_presets.h"
-#include "calibration/ground_truth.h"
-#include "calibration/ray_error.h"
-#include "calibration/simulated_session.h"
-#include "hw/calibration_capture.h"
-#include "hw/calibration_physics.h"
-#include "hw/camera.h"
-#include "hw/socket_transport.h"
+#include "calibration/display/display_model_json.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/display/ray_error.h"
+#include "calibration/fit/display_fit.h"
+#include "calibration/simulation/ground_truth.h"
+#include "calibration/simulation/simulated_session.h"
+#include "hw/camera/calibration_capture.h"
+#include "hw/camera/camera.h"
+#include "hw/link/socket_transport.h"
+#include "hw/simulator/calibration_physics.h"
 #include "sim_fixture.h"
 
 namespace parallax::hw {
@@ -62,19 +62,21 @@ SimulatedHardwareOptions modulesOf(const DisplayModel& display) {
 
 TEST(CalibrationSession, LinkSessionRecordsWhatTheOfflineRendererMakes) {
   const SmallSession s = smallSession();
-  InProcessSimhw sim(modulesOf(s.truth), std::make_unique<CalibrationPhysics>(s.truth, s.rig.truth));
+  InProcessSimhw sim(modulesOf(s.truth),
+                     std::make_unique<CalibrationPhysics>(s.truth, s.rig.truth));
   int calls = 0, lastDone = -1, lastTotal = -1;
   CalibrationCaptures viaLink;
   {
     LinkClient link(std::make_unique<SocketTransport>(sim.path()));
     SimulatedCamera camera(link);
     CalibrationCaptureOptions options;
-    viaLink = captureCalibration(link, camera, s.nominal, s.rig.metadata, options, [&](int done, int total) {
-      ++calls;
-      EXPECT_GE(done, lastDone);
-      lastDone = done;
-      lastTotal = total;
-    });
+    viaLink = captureCalibration(link, camera, s.nominal, s.rig.metadata, options,
+                                 [&](int done, int total) {
+                                   ++calls;
+                                   EXPECT_GE(done, lastDone);
+                                   lastDone = done;
+                                   lastTotal = total;
+                                 });
   }
   sim.stop();
   const CalibrationCaptures offline = renderSession(s.truth, s.rig.truth, s.rig.metadata, {});
@@ -89,16 +91,19 @@ TEST(CalibrationSession, LinkSessionRecordsWhatTheOfflineRendererMakes) {
     ASSERT_EQ(viaLink.stations[i].columnFrames.size(), offline.stations[i].columnFrames.size());
     ASSERT_EQ(viaLink.stations[i].rowFrames.size(), offline.stations[i].rowFrames.size());
     for (size_t f = 0; f < offline.stations[i].columnFrames.size(); ++f) {
-      worst = std::max(worst, cv::norm(viaLink.stations[i].columnFrames[f], offline.stations[i].columnFrames[f], cv::NORM_INF));
+      worst = std::max(worst, cv::norm(viaLink.stations[i].columnFrames[f],
+                                       offline.stations[i].columnFrames[f], cv::NORM_INF));
     }
     for (size_t f = 0; f < offline.stations[i].rowFrames.size(); ++f) {
-      worst = std::max(worst, cv::norm(viaLink.stations[i].rowFrames[f], offline.stations[i].rowFrames[f], cv::NORM_INF));
+      worst = std::max(worst, cv::norm(viaLink.stations[i].rowFrames[f],
+                                       offline.stations[i].rowFrames[f], cv::NORM_INF));
     }
   }
   // Same truth, same sensor noise stream, same order: equal up to a rounding tie of one 8-bit
   // level (at most ~0.01 in linear light near white).
   EXPECT_LT(worst, 0.02);
-  // And the pictures are of the display, not blank: they decode to correspondences for every module.
+  // And the pictures are of the display, not blank: they decode to correspondences for every
+  // module.
   CaptureDecoderOptions decoder;
   const CalibrationObservations obs = decodeCaptures(viaLink, s.nominal, decoder);
   std::vector<int> perModule(s.nominal.modules.size(), 0);
@@ -109,18 +114,20 @@ TEST(CalibrationSession, LinkSessionRecordsWhatTheOfflineRendererMakes) {
 
 TEST(CalibrationSession, CancelStopsAndLeavesPlaybackMode) {
   const SmallSession s = smallSession();
-  InProcessSimhw sim(modulesOf(s.truth), std::make_unique<CalibrationPhysics>(s.truth, s.rig.truth));
+  InProcessSimhw sim(modulesOf(s.truth),
+                     std::make_unique<CalibrationPhysics>(s.truth, s.rig.truth));
   std::atomic<bool> cancel{false};
   int pictures = 0;
   {
     LinkClient link(std::make_unique<SocketTransport>(sim.path()));
     SimulatedCamera camera(link);
-    EXPECT_THROW(captureCalibration(link, camera, s.nominal, s.rig.metadata, {},
-                                    [&](int done, int) {
-                                      pictures = done;
-                                      if (done == 5) cancel = true;
-                                    },
-                                    &cancel),
+    EXPECT_THROW(captureCalibration(
+                     link, camera, s.nominal, s.rig.metadata, {},
+                     [&](int done, int) {
+                       pictures = done;
+                       if (done == 5) cancel = true;
+                     },
+                     &cancel),
                  CalibrationCancelled);
     EXPECT_FALSE(camera.locked());
   }

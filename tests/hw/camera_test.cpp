@@ -2,7 +2,7 @@
 // carried to the simulator) and the OpenCV backend on an image sequence (colour order, and an
 // honest report of the controls a file source cannot lock).
 
-#include "hw/camera.h"
+#include "hw/camera/camera.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 
-#include "hw/link_client.h"
+#include "hw/link/link_client.h"
 #include "sim_fixture.h"
 
 namespace parallax::hw {

@@ -1,4 +1,4 @@
-#include "hw/crc32c.h"
+#include "hw/link/crc32c.h"
 
 #include <gtest/gtest.h>
 
@@ -6,7 +6,7 @@
 #include <random>
 #include <vector>
 
-#include "hw/content_hash.h"
+#include "hw/link/content_hash.h"
 
 namespace parallax::hw {
 namespace {

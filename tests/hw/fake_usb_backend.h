@@ -11,8 +11,8 @@
 #include <memory>
 #include <thread>
 
-#include "hw/simulated_hardware.h"
-#include "hw/usb_backend.h"
+#include "hw/link/usb_backend.h"
+#include "hw/simulator/simulated_hardware.h"
 
 namespace parallax::hw {
 

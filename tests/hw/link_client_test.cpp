@@ -2,7 +2,7 @@
 // fault. The property under test: each submitted frame ends delivered intact (the module's
 // shown bytes equal what was sent) or reported failed with a reason; nothing is lost silently.
 
-#include "hw/link_client.h"
+#include "hw/link/link_client.h"
 
 #include <gtest/gtest.h>
 
@@ -10,9 +10,9 @@
 #include <random>
 
 #include "common/input_error.h"
-#include "hw/socket_transport.h"
-#include "sim_fixture.h"
+#include "hw/link/socket_transport.h"
 #include "random_frame.h"
+#include "sim_fixture.h"
 
 namespace parallax::hw {
 namespace {

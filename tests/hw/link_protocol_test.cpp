@@ -1,12 +1,12 @@
-#include "hw/link_protocol.h"
+#include "hw/link/link_protocol.h"
 
 #include <gtest/gtest.h>
 
 #include <cstring>
 
 #include "common/input_error.h"
-#include "hw/crc32c.h"
-#include "hw/fault_spec.h"
+#include "hw/link/crc32c.h"
+#include "hw/simulator/fault_spec.h"
 
 namespace parallax::hw {
 namespace {

@@ -7,7 +7,7 @@
 #include <map>
 #include <random>
 
-#include "hw/link_client.h"
+#include "hw/link/link_client.h"
 #include "sim_fixture.h"
 
 namespace parallax::hw {

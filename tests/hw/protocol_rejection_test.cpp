@@ -9,9 +9,9 @@
 
 #include <cstring>
 
-#include "hw/crc32c.h"
-#include "hw/link_protocol.h"
-#include "hw/socket_transport.h"
+#include "hw/link/crc32c.h"
+#include "hw/link/link_protocol.h"
+#include "hw/link/socket_transport.h"
 #include "sim_fixture.h"
 
 namespace parallax::hw {

@@ -5,7 +5,7 @@
 #include <memory>
 #include <random>
 
-#include "hw/image.h"
+#include "hw/link/image.h"
 
 namespace parallax::hw {
 

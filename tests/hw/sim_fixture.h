@@ -13,14 +13,15 @@
 #include <string>
 #include <thread>
 
-#include "hw/simhw_server.h"
-#include "hw/simulated_hardware.h"
+#include "hw/simulator/simhw_server.h"
+#include "hw/simulator/simulated_hardware.h"
 
 namespace parallax::hw {
 
 class InProcessSimhw {
  public:
-  explicit InProcessSimhw(SimulatedHardwareOptions options, std::unique_ptr<CameraPhysics> physics = nullptr)
+  explicit InProcessSimhw(SimulatedHardwareOptions options,
+                          std::unique_ptr<CameraPhysics> physics = nullptr)
       : hardware_(std::move(options), std::move(physics)),
         path_(
             (std::filesystem::temp_directory_path() / ("plx-simhw-" + std::to_string(::getpid()) +

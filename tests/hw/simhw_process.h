@@ -13,8 +13,8 @@
 #include <thread>
 #include <vector>
 
-#include "hw/link_client.h"
-#include "hw/socket_transport.h"
+#include "hw/link/link_client.h"
+#include "hw/link/socket_transport.h"
 
 extern char** environ;
 
@@ -26,9 +26,10 @@ class SimhwProcess {
   explicit SimhwProcess(std::vector<std::string> arguments, std::string path = "") : path_(path) {
     static int counter = 0;
     if (path_.empty()) {
-      path_ = (std::filesystem::temp_directory_path() / ("plx-simhw-proc-" + std::to_string(getpid()) + "-" +
-                                            std::to_string(counter++) + ".sock"))
-                  .string();
+      path_ =
+          (std::filesystem::temp_directory_path() / ("plx-simhw-proc-" + std::to_string(getpid()) +
+                                                     "-" + std::to_string(counter++) + ".sock"))
+              .string();
     }
     std::vector<std::string> args = {PARALLAX_SIMHW_PATH, "--socket", path_};
     args.insert(args.end(), arguments.begin(), arguments.end());

@@ -1,13 +1,13 @@
 // The real process model: parallax-simhw as a child process, faults armed by flag, a crash
 // that kills the process, and recovery when it is started again. Plus --dump.
 
+#include "simhw_process.h"
+
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <random>
 #include <thread>
-
-#include "simhw_process.h"
 
 namespace parallax::hw {
 namespace {
@@ -16,7 +16,8 @@ namespace fs = std::filesystem;
 
 // The small simulator these tests run: three 32x16 modules, 4 KiB chunks.
 std::vector<std::string> small(std::vector<std::string> extra) {
-  std::vector<std::string> args = {"--modules", "3", "--resolution", "32x16", "--max-chunk", "4096"};
+  std::vector<std::string> args = {"--modules", "3",           "--resolution",
+                                   "32x16",     "--max-chunk", "4096"};
   args.insert(args.end(), extra.begin(), extra.end());
   return args;
 }
@@ -44,8 +45,8 @@ LinkOptions options() {
 TEST(SimhwProcess, FlagFaultsAreSurvivedAndDumpWritesPngs) {
   const fs::path dump = fs::temp_directory_path() / ("plx-dump-" + std::to_string(getpid()));
   fs::remove_all(dump);
-  SimhwProcess sim(small({"--fault", "0:drop:1", "--fault", "1:flip:1", "--fault", "2:stall:1", "--dump",
-                          dump.string()}));
+  SimhwProcess sim(small({"--fault", "0:drop:1", "--fault", "1:flip:1", "--fault", "2:stall:1",
+                          "--dump", dump.string()}));
   auto link = connectWhenUp(sim.path(), options());
   ASSERT_TRUE(link);
   for (int m = 0; m < 3; ++m) link->submit(m, frame(m));

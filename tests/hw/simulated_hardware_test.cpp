@@ -1,14 +1,14 @@
 // The simulated module's receive state machine, packet by packet (no transport): chunk order,
 // overlaps, damaged chunks and a frame that must never replace the shown one.
 
-#include "hw/simulated_hardware.h"
+#include "hw/simulator/simulated_hardware.h"
 
 #include <gtest/gtest.h>
 
 #include <numeric>
 #include <optional>
 
-#include "hw/crc32c.h"
+#include "hw/link/crc32c.h"
 
 namespace parallax::hw {
 namespace {

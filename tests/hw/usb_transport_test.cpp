@@ -1,7 +1,7 @@
 // The libusb transport's logic, driven through the UsbBackend seam by devices that fail like
 // real ones; and the real libusb backend on this machine, which has no matching devices.
 
-#include "hw/usb_transport.h"
+#include "hw/link/usb_transport.h"
 
 #include <gtest/gtest.h>
 
@@ -9,8 +9,8 @@
 
 #include "common/input_error.h"
 #include "fake_usb_backend.h"
-#include "hw/link_client.h"
-#include "hw/link_factory.h"
+#include "hw/link/link_client.h"
+#include "hw/link/link_factory.h"
 #include "random_frame.h"
 
 namespace parallax::hw {

@@ -7,8 +7,8 @@
 #include <cmath>
 #include <iostream>
 
-#include "calibration/display_presets.h"
-#include "calibration/ray_textures.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/display/ray_textures.h"
 #include "script_test_util.h"
 #include "scripts/scene_argument.h"
 #include "tracer/physical_scene.h"

@@ -22,11 +22,13 @@ namespace fs = std::filesystem;
 
 fs::path models() { return assimpTestModelsRoot(); }
 
-#define REQUIRE_MODELS()                                                                  \
-  if (!fs::exists(models() / "OBJ" / "spider.obj")) GTEST_SKIP() << "assimp-testmodels not installed"
+#define REQUIRE_MODELS()                            \
+  if (!fs::exists(models() / "OBJ" / "spider.obj")) \
+  GTEST_SKIP() << "assimp-testmodels not installed"
 
 fs::path scratch(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("parallax_model_test_" + std::to_string(::getpid())) / name;
+  const fs::path dir =
+      fs::temp_directory_path() / ("parallax_model_test_" + std::to_string(::getpid())) / name;
   fs::create_directories(dir);
   return dir;
 }
@@ -80,33 +82,38 @@ TEST(ModelLoader, QuadsAndPolygonsAreTriangulatedAndMissingNormalsMade) {
 TEST(ModelLoader, GltfWithExternalAndEmbeddedTextures) {
   REQUIRE_MODELS();
   ModelLoadReport external;
-  const Scene a = loadModelScene((models() / "glTF2" / "BoxTextured-glTF" / "BoxTextured.gltf").string(), &external);
+  const Scene a = loadModelScene(
+      (models() / "glTF2" / "BoxTextured-glTF" / "BoxTextured.gltf").string(), &external);
   EXPECT_EQ(external.textures, 1);
   ASSERT_EQ(a.textures.size(), 1u);
   EXPECT_TRUE(fs::exists(a.textures[0].path));
   ModelLoadReport embedded;
-  const Scene b = loadModelScene((models() / "glTF2" / "BoxTextured-glTF-Binary" / "BoxTextured.glb").string(), &embedded);
+  const Scene b = loadModelScene(
+      (models() / "glTF2" / "BoxTextured-glTF-Binary" / "BoxTextured.glb").string(), &embedded);
   EXPECT_EQ(embedded.textures, 1);
   ASSERT_EQ(b.textures.size(), 1u);
   EXPECT_TRUE(b.textures[0].path.empty()) << "decoded from the .glb into inline pixels";
   EXPECT_GT(b.textures[0].width, 0);
-  EXPECT_EQ(b.textures[0].pixels.size(), static_cast<size_t>(b.textures[0].width * b.textures[0].height * 3));
+  EXPECT_EQ(b.textures[0].pixels.size(),
+            static_cast<size_t>(b.textures[0].width * b.textures[0].height * 3));
 }
 
 TEST(ModelLoader, MissingTexturesWarnAndFallBackToTheMaterialColour) {
   REQUIRE_MODELS();
   const fs::path dir = scratch("missing");
-  fs::copy_file(models() / "OBJ" / "spider.obj", dir / "spider.obj", fs::copy_options::overwrite_existing);
-  fs::copy_file(models() / "OBJ" / "spider.mtl", dir / "spider.mtl", fs::copy_options::overwrite_existing);
+  fs::copy_file(models() / "OBJ" / "spider.obj", dir / "spider.obj",
+                fs::copy_options::overwrite_existing);
+  fs::copy_file(models() / "OBJ" / "spider.mtl", dir / "spider.mtl",
+                fs::copy_options::overwrite_existing);
   ModelLoadReport report;
   const Scene scene = loadModelScene((dir / "spider.obj").string(), &report);
   EXPECT_EQ(report.texturesMissing, 5);
   ASSERT_EQ(report.warnings.size(), 5u);
-  EXPECT_NE(report.warnings[0].find(".jpg"), std::string::npos)
-      << report.warnings[0];
+  EXPECT_NE(report.warnings[0].find(".jpg"), std::string::npos) << report.warnings[0];
   // The materials keep their own colours (MTL Kd), and the scene renders.
   bool skin = false;
-  for (const Material& m : scene.materials) skin = skin || (m.name == "Skin" && std::abs(m.diffuse.x() - 0.827451f) < 1e-5f);
+  for (const Material& m : scene.materials)
+    skin = skin || (m.name == "Skin" && std::abs(m.diffuse.x() - 0.827451f) < 1e-5f);
   EXPECT_TRUE(skin);
   const DisplayModel display = test::smallDisplay(1, 64, 48);
   const PhysicalScene physical(scene, display.displayableBox);
@@ -133,13 +140,16 @@ TEST(ModelLoader, EmptyAndTruncatedFilesAreClearErrorsNotCrashes) {
     std::ifstream in(source, std::ios::binary);
     const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     for (double fraction : {0.01, 0.3, 0.77}) {
-      const fs::path cut = dir / ("cut" + std::to_string(static_cast<int>(fraction * 100)) + source.extension().string());
-      std::ofstream(cut, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size() * fraction));
+      const fs::path cut = dir / ("cut" + std::to_string(static_cast<int>(fraction * 100)) +
+                                  source.extension().string());
+      std::ofstream(cut, std::ios::binary)
+          .write(bytes.data(), static_cast<std::streamsize>(bytes.size() * fraction));
       try {
         const Scene scene = loadModelScene(cut.string());
         EXPECT_NO_THROW(scene.validate()) << cut;
       } catch (const InputError& e) {
-        EXPECT_NE(std::string(e.what()).find(cut.filename().string()), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find(cut.filename().string()), std::string::npos)
+            << e.what();
       }
     }
   }
@@ -151,9 +161,11 @@ TEST(ModelLoader, WindowsPathsResolveCaseInsensitively) {
   fs::create_directories(dir / "Textures");
   std::ofstream(dir / "Textures" / "Wood.JPG") << "x";  // only its name matters
   bool found = false;
-  EXPECT_EQ(resolveTexturePath(".\\Textures\\Wood.JPG", dir.string(), &found), (dir / "Textures" / "Wood.JPG").string());
+  EXPECT_EQ(resolveTexturePath(".\\Textures\\Wood.JPG", dir.string(), &found),
+            (dir / "Textures" / "Wood.JPG").string());
   EXPECT_TRUE(found);
-  EXPECT_EQ(resolveTexturePath("Textures\\wood.jpg", dir.string(), &found), (dir / "Textures" / "Wood.JPG").string());
+  EXPECT_EQ(resolveTexturePath("Textures\\wood.jpg", dir.string(), &found),
+            (dir / "Textures" / "Wood.JPG").string());
   EXPECT_TRUE(found);
   resolveTexturePath(".\\nothing.png", dir.string(), &found);
   EXPECT_FALSE(found);

@@ -7,7 +7,7 @@
 
 #include <algorithm>
 
-#include "calibration/display_presets.h"
+#include "calibration/display/display_presets.h"
 #include "common/input_error.h"
 #include "tracer/physical_scene.h"
 #include "tracer/scene_fixtures.h"
@@ -89,9 +89,11 @@ TEST(ObserverView, ModuleFramesSeenThroughThePhysicsMatchTheViewTracedDirectly) 
   options.height = 54;
   for (double x : {-0.5, 0.0, 0.4}) {
     std::vector<float> coverage;
-    const Frame assembled = synthesizeObserverView(model, frames, model.observer.pointAt(x), options, &coverage);
+    const Frame assembled =
+        synthesizeObserverView(model, frames, model.observer.pointAt(x), options, &coverage);
     // Only where the display's modules reach this viewer at all (its field of view).
-    const long covered = std::count_if(coverage.begin(), coverage.end(), [](float w) { return w >= 0.5f; });
+    const long covered =
+        std::count_if(coverage.begin(), coverage.end(), [](float w) { return w >= 0.5f; });
     EXPECT_GT(covered, static_cast<long>(coverage.size()) / 2) << "viewer at x = " << x;
     const Frame traced = renderFrame(scene, observerViewRays(model, x, options), render);
     const double psnr = psnrDb(assembled, traced, &coverage);
@@ -116,7 +118,8 @@ TEST(ObserverView, TracedReferenceRaysStartAtTheViewerOnOrOffTheLine) {
   ASSERT_EQ(online.rays().size(), same.rays().size());
   for (size_t i = 0; i < online.rays().size(); ++i) {
     EXPECT_EQ(online.frame().origin(online.rays()[i]), same.frame().origin(same.rays()[i]));
-    EXPECT_EQ(online.frame().screenPoint(online.rays()[i]), same.frame().screenPoint(same.rays()[i]));
+    EXPECT_EQ(online.frame().screenPoint(online.rays()[i]),
+              same.frame().screenPoint(same.rays()[i]));
   }
   const Eigen::Vector3d viewer(-0.2, model.observer.y + 0.25, model.observer.z - 0.6);
   const RayTextures off = observerViewRays(model, viewer, options);
@@ -135,7 +138,8 @@ namespace {
 TEST(FrameFiles, PngRoundTripKeepsEveryByteAndBadFilesAreNamed) {
   Frame frame(37, 11);
   for (size_t i = 0; i < frame.pixels.size(); ++i) {
-    frame.pixels[i] = Rgb(static_cast<float>(i % 7) / 6.0f, static_cast<float>(i % 13) / 12.0f, 0.25f);
+    frame.pixels[i] =
+        Rgb(static_cast<float>(i % 7) / 6.0f, static_cast<float>(i % 13) / 12.0f, 0.25f);
   }
   const std::string path = ::testing::TempDir() + "frame_round_trip.png";
   writePng(frame, path);

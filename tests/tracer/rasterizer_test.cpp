@@ -29,11 +29,13 @@ struct ModuleCase {
         forwardMap(model, module),
         rasterizer(model, module) {}
 
-  PositionError rasterError(int level, Interpolation interpolation, RasterCounters* counters = nullptr) const {
+  PositionError rasterError(int level, Interpolation interpolation,
+                            RasterCounters* counters = nullptr) const {
     RasterOptions options;
     options.tessellationLevel = level;
     options.interpolation = interpolation;
-    return positionError(physical, rasterizer.rasterize(physical, textures, options, counters), exact, forwardMap);
+    return positionError(physical, rasterizer.rasterize(physical, textures, options, counters),
+                         exact, forwardMap);
   }
 
   DisplayModel model;
@@ -46,7 +48,8 @@ struct ModuleCase {
 };
 
 // One emissive triangle of `colour`, in physical coordinates (B_W = B_P: the identity map).
-Mesh flatTriangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, int material) {
+Mesh flatTriangle(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                  int material) {
   Mesh m;
   m.positions = {a, b, c};
   m.triangles = {{0, 1, 2}};
@@ -75,13 +78,15 @@ TEST(Rasterizer, XyzTriangleErrorFallsWithTessellationWhileTheTracerIsExact) {
       EXPECT_EQ(counters.drawnTriangles + counters.droppedTriangles, 1L << (2 * level));
       EXPECT_TRUE(std::isfinite(e.rmsMm) && std::isfinite(e.rmsPx));
       if (level == 0) {
-        EXPECT_GT(e.rmsMm, 100.0 * std::max(tracer.rmsMm, 1e-4)) << "the double perspective must show";
+        EXPECT_GT(e.rmsMm, 100.0 * std::max(tracer.rmsMm, 1e-4))
+            << "the double perspective must show";
         EXPECT_GT(e.rmsPx, 0.05);
       } else {
         EXPECT_LT(e.rmsMm, 0.8 * previous) << "each level must cut the interpolation error";
       }
-      RecordProperty(std::string(interpolationName(mode)) + "_level_" + std::to_string(level) + "_rms_mm",
-                     std::to_string(e.rmsMm));
+      RecordProperty(
+          std::string(interpolationName(mode)) + "_level_" + std::to_string(level) + "_rms_mm",
+          std::to_string(e.rmsMm));
       previous = e.rmsMm;
     }
   }
@@ -120,7 +125,8 @@ TEST(Rasterizer, ZBufferKeepsTheNearerTriangle) {
     const int near = scene.addMaterial(Material::makeEmissive(Rgb(1, 0, 0)));
     const int far = scene.addMaterial(Material::makeEmissive(Rgb(0, 0, 1)));
     const Mesh nearMesh = flatTriangle({-0.5, -0.3, 0.1}, {0.4, -0.3, 0.1}, {0.0, 0.35, 0.1}, near);
-    const Mesh farMesh = flatTriangle({-0.4, -0.35, -0.1}, {0.5, -0.35, -0.1}, {0.05, 0.3, -0.1}, far);
+    const Mesh farMesh =
+        flatTriangle({-0.4, -0.35, -0.1}, {0.5, -0.35, -0.1}, {0.05, 0.3, -0.1}, far);
     scene.addMesh(nearFirst ? nearMesh : farMesh);
     scene.addMesh(nearFirst ? farMesh : nearMesh);
     scene.worldBox = display.displayableBox;
@@ -140,7 +146,8 @@ TEST(Rasterizer, ZBufferKeepsTheNearerTriangle) {
     }
     EXPECT_GT(both, 1000);
     // Edges of the rasterized near triangle are straight: a few pixels along them may differ.
-    EXPECT_GT(static_cast<double>(agree), 0.98 * static_cast<double>(both)) << "near first: " << nearFirst;
+    EXPECT_GT(static_cast<double>(agree), 0.98 * static_cast<double>(both))
+        << "near first: " << nearFirst;
     const Frame frame = shadeDirect(c.physical, raster, c.textures);
     long red = 0;
     for (const Rgb& p : frame.pixels) red += p.x() > 0.5f && p.z() < 0.5f;

@@ -64,10 +64,11 @@ std::optional<double> floorPointEdge(const WorldRay& ray) {
 // The floor under an opaque box, light straight down: dark exactly under the box and 0.5
 // elsewhere; light from below reaches no floor point seen from above.
 TEST(Shadows, PresentWhereGeometryBlocksTheLightAbsentElsewhere) {
-  const DisplayModel display = smallDisplay(3, 320, 240);  // the middle module looks straight at the shadow
+  const DisplayModel display =
+      smallDisplay(3, 320, 240);  // the middle module looks straight at the shadow
   for (bool fromBelow : {false, true}) {
-    const Scene scene =
-        floorUnderHoveringBox(Material::makeDiffuse({0.5f, 0.5f, 0.5f}), {0, fromBelow ? 1.0 : -1.0, 0});
+    const Scene scene = floorUnderHoveringBox(Material::makeDiffuse({0.5f, 0.5f, 0.5f}),
+                                              {0, fromBelow ? 1.0 : -1.0, 0});
     const PhysicalScene physical(scene, display.displayableBox);
     long lit = 0, shadowed = 0;
     forEachRenderedPixel(display, 2, physical, RenderOptions{}, [&](const RenderedPixel& pixel) {
@@ -108,7 +109,8 @@ TEST(Shadows, GlassLetsThroughItsFresnelAndBeerLambertTransmittance) {
   };
   const double r = std::pow((1.5 - 1.0) / (1.5 + 1.0), 2.0);
   Rgb glassExpected;
-  for (int c = 0; c < 3; ++c) glassExpected[c] = static_cast<float>(0.5 * (1 - r) * (1 - r) * std::exp(-absorption[c] * 0.3));
+  for (int c = 0; c < 3; ++c)
+    glassExpected[c] = static_cast<float>(0.5 * (1 - r) * (1 - r) * std::exp(-absorption[c] * 0.3));
   const Case cases[] = {
       {"absorbing glass", Material::makeDielectric(1.5f, absorption), glassExpected},
       {"opaque", Material::makeDiffuse({0.5f, 0.5f, 0.5f}), Rgb::Zero()},
@@ -116,7 +118,8 @@ TEST(Shadows, GlassLetsThroughItsFresnelAndBeerLambertTransmittance) {
   };
   for (const Case& test : cases) {
     SCOPED_TRACE(test.name);
-    const PhysicalScene physical(floorUnderHoveringBox(test.material, {0, -1.0, 0}), display.displayableBox);
+    const PhysicalScene physical(floorUnderHoveringBox(test.material, {0, -1.0, 0}),
+                                 display.displayableBox);
     const bool glass = test.material.kind == MaterialKind::kDielectric;
     EXPECT_EQ(physical.glassShadows(), glass);
     long under = 0, lit = 0;
@@ -129,7 +132,8 @@ TEST(Shadows, GlassLetsThroughItsFresnelAndBeerLambertTransmittance) {
           const Rgb expected = *edge < 0.3 ? test.expected : Rgb::Constant(0.5f);
           (*edge < 0.3 ? under : lit) += 1;
           for (int k = 0; k < 3; ++k) {
-            EXPECT_NEAR(pixel.colour[k], expected[k], 1e-5f) << pixel.column << "," << pixel.row << " channel " << k;
+            EXPECT_NEAR(pixel.colour[k], expected[k], 1e-5f)
+                << pixel.column << "," << pixel.row << " channel " << k;
           }
         },
         &total);
@@ -182,11 +186,13 @@ TEST(Textures, LookupReturnsTheTexelsColour) {
   for (int y = 0; y < 4; ++y) {
     for (int x = 0; x < 8; ++x) {
       // uv of the texel centre: (0, 0) is the bottom-left corner, row 0 the top.
-      const float u = (static_cast<float>(x) + 0.5f) / 8.0f, v = 1.0f - (static_cast<float>(y) + 0.5f) / 4.0f;
+      const float u = (static_cast<float>(x) + 0.5f) / 8.0f,
+                  v = 1.0f - (static_cast<float>(y) + 0.5f) / 4.0f;
       const size_t i = (static_cast<size_t>(y) * 8 + static_cast<size_t>(x)) * 3;
       const Rgb expected(rgb[i], rgb[i + 1], rgb[i + 2]);
       EXPECT_NEAR((image.lookup(u, v, 0.0f) - expected).norm(), 0.0f, 1e-6f) << x << "," << y;
-      EXPECT_NEAR((image.lookup(u + 3.0f, v - 2.0f, 0.0f) - expected).norm(), 0.0f, 1e-5f) << "uv wraps";
+      EXPECT_NEAR((image.lookup(u + 3.0f, v - 2.0f, 0.0f) - expected).norm(), 0.0f, 1e-5f)
+          << "uv wraps";
     }
   }
   // The coarsest level is the mean of the whole image.
@@ -206,7 +212,8 @@ TEST(Textures, RenderedPixelsShowTheTexelColour) {
   for (int y = 0; y < 16; ++y) {
     for (int x = 0; x < 16; ++x) {
       const int block = (y / 4) * 4 + x / 4;
-      texture.pixels.insert(texture.pixels.end(), {block / 16.0f, 1.0f - block / 16.0f, (block % 3) / 2.0f});
+      texture.pixels.insert(texture.pixels.end(),
+                            {block / 16.0f, 1.0f - block / 16.0f, (block % 3) / 2.0f});
     }
   }
   const int tex = scene.addTexture(texture);
@@ -230,11 +237,13 @@ TEST(Textures, RenderedPixelsShowTheTexelColour) {
         const double tx = u * 16, ty = (1 - v) * 16;  // texel coordinates, row 0 at the top
         // Bilinear blends within half a texel of a block border: skip a full texel there.
         const double bx = std::fmod(tx, 4.0), by = std::fmod(ty, 4.0);
-        if (u <= 0 || u >= 1 || v <= 0 || v >= 1 || bx < 1.0 || bx > 3.0 || by < 1.0 || by > 3.0) return;
+        if (u <= 0 || u >= 1 || v <= 0 || v >= 1 || bx < 1.0 || bx > 3.0 || by < 1.0 || by > 3.0)
+          return;
         const int block = static_cast<int>(ty / 4) * 4 + static_cast<int>(tx / 4);
         const Rgb expected(block / 16.0f, 1.0f - block / 16.0f, (block % 3) / 2.0f);
         ++checked;
-        EXPECT_NEAR((pixel.colour - expected).norm(), 0.0f, 1e-5f) << pixel.column << "," << pixel.row;
+        EXPECT_NEAR((pixel.colour - expected).norm(), 0.0f, 1e-5f)
+            << pixel.column << "," << pixel.row;
       },
       &counters);
   EXPECT_GT(checked, 1000);
@@ -287,19 +296,22 @@ TEST(LeaveOut, PhaseTimesShowTheShadowPassesNeverRanAndTimingLeavesTheImageAlone
   const Frame a = renderFrame(physical, textures, RenderOptions{}, &plain);
   const Frame b = renderFrame(physical, textures, timed, &withTimes);
   EXPECT_EQ(a.pixels, b.pixels);
-  for (int p = 0; p < kRenderPhases; ++p) EXPECT_EQ(plain.phaseThreadMs[p], 0.0) << "not timed unless asked";
+  for (int p = 0; p < kRenderPhases; ++p)
+    EXPECT_EQ(plain.phaseThreadMs[p], 0.0) << "not timed unless asked";
   for (RenderPhase ran : {RenderPhase::kGenerate, RenderPhase::kIntersect, RenderPhase::kShade}) {
     EXPECT_GT(withTimes.phaseThreadMs[static_cast<int>(ran)], 0.0) << renderPhaseName(ran);
   }
   for (RenderPhase leftOut : {RenderPhase::kOcclude, RenderPhase::kGather}) {
-    EXPECT_EQ(withTimes.phaseThreadMs[static_cast<int>(leftOut)], 0.0) << renderPhaseName(leftOut) << ": no lights";
+    EXPECT_EQ(withTimes.phaseThreadMs[static_cast<int>(leftOut)], 0.0)
+        << renderPhaseName(leftOut) << ": no lights";
   }
 }
 
 TEST(LeaveOut, FlatVertexNormalsAreDroppedWithoutChangingTheImageAndSmoothOnesKept) {
   const DisplayModel display = smallDisplay(1, 160, 120);
   const RayTextures textures = generateRayTextures(display, 0);
-  Scene withNormals = floorUnderHoveringBox(Material::makeDiffuse({0.2f, 0.6f, 0.3f}), {-0.3, -1.0, -0.4});
+  Scene withNormals =
+      floorUnderHoveringBox(Material::makeDiffuse({0.2f, 0.6f, 0.3f}), {-0.3, -1.0, -0.4});
   withNormals.materials[0].specular = {0.5f, 0.5f, 0.5f};  // a highlight uses the normal too
   withNormals.materials[0].shininess = 32.0f;
   Scene withoutNormals = withNormals;
@@ -312,7 +324,8 @@ TEST(LeaveOut, FlatVertexNormalsAreDroppedWithoutChangingTheImageAndSmoothOnesKe
   const Frame b = renderFrame(none, textures, RenderOptions{});
   ASSERT_EQ(a.pixels.size(), b.pixels.size());
   float worst = 0.0f;
-  for (size_t i = 0; i < a.pixels.size(); ++i) worst = std::max(worst, (a.pixels[i] - b.pixels[i]).cwiseAbs().maxCoeff());
+  for (size_t i = 0; i < a.pixels.size(); ++i)
+    worst = std::max(worst, (a.pixels[i] - b.pixels[i]).cwiseAbs().maxCoeff());
   EXPECT_LT(worst, 1e-5f);
 
   Scene smooth;
@@ -333,7 +346,9 @@ TEST(LeaveOut, AMirrorAddsReflectionRaysOnlyWhereItIsSeen) {
   const int mirror = scene.addMaterial(Material::makeMirror({0.9f, 0.9f, 0.9f}));
   Mesh small = makeGrid(0.6, 0.6, 1, 1);
   small.material = mirror;
-  scene.addMesh(small, true, at({0.2, 0.1, 0.3}) * Eigen::Affine3d(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY())));
+  scene.addMesh(
+      small, true,
+      at({0.2, 0.1, 0.3}) * Eigen::Affine3d(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY())));
   const RayTextures textures = generateRayTextures(display, 0);
   RenderCounters c;
   {
@@ -370,7 +385,8 @@ TEST(BadScenes, ClearErrorsOrWarningsNeverACrash) {
       PhysicalScene physical(nan, display.displayableBox);
       FAIL() << "a NaN vertex must be rejected";
     } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("meshes[0].positions[3]"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("meshes[0].positions[3]"), std::string::npos)
+          << e.what();
     }
   }
   {
@@ -397,7 +413,8 @@ TEST(BadScenes, ClearErrorsOrWarningsNeverACrash) {
     EXPECT_NE(physical.warnings()[0].find("/nonexistent/texture.png"), std::string::npos);
     const Frame frame = renderFrame(physical, textures, RenderOptions{});
     long fallback = 0;
-    for (const Rgb& p : frame.pixels) fallback += (p - Rgb(0.25f, 0.5f, 0.75f)).norm() < 1e-6f ? 1 : 0;
+    for (const Rgb& p : frame.pixels)
+      fallback += (p - Rgb(0.25f, 0.5f, 0.75f)).norm() < 1e-6f ? 1 : 0;
     EXPECT_GT(fallback, 100);
   }
   {
@@ -409,8 +426,9 @@ TEST(BadScenes, ClearErrorsOrWarningsNeverACrash) {
     Mesh across = makeBox({0.5, 0.5, 0.5});
     outside.addMesh(across, true, at({0, 0, 1}));  // straddles the z = 1 face
     const PhysicalScene physical(outside, display.displayableBox);
-    EXPECT_EQ(physical.counters().trianglesOutside, 12 + 2);  // the far box + the across box's outer face
-    EXPECT_EQ(physical.counters().trianglesClipped, 8);       // its four side faces
+    EXPECT_EQ(physical.counters().trianglesOutside,
+              12 + 2);  // the far box + the across box's outer face
+    EXPECT_EQ(physical.counters().trianglesClipped, 8);  // its four side faces
     const float limit = static_cast<float>(display.displayableBox.max.z()) + 1e-5f;
     EXPECT_LE(physical.boundsMax().z(), limit);
   }
@@ -425,12 +443,15 @@ TEST(ExtremeScales, CornellBoxRendersTheSameAtAnyScaleAndOffset) {
     double scale;
     Eigen::Vector3d offset;
   };
-  for (const Variant& v : {Variant{1e-3, Eigen::Vector3d::Zero()}, Variant{1e4, Eigen::Vector3d::Zero()},
-                           Variant{1.0, Eigen::Vector3d::Constant(1e4)}, Variant{1e-3, Eigen::Vector3d(1e4, -1e4, 1e4)}}) {
+  for (const Variant& v :
+       {Variant{1e-3, Eigen::Vector3d::Zero()}, Variant{1e4, Eigen::Vector3d::Zero()},
+        Variant{1.0, Eigen::Vector3d::Constant(1e4)},
+        Variant{1e-3, Eigen::Vector3d(1e4, -1e4, 1e4)}}) {
     const PhysicalScene scaled(makeCornellScene(v.scale, v.offset), display.displayableBox);
     for (int module = 0; module < 2; ++module) {
       const RayTextures textures = generateRayTextures(display, module);
-      const std::vector<std::uint8_t> a = renderFrame(reference, textures, RenderOptions{}).toSrgb8();
+      const std::vector<std::uint8_t> a =
+          renderFrame(reference, textures, RenderOptions{}).toSrgb8();
       const std::vector<std::uint8_t> b = renderFrame(scaled, textures, RenderOptions{}).toSrgb8();
       long differing = 0;
       for (size_t i = 0; i < a.size(); i += 3) {
@@ -439,7 +460,8 @@ TEST(ExtremeScales, CornellBoxRendersTheSameAtAnyScaleAndOffset) {
         differing += off ? 1 : 0;
       }
       const double fraction = static_cast<double>(differing) / static_cast<double>(a.size() / 3);
-      EXPECT_LE(fraction, 0.001) << "scale " << v.scale << " offset " << v.offset.transpose() << " module " << module;
+      EXPECT_LE(fraction, 0.001) << "scale " << v.scale << " offset " << v.offset.transpose()
+                                 << " module " << module;
     }
   }
 }

@@ -3,12 +3,13 @@
 // world space, and position-coloured emissive planes whose colour at a point encodes the point
 // (so a pixel's colour tells where its ray path ended).
 
-#include <Eigen/Core>
 #include <gtest/gtest.h>
+
+#include <Eigen/Core>
 #include <optional>
 
-#include "calibration/display_presets.h"
-#include "calibration/ray_textures.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/display/ray_textures.h"
 #include "tracer/physical_scene.h"
 #include "tracer/scene.h"
 #include "tracer/whitted_integrator.h"
@@ -61,7 +62,8 @@ struct RenderedPixel {
 // over the modules when asked for.
 template <class Visit>
 void forEachRenderedPixel(const DisplayModel& display, int modules, const PhysicalScene& scene,
-                          const RenderOptions& options, Visit&& visit, RenderCounters* counters = nullptr) {
+                          const RenderOptions& options, Visit&& visit,
+                          RenderCounters* counters = nullptr) {
   for (int module = 0; module < modules; ++module) {
     const RayTextures textures = generateRayTextures(display, module);
     RenderCounters moduleCounters;
@@ -80,8 +82,8 @@ void forEachRenderedPixel(const DisplayModel& display, int modules, const Physic
 // two in-plane world coordinates `axisA`, `axisB` of the point: linear, so the interpolated
 // colour at any point encodes that point exactly, and dividing by the third channel cancels
 // any weight (Fresnel, reflectance) the path picked up.
-inline Mesh positionColouredRect(int axisA, int axisB, int normalAxis, double planeCoord, double halfSize,
-                                 double offset, int material) {
+inline Mesh positionColouredRect(int axisA, int axisB, int normalAxis, double planeCoord,
+                                 double halfSize, double offset, int material) {
   Mesh m;
   m.material = material;
   const double corners[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
@@ -91,7 +93,8 @@ inline Mesh positionColouredRect(int axisA, int axisB, int normalAxis, double pl
     p[axisB] = c[1] * halfSize;
     p[normalAxis] = planeCoord;
     m.positions.push_back(p);
-    m.colors.push_back(Rgb(static_cast<float>(p[axisA] + offset), static_cast<float>(p[axisB] + offset), 1.0f));
+    m.colors.push_back(
+        Rgb(static_cast<float>(p[axisA] + offset), static_cast<float>(p[axisB] + offset), 1.0f));
   }
   m.triangles = {{0, 1, 2}, {0, 2, 3}};
   return m;

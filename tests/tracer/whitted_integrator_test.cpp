@@ -60,7 +60,8 @@ TEST(WhittedIntegrator, XyzTriangleColourIsTheExactWorldPosition) {
             EXPECT_LT(error, 1e-5) << "module " << module << " pixel " << column << "," << row;
           } else {
             ++grazing;
-            EXPECT_LT(error * cosine, 5e-7) << "module " << module << " pixel " << column << "," << row;
+            EXPECT_LT(error * cosine, 5e-7)
+                << "module " << module << " pixel " << column << "," << row;
           }
         } else if (p.minCoeff() < -1e-4) {
           ++background;
@@ -111,7 +112,8 @@ TEST(WhittedIntegrator, MirrorPlaneReflectsAsTheLawOfReflectionSays) {
 
 // Snell refraction of a world ray at a plane with unit normal n facing the incoming side;
 // eta = n_i / n_t. Independent of the tracer's float version.
-std::optional<Eigen::Vector3d> snell(const Eigen::Vector3d& d, const Eigen::Vector3d& n, double eta) {
+std::optional<Eigen::Vector3d> snell(const Eigen::Vector3d& d, const Eigen::Vector3d& n,
+                                     double eta) {
   const double cosI = -d.dot(n);
   const double sin2T = eta * eta * (1.0 - cosI * cosI);
   if (sin2T >= 1.0) return std::nullopt;
@@ -148,23 +150,27 @@ SlabResult checkSlab(float ior) {
     const Eigen::Vector3d p0 = ray.origin + *t0 * ray.direction;
     const auto inside = snell(ray.direction, Eigen::Vector3d::UnitZ(), 1.0 / ior);
     WorldRay in{p0, *inside};
-    const Eigen::Vector3d p1 = in.origin + *hitPlane(in, Eigen::Vector3d::UnitZ(), -0.2) * in.direction;
+    const Eigen::Vector3d p1 =
+        in.origin + *hitPlane(in, Eigen::Vector3d::UnitZ(), -0.2) * in.direction;
     const auto out = snell(in.direction, Eigen::Vector3d::UnitZ(), ior);
     if (!out) return;
     WorldRay leaving{p1, *out};
-    const Eigen::Vector3d q = leaving.origin + *hitPlane(leaving, Eigen::Vector3d::UnitZ(), -1.0) * leaving.direction;
-    if (std::abs(p0.x()) > 0.85 || std::abs(p0.y()) > 0.85 || std::abs(p1.x()) > 0.85 || std::abs(p1.y()) > 0.85 ||
-        std::abs(q.x()) > 0.98 || std::abs(q.y()) > 0.98) {
+    const Eigen::Vector3d q =
+        leaving.origin + *hitPlane(leaving, Eigen::Vector3d::UnitZ(), -1.0) * leaving.direction;
+    if (std::abs(p0.x()) > 0.85 || std::abs(p0.y()) > 0.85 || std::abs(p1.x()) > 0.85 ||
+        std::abs(p1.y()) > 0.85 || std::abs(q.x()) > 0.98 || std::abs(q.y()) > 0.98) {
       return;
     }
     // Where the wall would be hit without the slab: the lateral shift is the difference.
-    const Eigen::Vector3d unbent = ray.origin + *hitPlane(ray, Eigen::Vector3d::UnitZ(), -1.0) * ray.direction;
+    const Eigen::Vector3d unbent =
+        ray.origin + *hitPlane(ray, Eigen::Vector3d::UnitZ(), -1.0) * ray.direction;
     shiftSum += (q - unbent).head<2>().norm();
     ++result.checked;
     EXPECT_GT(pixel.colour.z(), 0.8f) << "transmission through two faces near normal incidence";
     expectPaintedAt(pixel, q.x(), q.y(), kPathTolerance);
     if (ior == 1.0f) {
-      EXPECT_NEAR(pixel.colour.z(), 1.0f, 1e-6f) << "an index-matched slab neither reflects nor absorbs";
+      EXPECT_NEAR(pixel.colour.z(), 1.0f, 1e-6f)
+          << "an index-matched slab neither reflects nor absorbs";
     }
   });
   result.meanLateralShift = result.checked ? shiftSum / static_cast<double>(result.checked) : 0.0;
@@ -201,7 +207,8 @@ TEST(WhittedIntegrator, TotalInternalReflectionInAPrism) {
     prism.positions.push_back({x, -0.5, -0.5});
   }
   // Outward, counter-clockwise: front (z = 0.5), bottom (y = -0.5), hypotenuse, two ends.
-  prism.triangles = {{0, 1, 4}, {0, 4, 3}, {1, 2, 5}, {1, 5, 4}, {2, 0, 3}, {2, 3, 5}, {0, 2, 1}, {3, 4, 5}};
+  prism.triangles = {{0, 1, 4}, {0, 4, 3}, {1, 2, 5}, {1, 5, 4},
+                     {2, 0, 3}, {2, 3, 5}, {0, 2, 1}, {3, 4, 5}};
   scene.addMesh(prism);
   scene.addMesh(positionColouredRect(0, 2, 1, -1.0, 1.0, 2.0, floor));
   scene.worldBox = Box3{Eigen::Vector3d::Constant(-1), Eigen::Vector3d::Constant(1)};
@@ -227,10 +234,12 @@ TEST(WhittedIntegrator, TotalInternalReflectionInAPrism) {
     const Eigen::Vector3d p2 = down.origin + *t2 * down.direction;
     if (std::abs(p2.x()) > 0.8 || p2.z() > 0.45 || p2.z() < -0.45 || std::abs(p1.x()) > 0.8) return;
     WorldRay out{p2, *snell(down.direction, Eigen::Vector3d::UnitY(), 1.5)};
-    const Eigen::Vector3d q = out.origin + *hitPlane(out, Eigen::Vector3d::UnitY(), -1.0) * out.direction;
+    const Eigen::Vector3d q =
+        out.origin + *hitPlane(out, Eigen::Vector3d::UnitY(), -1.0) * out.direction;
     if (std::abs(q.x()) > 0.98 || std::abs(q.z()) > 0.98) return;
     ++totallyReflected;
-    EXPECT_GT(pixel.colour.z(), 0.8f) << "TIR loses nothing; only the two refracting faces reflect a little";
+    EXPECT_GT(pixel.colour.z(), 0.8f)
+        << "TIR loses nothing; only the two refracting faces reflect a little";
     expectPaintedAt(pixel, q.x(), q.z(), kPathTolerance);
   });
   EXPECT_GT(totallyReflected, 500);
@@ -283,7 +292,8 @@ TEST(WhittedIntegrator, MirrorSphereReflectsAsTheLawOfReflectionSays) {
     const Eigen::Vector3d p = ray.origin + *t * ray.direction;
     const Eigen::Vector3d n = p.normalized();
     const double cosine = -ray.direction.dot(n);
-    if (cosine < std::cos(75.0 * 3.14159265358979 / 180.0)) return;  // grazing: tessellation dominates
+    if (cosine < std::cos(75.0 * 3.14159265358979 / 180.0))
+      return;  // grazing: tessellation dominates
     WorldRay bounced{p, ray.direction - 2.0 * ray.direction.dot(n) * n};
     const auto t2 = hitPlane(bounced, Eigen::Vector3d::UnitZ(), -1.0);
     if (!t2) return;

@@ -1,0 +1,321 @@
+#include "calibration/capture/calibration_captures.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "calibration/camera/observations_json.h"
+#include "calibration/capture/camera_picture.h"
+#include "calibration/capture/fiducial_detector.h"
+#include "calibration/display/json_fields.h"
+#include "calibration/display/json_file.h"
+#include "common/atomic_file.h"
+#include "common/input_error.h"
+
+namespace parallax {
+namespace {
+
+using jsonfield::array;
+using jsonfield::fail;
+using jsonfield::integer;
+using jsonfield::member;
+using jsonfield::number;
+using nlohmann::json;
+
+constexpr const char* kPatternsFormatName = "parallax-patterns";
+constexpr int kPatternsFormatVersion = 1;
+constexpr size_t kMaxCaptureSets = 4096;
+
+int framesPerAxis(int extent, const StructuredLightOptions& patterns) {
+  return 2 + grayBitCount(extent, patterns.periodPx) + patterns.phaseSteps;
+}
+
+std::string frameName(size_t set, char axis, size_t frame) {
+  return fmt::format("set{:03d}_{}{:02d}.png", set, axis, frame);
+}
+
+cv::Mat loadPicture(const std::string& path, const CameraMetadata& camera) {
+  return linearFromRecorded8(
+      readCameraPicture(path, camera.intrinsics.width, camera.intrinsics.height),
+      camera.responseGamma);
+}
+
+}  // namespace
+
+void CalibrationCaptures::validate(const DisplayModel& nominal) const {
+  patterns.validate();
+  const int modules = static_cast<int>(nominal.modules.size());
+  if (moduleWidth != nominal.modules.front().width ||
+      moduleHeight != nominal.modules.front().height) {
+    fail("module_width",
+         fmt::format("the patterns are {}x{}, the nominal display's modules {}x{}", moduleWidth,
+                     moduleHeight, nominal.modules.front().width, nominal.modules.front().height));
+  }
+  const size_t columns = static_cast<size_t>(framesPerAxis(moduleWidth, patterns));
+  const size_t rows = static_cast<size_t>(framesPerAxis(moduleHeight, patterns));
+  for (size_t i = 0; i < stations.size(); ++i) {
+    const StationCaptures& s = stations[i];
+    const std::string field = fmt::format("stations[{}]", i);
+    if (s.station < 0 || s.station >= static_cast<int>(camera.stations.size())) {
+      fail(field + ".station",
+           fmt::format("must be 0..{}", static_cast<int>(camera.stations.size()) - 1));
+    }
+    if (s.group.empty()) fail(field + ".group", "must name at least one module");
+    for (int m : s.group) {
+      if (m < 0 || m >= modules)
+        fail(field + ".group", fmt::format("module {} is not 0..{}", m, modules - 1));
+    }
+    if (s.columnFrames.size() != columns || s.rowFrames.size() != rows) {
+      fail(field, fmt::format("needs {} column and {} row pictures, has {} and {}", columns, rows,
+                              s.columnFrames.size(), s.rowFrames.size()));
+    }
+    for (const auto* frames : {&s.columnFrames, &s.rowFrames}) {
+      for (const cv::Mat& f : *frames) {
+        if (f.type() != CV_32F || f.cols != camera.intrinsics.width ||
+            f.rows != camera.intrinsics.height) {
+          fail(field, fmt::format("every picture must be linear (CV_32F) and {}x{}",
+                                  camera.intrinsics.width, camera.intrinsics.height));
+        }
+      }
+    }
+  }
+}
+
+std::vector<std::vector<int>> moduleGroups(int modules, int stride) {
+  std::vector<std::vector<int>> groups;
+  stride = std::max(1, std::min(stride, modules));
+  for (int g = 0; g < stride; ++g) {
+    std::vector<int> group;
+    for (int m = g; m < modules; m += stride) group.push_back(m);
+    groups.push_back(group);
+  }
+  return groups;
+}
+
+CalibrationObservations observationsFrame(const CameraMetadata& camera) {
+  CalibrationObservations obs;
+  obs.intrinsics = camera.intrinsics;
+  obs.stations = camera.stations;
+  obs.fiducials = camera.fiducials;
+  return obs;
+}
+
+CheckerboardCalibration calibrateCapturesCamera(CalibrationCaptures* captures,
+                                                const CheckerboardCalibrationOptions& options) {
+  if (!captures->checkerboard) fail("checkerboard", "the captures hold no checkerboard pictures");
+  const int width = captures->camera.intrinsics.width, height = captures->camera.intrinsics.height;
+  CheckerboardCalibration result = calibrateFromCheckerboard(
+      captures->checkerboard->pictures, captures->checkerboard->board, width, height, options);
+  captures->camera.intrinsics = result.intrinsics;
+  captures->camera.intrinsicsKnown = true;
+  return result;
+}
+
+void requireKnownIntrinsics(const CameraMetadata& camera, const std::string& file,
+                            const std::string& purpose) {
+  if (camera.intrinsicsKnown) return;
+  throw InputError(
+      {file, "intrinsics.focal_px", 0},
+      fmt::format(
+          "missing: {} needs the camera's intrinsics (camera.json gives only the picture size; "
+          "calibrate the camera from its checkerboard pictures first)",
+          purpose));
+}
+
+CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
+                                       const DisplayModel& nominal,
+                                       const CaptureDecoderOptions& options) {
+  requireKnownIntrinsics(captures.camera, "", "decoding the pictures");
+  captures.validate(nominal);
+  CaptureDecoderOptions decoder = options;
+  decoder.patterns = captures.patterns;
+  CalibrationObservations obs = observationsFrame(captures.camera);
+  // Fiducials first (from each station's first black reference picture): the pose they give
+  // is what the decoder predicts the stripes from.
+  std::vector<std::optional<CameraPose>> poses(captures.camera.stations.size());
+  std::vector<bool> fiducialsDone(captures.camera.stations.size(), false);
+  for (const StationCaptures& s : captures.stations) {
+    if (fiducialsDone[static_cast<size_t>(s.station)]) continue;
+    fiducialsDone[static_cast<size_t>(s.station)] = true;
+    detectFiducials(s.columnFrames[1], nominal.screen, s.station, FiducialDetectorOptions{}, &obs);
+    poses[static_cast<size_t>(s.station)] = poseFromFiducials(obs, nominal.screen, s.station);
+  }
+  for (const StationCaptures& s : captures.stations) {
+    const auto& pose = poses[static_cast<size_t>(s.station)];
+    decodeStation(s.columnFrames, s.rowFrames, s.group, nominal, s.station, decoder, &obs,
+                  pose ? &*pose : nullptr);
+  }
+  return obs;
+}
+
+cv::Mat linearFromRecorded8(const cv::Mat& recorded8, double gamma) {
+  // A lookup table: 256 values, exact.
+  float table[256];
+  for (int i = 0; i < 256; ++i) table[i] = static_cast<float>(std::pow(i / 255.0, gamma));
+  cv::Mat linear(recorded8.size(), CV_32F);
+  for (int y = 0; y < recorded8.rows; ++y) {
+    const uint8_t* in = recorded8.ptr<uint8_t>(y);
+    float* out = linear.ptr<float>(y);
+    for (int x = 0; x < recorded8.cols; ++x) out[x] = table[in[x]];
+  }
+  return linear;
+}
+
+cv::Mat recorded8FromLinear(const cv::Mat& linear, double gamma) {
+  cv::Mat out(linear.size(), CV_8U);
+  for (int y = 0; y < linear.rows; ++y) {
+    const float* in = linear.ptr<float>(y);
+    uint8_t* o = out.ptr<uint8_t>(y);
+    for (int x = 0; x < linear.cols; ++x) {
+      const double v = std::pow(std::clamp(static_cast<double>(in[x]), 0.0, 1.0), 1.0 / gamma);
+      o[x] = static_cast<uint8_t>(std::lround(255.0 * v));
+    }
+  }
+  return out;
+}
+
+void saveCameraMetadata(const CameraMetadata& camera, const std::string& path) {
+  json j = cameraMetadataToJson(observationsFrame(camera));
+  if (!camera.intrinsicsKnown) {
+    // Only the picture size: the intrinsics are to be calibrated from the checkerboard.
+    for (const char* key : {"focal_px", "principal_px", "distortion"}) j["intrinsics"].erase(key);
+  }
+  j["response_gamma"] = camera.responseGamma;
+  writeFileAtomically(path, j.dump(2) + "\n");
+}
+
+CameraMetadata loadCameraMetadata(const std::string& path) {
+  try {
+    const json j = readJsonFile(path);
+    CalibrationObservations obs;
+    CameraMetadata camera;
+    cameraMetadataFromJson(j, &obs, &camera.intrinsicsKnown);
+    camera.intrinsics = obs.intrinsics;
+    camera.stations = obs.stations;
+    camera.fiducials = obs.fiducials;
+    if (j.contains("response_gamma")) {
+      camera.responseGamma = number(j["response_gamma"], "response_gamma");
+      if (!(camera.responseGamma >= 0.2 && camera.responseGamma <= 5.0))
+        fail("response_gamma", "must be 0.2..5");
+    }
+    return camera;
+  } catch (const InputError& e) {
+    throw e.location().file.empty() ? e.inFile(path) : e;
+  }
+}
+
+void saveCaptures(const CalibrationCaptures& captures, const std::string& directory) {
+  std::error_code ec;
+  std::filesystem::create_directories(directory, ec);
+  if (ec)
+    throw InputError({directory, "", 0}, "cannot create the captures folder: " + ec.message());
+  json j;
+  j["format"] = kPatternsFormatName;
+  j["version"] = kPatternsFormatVersion;
+  j["period_px"] = captures.patterns.periodPx;
+  j["phase_steps"] = captures.patterns.phaseSteps;
+  j["min_contrast"] = captures.patterns.minContrast;
+  j["module_width"] = captures.moduleWidth;
+  j["module_height"] = captures.moduleHeight;
+  j["stations"] = json::array();
+  for (size_t i = 0; i < captures.stations.size(); ++i) {
+    const StationCaptures& s = captures.stations[i];
+    json entry{{"station", s.station},
+               {"group", s.group},
+               {"columns", json::array()},
+               {"rows", json::array()}};
+    for (auto [frames, axis, key] :
+         {std::tuple{&s.columnFrames, 'c', "columns"}, std::tuple{&s.rowFrames, 'r', "rows"}}) {
+      for (size_t f = 0; f < frames->size(); ++f) {
+        const std::string name = frameName(i, axis, f);
+        const std::string path = directory + "/" + name;
+        if (!cv::imwrite(path, recorded8FromLinear((*frames)[f], captures.camera.responseGamma))) {
+          throw InputError({path, "", 0}, "cannot write the picture");
+        }
+        entry[key].push_back(name);
+      }
+    }
+    j["stations"].push_back(entry);
+  }
+  if (captures.checkerboard) saveCheckerboardCaptures(*captures.checkerboard, directory);
+  saveCameraMetadata(captures.camera, directory + "/camera.json");
+  writeFileAtomically(directory + "/patterns.json", j.dump(2) + "\n");
+}
+
+CalibrationCaptures loadCaptures(const std::string& directory) {
+  CalibrationCaptures captures;
+  captures.camera = loadCameraMetadata(directory + "/camera.json");
+  if (hasCheckerboardCaptures(directory)) {
+    captures.checkerboard = loadCheckerboardCaptures(directory, captures.camera.intrinsics.width,
+                                                     captures.camera.intrinsics.height);
+  } else if (!captures.camera.intrinsicsKnown) {
+    throw InputError(
+        {directory + "/camera.json", "intrinsics.focal_px", 0},
+        fmt::format(
+            "missing, and there are no checkerboard pictures ({}) to calibrate the camera from",
+            kCheckerboardFileName));
+  }
+  const std::string path = directory + "/patterns.json";
+  try {
+    const json j = readJsonFile(path);
+    jsonfield::requireFormat(j, kPatternsFormatName, kPatternsFormatVersion);
+    captures.patterns.periodPx =
+        static_cast<int>(integer(member(j, "period_px", ""), "period_px", 2, 4096));
+    captures.patterns.phaseSteps =
+        static_cast<int>(integer(member(j, "phase_steps", ""), "phase_steps", 3, 64));
+    captures.patterns.minContrast = number(member(j, "min_contrast", ""), "min_contrast");
+    captures.moduleWidth =
+        static_cast<int>(integer(member(j, "module_width", ""), "module_width", 2, 1 << 15));
+    captures.moduleHeight =
+        static_cast<int>(integer(member(j, "module_height", ""), "module_height", 2, 1 << 15));
+    try {
+      captures.patterns.validate();
+    } catch (const InputError& e) {
+      fail(e.location().field, e.reason());
+    }
+    const json& stations = array(member(j, "stations", ""), "stations", kMaxCaptureSets);
+    const size_t columns =
+        static_cast<size_t>(framesPerAxis(captures.moduleWidth, captures.patterns));
+    const size_t rows =
+        static_cast<size_t>(framesPerAxis(captures.moduleHeight, captures.patterns));
+    for (size_t i = 0; i < stations.size(); ++i) {
+      const std::string field = fmt::format("stations[{}]", i);
+      StationCaptures s;
+      s.station =
+          static_cast<int>(integer(member(stations[i], "station", field), field + ".station", 0,
+                                   static_cast<long long>(captures.camera.stations.size()) - 1));
+      const json& group = array(member(stations[i], "group", field), field + ".group", 1 << 16);
+      for (size_t g = 0; g < group.size(); ++g) {
+        s.group.push_back(
+            static_cast<int>(integer(group[g], fmt::format("{}.group[{}]", field, g), 0, 1 << 16)));
+      }
+      for (auto [frames, key, expected] : {std::tuple{&s.columnFrames, "columns", columns},
+                                           std::tuple{&s.rowFrames, "rows", rows}}) {
+        const json& names = array(member(stations[i], key, field), field + "." + key, 1024);
+        if (names.size() != expected) {
+          fail(field + "." + key, fmt::format("needs {} pictures for these patterns, lists {}",
+                                              expected, names.size()));
+        }
+        for (size_t f = 0; f < names.size(); ++f) {
+          const std::string nameField = fmt::format("{}.{}[{}]", field, key, f);
+          if (!names[f].is_string()) fail(nameField, "must be a file name");
+          const std::string name = names[f].get<std::string>();
+          if (name.empty() || name.find('/') != std::string::npos ||
+              name.find("..") != std::string::npos) {
+            fail(nameField, "must be a plain file name inside the captures folder");
+          }
+          frames->push_back(loadPicture(directory + "/" + name, captures.camera));
+        }
+      }
+      captures.stations.push_back(std::move(s));
+    }
+  } catch (const InputError& e) {
+    throw e.location().file.empty() ? e.inFile(path) : e;
+  }
+  return captures;
+}
+
+}  // namespace parallax

@@ -1,0 +1,90 @@
+#include "calibration/capture/capture_decoder.h"
+
+#include <cmath>
+
+#include "calibration/camera/calibration_geometry.h"
+#include "calibration/capture/stripe_peak.h"
+#include "common/check.h"
+#include "common/input_error.h"
+
+namespace parallax {
+
+void CaptureDecoderOptions::validate() const {
+  patterns.validate();
+  if (!(minContrastFraction > 0.0 && minContrastFraction < 1.0)) {
+    throw InputError({"", "min_contrast_fraction", 0}, "must be in (0, 1)");
+  }
+  if (pixelStep < 1 || pixelStep > 64) throw InputError({"", "pixel_step", 0}, "must be 1..64");
+  if (minStripePixels < 1) throw InputError({"", "min_stripe_pixels", 0}, "must be >= 1");
+}
+
+void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<cv::Mat>& rowFrames,
+                   const std::vector<int>& group, const DisplayModel& nominal, int station,
+                   const CaptureDecoderOptions& options, CalibrationObservations* obs,
+                   const CameraPose* decoderPose) {
+  options.validate();
+  PARALLAX_CHECK(!columnFrames.empty() && !rowFrames.empty());
+  PARALLAX_CHECK(station >= 0 && station < static_cast<int>(obs->stations.size()));
+  const int width = columnFrames[0].cols, height = columnFrames[0].rows;
+  const int mw = nominal.modules[0].width, mh = nominal.modules[0].height;
+  const CameraIntrinsics& in = obs->intrinsics;
+  // The decoder's idea of the camera: at the tape mark, aimed at the screen centre.
+  CameraPose pose;
+  pose.centre = obs->stations[static_cast<size_t>(station)].tapeCentre;
+  pose.physicalFromCamera = aimCameraAt(pose.centre, Eigen::Vector3d::Zero());
+  if (decoderPose) pose = *decoderPose;
+  const auto camera = packCamera(pose);
+
+  for (int y = 0; y < height; ++y) {
+    // Correspondences and stripe centres on every n-th row: neighbouring rows' stripe centres
+    // are nearly the same measurement, and each costs the solver a residual.
+    if (y % options.pixelStep != 0) continue;
+    // This row's lit pixels with every group module's predicted angle, for the stripe peaks.
+    std::vector<StripeRowSample> lit;
+    double rowMax = 0.0;
+    for (int x = 0; x < width; ++x)
+      rowMax = std::max(rowMax, static_cast<double>(columnFrames[0].at<float>(y, x) -
+                                                    columnFrames[1].at<float>(y, x)));
+    if (!(rowMax > options.patterns.minContrast)) continue;
+    for (int x = 0; x < width; ++x) {
+      const double contrast = columnFrames[0].at<float>(y, x) - columnFrames[1].at<float>(y, x);
+      if (!(contrast >= options.minContrastFraction * rowMax)) continue;
+      const Eigen::Vector2d n = in.normalized({x + 0.5, y + 0.5});
+      Vec3<double> s;
+      if (!screenPointOfCameraRay(nominal.screen.curvature, camera.data(), n.x(), n.y(), &s))
+        continue;
+      StripeRowSample sample{x + 0.5, contrast, -1, {}};
+      double best = 1e9;
+      for (size_t g = 0; g < group.size(); ++g) {
+        const double angle =
+            stripeAngle(nominal.screen, s, nominal.modules[static_cast<size_t>(group[g])].position,
+                        pose.centre);
+        sample.angles.push_back(angle);
+        if (std::abs(angle) < best) {
+          best = std::abs(angle);
+          sample.owner = static_cast<int>(g);
+        }
+      }
+      if (sample.owner < 0) continue;
+      const int label = group[static_cast<size_t>(sample.owner)];
+      lit.push_back(std::move(sample));
+      if (x % options.pixelStep != 0) continue;
+      std::vector<float> ic, ir;
+      for (const cv::Mat& f : columnFrames) ic.push_back(f.at<float>(y, x));
+      for (const cv::Mat& f : rowFrames) ir.push_back(f.at<float>(y, x));
+      const auto u = decodePixel(ic, mw, options.patterns);
+      const auto v = decodePixel(ir, mh, options.patterns);
+      if (!u || !v) continue;
+      obs->correspondences.push_back({station, label, {x + 0.5, y + 0.5}, {*u, *v}});
+    }
+    std::vector<int> pixels(group.size(), 0);
+    for (const StripeRowSample& p : lit) ++pixels[static_cast<size_t>(p.owner)];
+    const auto peaks = stripePeaksInRow(lit, static_cast<int>(group.size()));
+    for (size_t g = 0; g < group.size(); ++g) {
+      if (pixels[g] >= options.minStripePixels && peaks[g])
+        obs->stripes.push_back({station, group[g], {*peaks[g], y + 0.5}});
+    }
+  }
+}
+
+}  // namespace parallax

@@ -1,0 +1,45 @@
+#pragma once
+// From one camera station's recorded frames to CalibrationObservations: every camera pixel
+// decodes to a module pixel (structured_light.h), is given to a module, and each module's
+// stripe centre is found in every camera row.
+//
+// Which module lit a pixel: the modules of one group show their patterns at once, and from one
+// station each appears only in its own stripe. The decoder predicts, from the nominal display
+// and the tape-measured station, the horizontal angle at which each group module's light
+// leaves the screen point the pixel sees, and gives the pixel to the module whose predicted
+// angle to the camera is smallest. Stripe position depends only on module position (not on
+// its orientation or intrinsics), and groups are spaced several diffusion widths apart, so
+// the nominal layout is enough to tell them apart.
+// Stripe centre: the peak of the module's lobe along a camera row (white − black contrast),
+// found in the predicted exit angle (stripe_peak.h), not the pixels' centroid.
+
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "calibration/camera/calibration_observations.h"
+#include "calibration/capture/structured_light.h"
+#include "calibration/display/display_model.h"
+
+namespace parallax {
+
+struct CaptureDecoderOptions {
+  StructuredLightOptions patterns;
+  double minContrastFraction = 0.25;  // of the row's brightest contrast, for a correspondence
+  int pixelStep = 2;                  // decode every n-th camera pixel in x and y (and
+                                      // find stripe centres on every n-th row)
+  int minStripePixels = 3;            // per row, for a stripe centre
+
+  void validate() const;
+};
+
+// frames: per axis (columns, rows), the station's recorded frames already converted to linear
+// light, in makePatternFrames' order. group: the modules that showed the patterns.
+// The camera pose the decoder predicts stripes from: the tape mark aimed at the screen
+// centre, or (decodeCaptures) the pose the fiducials give, which is far closer — the tape's
+// 5 cm shift the predicted stripes by about a degree, near the spacing of a group's stripes.
+void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<cv::Mat>& rowFrames,
+                   const std::vector<int>& group, const DisplayModel& nominal, int station,
+                   const CaptureDecoderOptions& options, CalibrationObservations* observations,
+                   const CameraPose* decoderPose = nullptr);
+
+}  // namespace parallax

@@ -1,0 +1,177 @@
+#include "calibration/capture/checkerboard_calibration.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <opencv2/calib3d.hpp>
+
+#include "calibration/display/conventions.h"
+#include "common/input_error.h"
+
+namespace parallax {
+namespace {
+
+double secondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+CheckerboardCalibration calibrateFromCheckerboard(const std::vector<CheckerboardPicture>& pictures,
+                                                  const CheckerboardBoard& board, int width,
+                                                  int height,
+                                                  const CheckerboardCalibrationOptions& options) {
+  board.validate();
+  if (width < 16 || height < 16)
+    throw InputError({"", "intrinsics.width", 0},
+                     "the camera's pictures must be at least 16 px a side");
+  CheckerboardCalibration result;
+  std::vector<std::vector<cv::Point3f>> objectPoints;
+  std::vector<std::vector<cv::Point2f>> imagePoints;
+  std::vector<cv::Point3f> object;
+  for (const Eigen::Vector3d& p : board.cornerPoints()) {
+    object.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()),
+                        static_cast<float>(p.z()));
+  }
+  const auto detectStart = std::chrono::steady_clock::now();
+  std::vector<std::string> usedNames;
+  for (const CheckerboardPicture& picture : pictures) {
+    if (picture.recorded.empty() || picture.recorded.depth() != CV_8U ||
+        (picture.recorded.channels() != 1 && picture.recorded.channels() != 3)) {
+      throw InputError({picture.name, "", 0},
+                       "must be an 8-bit grey or colour picture, as the camera recorded it");
+    }
+    if (picture.recorded.cols != width || picture.recorded.rows != height) {
+      throw InputError({picture.name, "", 0},
+                       fmt::format("is {}x{}, the camera's pictures are {}x{}",
+                                   picture.recorded.cols, picture.recorded.rows, width, height));
+    }
+    const auto corners = findCheckerboardCorners(picture.recorded, board);
+    if (!corners) {
+      result.skipped.push_back(picture.name);
+      continue;
+    }
+    std::vector<cv::Point2f> image;
+    for (const Eigen::Vector2d& c : *corners) {
+      const Eigen::Vector2d opencv = openCvFromPixel(c);
+      image.emplace_back(static_cast<float>(opencv.x()), static_cast<float>(opencv.y()));
+    }
+    imagePoints.push_back(std::move(image));
+    objectPoints.push_back(object);
+    usedNames.push_back(picture.name);
+  }
+  result.detectSeconds = secondsSince(detectStart);
+  const int minimum = std::max(options.minPictures,
+                               3);  // three views: the least for fx, fy, cx, cy and a pose each
+  if (static_cast<int>(imagePoints.size()) < minimum) {
+    throw InputError({"", "pictures", 0},
+                     fmt::format("the board ({}x{} inner corners) was found in {} of {} pictures; "
+                                 "the camera's intrinsics "
+                                 "need at least {}",
+                                 board.innerColumns, board.innerRows, imagePoints.size(),
+                                 pictures.size(), minimum));
+  }
+
+  const auto solveStart = std::chrono::steady_clock::now();
+  cv::Mat cameraMatrix, distortion = cv::Mat::zeros(5, 1, CV_64F);
+  std::vector<cv::Mat> rvecs, tvecs;
+  cv::Mat sigmaIntrinsics, sigmaExtrinsics, perView;
+  // Our model has k1, k2 only: tangential terms and k3 held at zero.
+  const int flags = cv::CALIB_ZERO_TANGENT_DIST | cv::CALIB_FIX_K3;
+  const double rms = cv::calibrateCamera(
+      objectPoints, imagePoints, cv::Size(width, height), cameraMatrix, distortion, rvecs, tvecs,
+      sigmaIntrinsics, sigmaExtrinsics, perView, flags,
+      cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12));
+  result.solveSeconds = secondsSince(solveStart);
+
+  CameraIntrinsics& in = result.intrinsics;
+  in.width = width;
+  in.height = height;
+  in.fx = cameraMatrix.at<double>(0, 0);
+  in.fy = cameraMatrix.at<double>(1, 1);
+  const Eigen::Vector2d principal =
+      pixelFromOpenCv({cameraMatrix.at<double>(0, 2), cameraMatrix.at<double>(1, 2)});
+  in.cx = principal.x();
+  in.cy = principal.y();
+  in.k1 = distortion.at<double>(0);
+  in.k2 = distortion.at<double>(1);
+  result.rmsPx = rms;
+  auto sigma = [&](int i) {
+    return sigmaIntrinsics.total() > static_cast<size_t>(i) ? sigmaIntrinsics.at<double>(i) : 0.0;
+  };
+  result.sigmaFx = sigma(0);
+  result.sigmaFy = sigma(1);
+  result.sigmaCx = sigma(2);
+  result.sigmaCy = sigma(3);
+  result.sigmaK1 = sigma(4);
+  result.sigmaK2 = sigma(5);
+  for (size_t i = 0; i < usedNames.size(); ++i) {
+    result.used.push_back(
+        {usedNames[i], perView.total() > i ? perView.at<double>(static_cast<int>(i)) : 0.0});
+  }
+
+  const bool finite = std::isfinite(rms) && std::isfinite(in.fx) && std::isfinite(in.fy) &&
+                      std::isfinite(in.cx) && std::isfinite(in.cy) && std::isfinite(in.k1) &&
+                      std::isfinite(in.k2);
+  if (!finite || !(in.fx > 0.0 && in.fy > 0.0)) {
+    throw InputError({"", "pictures", 0},
+                     "cv::calibrateCamera gave no finite camera from these pictures");
+  }
+  if (!(rms <= options.maxRmsPx)) {
+    throw InputError(
+        {"", "pictures", 0},
+        fmt::format("the corners fit the camera model to {:.3f} px RMS (at most {:.2f} accepted): "
+                    "a wrong board description or blurred pictures",
+                    rms, options.maxRmsPx));
+  }
+  if (std::abs(in.k1) > 1.0 || std::abs(in.k2) > 1.0) {
+    throw InputError({"", "pictures", 0},
+                     fmt::format("distortion k1 = {:.3f}, k2 = {:.3f} is beyond |k| <= 1 (not a "
+                                 "calibration camera's lens)",
+                                 in.k1, in.k2));
+  }
+  return result;
+}
+
+std::string formatCheckerboardCalibration(const CheckerboardCalibration& r,
+                                          const CameraIntrinsics* truth) {
+  const CameraIntrinsics& in = r.intrinsics;
+  std::string out = fmt::format(
+      "camera intrinsics from the checkerboard: {} pictures used, {} skipped; RMS reprojection "
+      "{:.3f} px "
+      "(detect {:.2f} s, calibrateCamera {:.2f} s)\n",
+      r.used.size(), r.skipped.size(), r.rmsPx, r.detectSeconds, r.solveSeconds);
+  struct Row {
+    const char* name;
+    double value, sigma, trueValue;
+  };
+  const Row rows[] = {{"fx", in.fx, r.sigmaFx, truth ? truth->fx : 0.0},
+                      {"fy", in.fy, r.sigmaFy, truth ? truth->fy : 0.0},
+                      {"cx", in.cx, r.sigmaCx, truth ? truth->cx : 0.0},
+                      {"cy", in.cy, r.sigmaCy, truth ? truth->cy : 0.0},
+                      {"k1", in.k1, r.sigmaK1, truth ? truth->k1 : 0.0},
+                      {"k2", in.k2, r.sigmaK2, truth ? truth->k2 : 0.0}};
+  for (const Row& row : rows) {
+    out += fmt::format("  {} {:>11.5f} ± {:.5f}", row.name, row.value, row.sigma);
+    if (truth)
+      out +=
+          fmt::format("   true {:>11.5f}, error {:+.5f}", row.trueValue, row.value - row.trueValue);
+    out += "\n";
+  }
+  std::vector<PictureError> worst = r.used;
+  std::sort(worst.begin(), worst.end(),
+            [](const PictureError& a, const PictureError& b) { return a.rmsPx > b.rmsPx; });
+  if (worst.size() > 3) worst.resize(3);
+  if (!worst.empty()) {
+    out += "  worst pictures:";
+    for (const PictureError& p : worst) out += fmt::format(" {} {:.3f} px;", p.name, p.rmsPx);
+    out += "\n";
+  }
+  for (const std::string& name : r.skipped)
+    out += fmt::format("  skipped {}: the board was not found\n", name);
+  return out;
+}
+
+}  // namespace parallax

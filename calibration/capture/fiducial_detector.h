@@ -1,0 +1,37 @@
+#pragma once
+// Finds the fiducial markers (bright discs on the screen frame, calibration_camera.h) in a
+// station's black reference picture: with every module dark, the markers are the only bright
+// spots. Blobs are found by threshold and connected components; each fiducial takes the blob
+// nearest to where the nominal screen and the tape-measured station (aimed at the screen
+// centre, as the fit starts) predict it, if that blob is close enough and nearer to it than to
+// any other fiducial's prediction; a blob cut by the picture's edge is no sighting. The position is
+// the blob's background-subtracted centroid.
+
+#include <opencv2/core.hpp>
+#include <optional>
+#include <vector>
+
+#include "calibration/camera/calibration_observations.h"
+#include "calibration/display/display_model.h"
+
+namespace parallax {
+
+struct FiducialDetectorOptions {
+  double minPeak = 0.1;  // linear light above the background, for a blob
+  double searchRadiusFraction =
+      0.06;                  // of the focal length: how far a marker may be from its prediction
+  int maxBlobPixels = 4000;  // larger bright regions are not markers
+
+  void validate() const;
+};
+
+void detectFiducials(const cv::Mat& blackLinear, const Screen& nominalScreen, int station,
+                     const FiducialDetectorOptions& options, CalibrationObservations* observations);
+
+// The camera pose from a station's fiducial sightings (cv::solvePnP, iterating from the tape
+// mark aimed at the screen centre; the markers on the nominal screen). nullopt with fewer
+// than four sightings or when the solution is not in front of the screen.
+std::optional<CameraPose> poseFromFiducials(const CalibrationObservations& observations,
+                                            const Screen& nominalScreen, int station);
+
+}  // namespace parallax

@@ -1,0 +1,153 @@
+#pragma once
+// The Ceres fit of a DisplayModel to calibration observations (calibration_observations.h).
+//
+// Unknowns, started from the nominal layout: every observed module's pose (a quaternion on
+// Ceres' EigenQuaternionManifold), intrinsics and radial distortion (one 13-entry block, see
+// fit_geometry.h); every camera station's pose (started from its tape-measured centre, aimed at
+// the screen centre); the screen curvature k (never R: k = 0 is an ordinary value).
+// Residuals, each divided by its noise level σ so they are comparable:
+//   correspondence (2), in two stages (FitOptions::residualInCameraPx):
+//       first, the camera pixel back-projects to a screen point s(k, camera); its projection
+//       into the module minus the decoded module pixel (module px). Defined wherever the
+//       camera sees the screen, so robust from a poor start, but the camera's noise sits
+//       inside the model (an errors-in-variables bias);
+//       then, from that start and without its gross outliers, the decoded module pixel lights
+//       a screen point s(module, k) whose camera pixel is predicted and compared with the
+//       measured one, scaled to module px. The noise stays on the measured side.
+//   stripe (1): at a stripe centre seen by a camera the transfer sends module light exactly to
+//       the camera; the mismatch (fit_geometry.h's stripeMismatch, mm on the screen). This is
+//       what separates a module's focal length from its distance.
+//   fiducial (2): the markers on the screen frame reprojected into the camera (camera px).
+//   tape (3): each camera centre near its tape-measured place (σ = the tape's accuracy).
+// A Cauchy loss guards against decoding outliers. The noise levels start from the options and
+// are re-estimated from the first stage's residuals (median absolute deviation) for the
+// second, and again from its residuals for the covariance, so the standard deviations
+// reported afterwards mean what they say.
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calibration/camera/calibration_observations.h"
+#include "calibration/display/display_model.h"
+#include "calibration/fit/fit_diagnostics.h"
+
+namespace parallax {
+
+struct FitOptions {
+  std::optional<ScreenTransfer> transfer;  // assumed transfer; default: the nominal model's
+  double correspondenceSigmaPx = 0.3;      // module px, first guess (re-estimated)
+  double stripeSigmaMm = 0.5;              // first guess (re-estimated)
+  double fiducialSigmaPx = 0.2;            // camera px
+  double tapeSigmaM = 0.05;
+  double robustScale = 3.0;  // Cauchy scale, in units of σ
+  // Correspondence residual: true — the camera pixel predicted from the module pixel (the
+  // noise stays on the measured side), after a first solve with the other form for a robust
+  // start and to find the gross outliers; false — only the camera pixel back-projected into
+  // the module (the noise inside the model: an errors-in-variables bias that nearly doubles
+  // the ray error on `default`, bench --experiment). Both in module px.
+  bool residualInCameraPx = true;
+  bool reestimateNoise = true;
+  bool fitCurvature = true;
+  bool fitDistortion = true;
+  int maxIterations = 100;
+  int threads = 2;
+  // When the stripes disagree with the assumed transfer, fit again under the other one to
+  // say which describes the screen.
+  bool tryOtherTransfer = true;
+  // Stripe residuals this many times the correspondences' noise (both as mm on the screen)
+  // mean the screen does not follow the assumed transfer.
+  double transferMismatchRatio = 5.0;
+  ConditioningOptions conditioning;
+  // The covariance side of the quality gate: each module's parameter covariance is carried to
+  // the pixel it would use to light a screen point, over a grid across its image; a module
+  // whose worst pixel σ exceeds this (module px) is reported as undetermined, whatever its
+  // conditioning. Catches well-conditioned but data-starved setups (two stations: each module
+  // seen in two stripes, its image corners extrapolated by tens of pixels).
+  double maxPixelStdDevPx = 1.5;
+  // ... unless the camera's noise explains it: the limit is max(maxPixelStdDevPx,
+  // maxPixelDilution × the re-estimated correspondence σ). The ratio of a module's worst pixel
+  // σ to its measurements' σ depends on the setup alone, not on the noise: measured 2.5–5
+  // with five stations (demo, default), ~14 with three or four, 60–280 with two. A module
+  // within the ratio is determined as well as its camera allows; refusing it for a noisy
+  // camera (2 px: pixel σ ~1.6 px at 2.6× the noise) would keep a worse calibration in
+  // place. The fit says so in a note.
+  double maxPixelDilution = 10.0;
+  // Modules held at their starting values (the `nominal` argument, which for a refit is the
+  // current calibration): constant in the solve, their correspondences still placing the
+  // cameras. Refitting one replaced module holds all the others (`calibrate --module N`);
+  // hold the curvature too (fitCurvature = false) when the screen did not change.
+  std::vector<int> heldModules;
+  std::function<void(int iteration, double cost)> onIteration;  // progress, optional
+  // Polled at every solver iteration, optional: true ends the fit there (FitResult::stopped).
+  // A daemon's `cancel` need not wait for a solve of many modules to finish.
+  std::function<bool()> stopRequested;
+
+  void validate() const;
+};
+
+struct ModuleFit {
+  int module = 0;  // index in the model
+  bool observed = false;
+  int correspondences = 0, stripes = 0, outliers = 0;
+  double rmsPx = 0.0;  // correspondences, robust inliers (module px)
+  double stripeRmsMm = 0.0;
+  BlockConditioning conditioning;
+  // Standard deviations: rotation about x, y, z (deg), position x, y, z (mm), fx, fy, cx, cy
+  // (px), k1, k2. +inf where the data cannot determine the parameter.
+  std::array<double, 12> stdDev{};
+  double worstPixelStdDevPx = 0.0;  // the covariance carried to the image (see FitOptions)
+};
+
+struct CameraFit {
+  int camera = 0;
+  CameraPose pose;
+  int correspondences = 0, fiducials = 0;
+  double rmsPx = 0.0;              // its correspondences (module px)
+  double fiducialRmsPx = 0.0;      // camera px
+  std::array<double, 6> stdDev{};  // rotation (deg), centre (mm)
+};
+
+struct Deficiency {
+  int module = -1;  // −1: the shared parameters (cameras, k)
+  Conditioning state = Conditioning::kGood;
+  double reciprocalCondition = 1.0;
+  std::vector<std::string> parameters;  // the undetermined combination, largest share first
+
+  std::string describe() const;
+};
+
+struct FitResult {
+  DisplayModel model;
+  std::vector<CameraFit> cameras;
+  std::vector<ModuleFit> modules;
+  double curvatureStdDev = 0.0;  // 1/m
+  std::vector<Deficiency> deficiencies;
+  double correspondenceSigmaPx = 0.0;  // re-estimated noise (module px)
+  double correspondenceSigmaMm = 0.0;  // the same as mm on the screen
+  double stripeRmsMm = 0.0;
+  double fiducialRmsPx = 0.0;
+  bool transferMismatch = false;
+  std::optional<double> otherTransferStripeRmsMm;  // when the other transfer was tried
+  std::vector<std::string> notes;  // findings a user must read (mismatch, unseen modules, ...)
+  int iterations = 0;
+  double solveSeconds = 0.0;        // the solves (the fit)
+  double diagnosticsSeconds = 0.0;  // residual statistics, covariance and conditioning after it
+  bool converged = false;
+  // FitOptions::stopRequested ended it: no model and no statistics, only `iterations`.
+  bool stopped = false;
+  int outliers = 0;
+
+  // The quality gate: not stopped, converged, no NaN, every observed module determined
+  // (conditioning and position σ), no transfer mismatch. A calibration that fails it is not
+  // installed.
+  bool passesQualityChecks() const;
+};
+
+// Throws InputError for observations that reference modules/cameras/fiducials that do not
+// exist or carry non-finite numbers.
+FitResult fitDisplay(const DisplayModel& nominal, const CalibrationObservations& observations,
+                     const FitOptions& options);
+
+}  // namespace parallax

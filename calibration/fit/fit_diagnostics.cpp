@@ -1,0 +1,196 @@
+#include "calibration/fit/fit_diagnostics.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+
+#include "common/check.h"
+#include "common/input_error.h"
+
+namespace parallax {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Pseudo-inverse of a symmetric PSD block, dropping directions that conditioningOf would call
+// rank deficient (in the unit-diagonal scaling), so one undetermined module does not poison
+// the Schur complement with a huge, meaningless inverse.
+Eigen::MatrixXd pseudoInverse(const Eigen::MatrixXd& h, double cutoff,
+                              std::vector<bool>* nullMask) {
+  const int n = static_cast<int>(h.rows());
+  Eigen::VectorXd scale(n);
+  for (int j = 0; j < n; ++j) scale[j] = h(j, j) > 0.0 ? 1.0 / std::sqrt(h(j, j)) : 0.0;
+  const Eigen::MatrixXd scaled = scale.asDiagonal() * h * scale.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled);
+  const Eigen::VectorXd& lambda = eig.eigenvalues();
+  const double top = lambda.size() ? lambda.maxCoeff() : 0.0;
+  Eigen::VectorXd inv = Eigen::VectorXd::Zero(n);
+  if (nullMask) nullMask->assign(static_cast<size_t>(n), false);
+  for (int i = 0; i < n; ++i) {
+    if (top > 0.0 && lambda[i] > cutoff * top) {
+      inv[i] = 1.0 / lambda[i];
+    } else if (nullMask) {
+      // Every parameter with weight in a dropped direction is undetermined.
+      for (int j = 0; j < n; ++j) {
+        if (std::abs(eig.eigenvectors()(j, i)) > 0.1) (*nullMask)[static_cast<size_t>(j)] = true;
+      }
+    }
+  }
+  for (int j = 0; j < n; ++j) {
+    if (scale[j] == 0.0 && nullMask) (*nullMask)[static_cast<size_t>(j)] = true;
+  }
+  return scale.asDiagonal() * eig.eigenvectors() * inv.asDiagonal() *
+         eig.eigenvectors().transpose() * scale.asDiagonal();
+}
+
+}  // namespace
+
+void ConditioningOptions::validate() const {
+  if (!(rankDeficientBelow > 0.0 && rankDeficientBelow <= poorlyConditionedBelow &&
+        poorlyConditionedBelow < 1.0)) {
+    throw InputError({"", "conditioning", 0},
+                     "need 0 < rank_deficient_below <= poorly_conditioned_below < 1");
+  }
+}
+
+const char* conditioningName(Conditioning c) {
+  switch (c) {
+    case Conditioning::kGood:
+      return "good";
+    case Conditioning::kPoor:
+      return "poorly conditioned";
+    case Conditioning::kRankDeficient:
+      return "rank deficient";
+    case Conditioning::kUndetermined:
+      return "undetermined by the data";
+  }
+  return "?";
+}
+
+InformationBlocks informationFromJacobian(int numRows, int numCols, const std::vector<int>& rows,
+                                          const std::vector<int>& cols,
+                                          const std::vector<double>& values, int moduleCount,
+                                          int moduleSize, int sharedSize) {
+  PARALLAX_CHECK_OP(numCols, ==, moduleCount * moduleSize + sharedSize);
+  PARALLAX_CHECK_OP(static_cast<int>(rows.size()), ==, numRows + 1);
+  InformationBlocks info;
+  info.moduleModule.assign(static_cast<size_t>(moduleCount),
+                           Eigen::MatrixXd::Zero(moduleSize, moduleSize));
+  info.moduleShared.assign(static_cast<size_t>(moduleCount),
+                           Eigen::MatrixXd::Zero(moduleSize, sharedSize));
+  info.sharedShared = Eigen::MatrixXd::Zero(sharedSize, sharedSize);
+  const int sharedStart = moduleCount * moduleSize;
+  // Each row touches at most one module (the fit's structure); accumulate its outer product
+  // into the blocks it touches.
+  std::vector<std::pair<int, double>> moduleEntries, sharedEntries;
+  for (int r = 0; r < numRows; ++r) {
+    moduleEntries.clear();
+    sharedEntries.clear();
+    int module = -1;
+    for (int k = rows[static_cast<size_t>(r)]; k < rows[static_cast<size_t>(r) + 1]; ++k) {
+      const int c = cols[static_cast<size_t>(k)];
+      const double v = values[static_cast<size_t>(k)];
+      if (v == 0.0) continue;
+      if (c >= sharedStart) {
+        sharedEntries.push_back({c - sharedStart, v});
+      } else {
+        const int m = c / moduleSize;
+        PARALLAX_CHECK(module < 0 || module == m);
+        module = m;
+        moduleEntries.push_back({c - m * moduleSize, v});
+      }
+    }
+    for (const auto& [i, vi] : sharedEntries) {
+      for (const auto& [j, vj] : sharedEntries) info.sharedShared(i, j) += vi * vj;
+    }
+    if (module < 0) continue;
+    Eigen::MatrixXd& hmm = info.moduleModule[static_cast<size_t>(module)];
+    Eigen::MatrixXd& hms = info.moduleShared[static_cast<size_t>(module)];
+    for (const auto& [i, vi] : moduleEntries) {
+      for (const auto& [j, vj] : moduleEntries) hmm(i, j) += vi * vj;
+      for (const auto& [j, vj] : sharedEntries) hms(i, j) += vi * vj;
+    }
+  }
+  return info;
+}
+
+BlockConditioning conditioningOf(const Eigen::MatrixXd& block, const ConditioningOptions& options) {
+  BlockConditioning out;
+  const int n = static_cast<int>(block.rows());
+  if (n == 0) return out;
+  // A parameter no residual depends on is undetermined outright.
+  std::vector<int> unseen;
+  for (int j = 0; j < n; ++j) {
+    if (!(block(j, j) > 0.0)) unseen.push_back(j);
+  }
+  if (!unseen.empty()) {
+    out.state = Conditioning::kRankDeficient;
+    out.reciprocalCondition = 0.0;
+    out.nullDirection = unseen;
+    return out;
+  }
+  Eigen::VectorXd scale(n);
+  for (int j = 0; j < n; ++j) scale[j] = 1.0 / std::sqrt(block(j, j));
+  const Eigen::MatrixXd scaled = scale.asDiagonal() * block * scale.asDiagonal();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(scaled);
+  const double top = eig.eigenvalues().maxCoeff();
+  const double bottom = std::max(0.0, eig.eigenvalues().minCoeff());
+  out.reciprocalCondition = top > 0.0 ? bottom / top : 0.0;
+  if (out.reciprocalCondition < options.rankDeficientBelow) {
+    out.state = Conditioning::kRankDeficient;
+  } else if (out.reciprocalCondition < options.poorlyConditionedBelow) {
+    out.state = Conditioning::kPoor;
+  }
+  if (out.state != Conditioning::kGood) {
+    const Eigen::VectorXd v = eig.eigenvectors().col(0);  // eigenvalues ascend
+    std::vector<int> order(static_cast<size_t>(n));
+    std::iota(order.begin(), order.end(), 0);
+    std::sort(order.begin(), order.end(),
+              [&](int a, int b) { return std::abs(v[a]) > std::abs(v[b]); });
+    for (int j : order) {
+      if (std::abs(v[j]) >= options.nameComponentsAbove) out.nullDirection.push_back(j);
+    }
+  }
+  return out;
+}
+
+Diagnostics diagnose(const InformationBlocks& info, const ConditioningOptions& options) {
+  options.validate();
+  Diagnostics out;
+  const size_t moduleCount = info.moduleModule.size();
+  const int sharedSize = static_cast<int>(info.sharedShared.rows());
+
+  // Shared block after eliminating every module: S = H_ss − Σ H_si H_ii⁺ H_is.
+  std::vector<Eigen::MatrixXd> inverses(moduleCount);
+  std::vector<std::vector<bool>> nullMasks(moduleCount);
+  Eigen::MatrixXd schur = info.sharedShared;
+  for (size_t m = 0; m < moduleCount; ++m) {
+    out.modules.push_back(conditioningOf(info.moduleModule[m], options));
+    inverses[m] = pseudoInverse(info.moduleModule[m], options.rankDeficientBelow, &nullMasks[m]);
+    schur -= info.moduleShared[m].transpose() * inverses[m] * info.moduleShared[m];
+  }
+  schur = 0.5 * (schur + schur.transpose());
+  out.shared = conditioningOf(schur, options);
+  std::vector<bool> sharedNull;
+  const Eigen::MatrixXd sharedCov = pseudoInverse(schur, options.rankDeficientBelow, &sharedNull);
+  out.sharedStdDev = sharedCov.diagonal().cwiseMax(0.0).cwiseSqrt();
+  for (int j = 0; j < sharedSize; ++j) {
+    if (sharedNull[static_cast<size_t>(j)]) out.sharedStdDev[j] = kInf;
+  }
+
+  for (size_t m = 0; m < moduleCount; ++m) {
+    const Eigen::MatrixXd coupling = inverses[m] * info.moduleShared[m];
+    const Eigen::MatrixXd cov = inverses[m] + coupling * sharedCov * coupling.transpose();
+    Eigen::VectorXd sd = cov.diagonal().cwiseMax(0.0).cwiseSqrt();
+    for (int j = 0; j < sd.size(); ++j) {
+      if (nullMasks[m][static_cast<size_t>(j)]) sd[j] = kInf;
+    }
+    out.moduleStdDev.push_back(sd);
+    out.moduleCovariance.push_back(cov);
+  }
+  return out;
+}
+
+}  // namespace parallax

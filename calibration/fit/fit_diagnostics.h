@@ -1,0 +1,79 @@
+#pragma once
+// What the Jacobian of a finished fit says about it: the standard deviation of every parameter
+// (from the information matrix JᵀJ of the σ-normalised, robustly weighted residuals) and which
+// parameters the data cannot determine. Nothing here knows the geometry: a degenerate setup
+// (flat screen seen from one place, no stripe directions: focal length and distance trade off)
+// shows up as a near-null direction of a module's information block, and is reported with the
+// parameters that make up that direction.
+//
+// The information matrix has the bundle-adjustment structure: module blocks never touch each
+// other, only the shared block (camera poses and k). So each module is examined on its own
+// block (its conditioning with everything else held), and the marginal covariances come from
+// the Schur complement on the shared block:
+//   S = H_ss − Σ_i H_si H_ii⁻¹ H_is,  Σ_ss = S⁻¹,
+//   Σ_ii = H_ii⁻¹ + H_ii⁻¹ H_is Σ_ss H_si H_ii⁻¹.
+// Conditioning is judged on the block scaled to unit diagonal (a correlation matrix), so the
+// units of the parameters do not matter: its smallest eigenvalue over its largest is the
+// reciprocal condition number, and the eigenvector of the smallest names the parameters.
+
+#include <Eigen/Core>
+#include <array>
+#include <string>
+#include <vector>
+
+namespace parallax {
+
+struct ConditioningOptions {
+  // Thresholds on the reciprocal condition number of a block scaled to unit diagonal. Measured
+  // on the demo display (tests/calibration/display_fit_test.cpp): five camera stations with
+  // stripes give 3e-5..2e-4 per module; one station with stripes (a single stripe per module:
+  // distance known to 1–20 cm only) 5e-8..2e-6; the degenerate flat/one-station/no-stripe
+  // case 4e-11..8e-8, where only the distortion polynomial's curvature still tells focal
+  // length from distance. Below rankDeficientBelow the fit is refused; between the two it is
+  // reported as poorly conditioned.
+  double rankDeficientBelow = 2e-7;
+  double poorlyConditionedBelow = 5e-6;
+  double nameComponentsAbove = 0.25;  // eigenvector entries that name a parameter
+
+  void validate() const;
+};
+
+// kUndetermined: well conditioned, but the covariance says a parameter is unknown (too little
+// data); set by the fit's quality gate, not by conditioningOf.
+enum class Conditioning { kGood, kPoor, kRankDeficient, kUndetermined };
+const char* conditioningName(Conditioning c);
+
+struct BlockConditioning {
+  Conditioning state = Conditioning::kGood;
+  double reciprocalCondition = 1.0;
+  std::vector<int> nullDirection;  // parameter indices (within the block), largest first
+};
+
+// Information matrix blocks of one fit.
+struct InformationBlocks {
+  std::vector<Eigen::MatrixXd> moduleModule;  // H_ii, each n_m × n_m
+  std::vector<Eigen::MatrixXd> moduleShared;  // H_is, each n_m × n_s
+  Eigen::MatrixXd sharedShared;               // H_ss
+};
+
+struct Diagnostics {
+  std::vector<BlockConditioning> modules;
+  std::vector<Eigen::VectorXd> moduleStdDev;      // +inf where undetermined
+  std::vector<Eigen::MatrixXd> moduleCovariance;  // marginal, tangent units
+  BlockConditioning shared;
+  Eigen::VectorXd sharedStdDev;
+};
+
+// Builds the blocks from a row-major sparse Jacobian (Ceres' CRSMatrix fields) whose columns
+// are [module 0 (moduleSize) | module 1 | ... | shared (sharedSize)].
+InformationBlocks informationFromJacobian(int numRows, int numCols, const std::vector<int>& rows,
+                                          const std::vector<int>& cols,
+                                          const std::vector<double>& values, int moduleCount,
+                                          int moduleSize, int sharedSize);
+
+Diagnostics diagnose(const InformationBlocks& info, const ConditioningOptions& options);
+
+// Conditioning of one symmetric positive semi-definite block (exposed for tests).
+BlockConditioning conditioningOf(const Eigen::MatrixXd& block, const ConditioningOptions& options);
+
+}  // namespace parallax

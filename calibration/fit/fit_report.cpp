@@ -1,0 +1,86 @@
+#include "calibration/fit/fit_report.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+
+#include "calibration/display/ray_error.h"
+
+namespace parallax {
+namespace {
+
+std::string sd(double v, int precision) {
+  if (!std::isfinite(v)) return "undet.";
+  return fmt::format("{:.{}f}", v, precision);
+}
+
+}  // namespace
+
+std::string formatFitSummary(const FitResult& r) {
+  std::string out = fmt::format(
+      "fit: {} iterations, {:.2f} s, {}; k = {:.6f} ± {:.6f} 1/m ({} transfer)\n"
+      "noise: correspondences σ = {:.3f} module px ({:.3f} mm on the screen), stripes {:.3f} mm "
+      "RMS, "
+      "fiducials {:.3f} camera px RMS; {} outliers\n",
+      r.iterations, r.solveSeconds, r.converged ? "converged" : "NOT converged",
+      r.model.screen.curvature, r.curvatureStdDev, transferName(r.model.screen.transfer),
+      r.correspondenceSigmaPx, r.correspondenceSigmaMm, r.stripeRmsMm, r.fiducialRmsPx, r.outliers);
+  for (const Deficiency& d : r.deficiencies) out += "  " + d.describe() + "\n";
+  for (const std::string& n : r.notes) out += "  note: " + n + "\n";
+  out += r.passesQualityChecks() ? "quality checks: passed\n" : "quality checks: FAILED\n";
+  return out;
+}
+
+std::string formatFitReport(const FitResult& r, const DisplayModel* truth) {
+  std::vector<RayErrorStats> errors;
+  if (truth) errors = compareRays(*truth, r.model);
+  std::string out =
+      "module  corr  strp  out  rms_px  strp_mm  sd_pos_mm(x,y,z)      sd_rot_deg(x,y,z)       "
+      "sd_f_px  sd_c_px     cond";
+  if (truth) out += "  | ray_px_rms  ray_px_max  screen_mm  observer_mm";
+  out += "\n";
+  for (const ModuleFit& m : r.modules) {
+    if (!m.observed) {
+      out += fmt::format("{:6d}  not seen: kept nominal\n", m.module);
+      continue;
+    }
+    const auto& s = m.stdDev;
+    out += fmt::format(
+        "{:6d} {:5d} {:5d} {:4d}  {:6.3f}  {:7.3f}  {:>6} {:>6} {:>6}  {:>7} {:>7} {:>7}  {:>7}  "
+        "{:>7}  {:>7.1e}",
+        m.module, m.correspondences, m.stripes, m.outliers, m.rmsPx, m.stripeRmsMm, sd(s[3], 2),
+        sd(s[4], 2), sd(s[5], 2), sd(s[0], 4), sd(s[1], 4), sd(s[2], 4),
+        sd(std::max(s[6], s[7]), 2), sd(std::max(s[8], s[9]), 2),
+        m.conditioning.reciprocalCondition);
+    if (truth) {
+      const RayErrorStats& e = errors[static_cast<size_t>(m.module)];
+      out += fmt::format("  | {:10.4f}  {:10.3f}  {:9.3f}  {:11.2f}", e.rmsPx, e.maxPx,
+                         e.rmsScreenMm, e.rmsObserverMm);
+    }
+    out += "\n";
+  }
+  out +=
+      "camera  corr  fid  rms_px  fid_rms_px  centre (m)                    sd_centre_mm(x,y,z)\n";
+  for (const CameraFit& c : r.cameras) {
+    out += fmt::format(
+        "{:6d} {:5d} {:4d}  {:6.3f}  {:10.3f}  ({:+.4f}, {:+.4f}, {:+.4f})  {:>6} {:>6} {:>6}\n",
+        c.camera, c.correspondences, c.fiducials, c.rmsPx, c.fiducialRmsPx, c.pose.centre.x(),
+        c.pose.centre.y(), c.pose.centre.z(), sd(c.stdDev[3], 2), sd(c.stdDev[4], 2),
+        sd(c.stdDev[5], 2));
+  }
+  if (truth) {
+    RayErrorStats total;
+    for (size_t m = 0; m < errors.size(); ++m) {
+      if (r.modules[m].observed) total.merge(errors[m]);
+    }
+    out += fmt::format(
+        "against the ground truth (observed modules): ray error {:.4f} module px RMS, {:.3f} max; "
+        "screen {:.3f} mm RMS, {:.3f} max; observer line {:.2f} mm RMS, {:.2f} max; k {:+.6f} "
+        "(truth {:+.6f})\n",
+        total.rmsPx, total.maxPx, total.rmsScreenMm, total.maxScreenMm, total.rmsObserverMm,
+        total.maxObserverMm, r.model.screen.curvature, truth->screen.curvature);
+  }
+  return out;
+}
+
+}  // namespace parallax

@@ -1,0 +1,183 @@
+#include "calibration/simulation/camera_renderer.h"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <opencv2/imgproc.hpp>
+
+#include "calibration/camera/calibration_geometry.h"
+#include "calibration/display/conventions.h"
+#include "calibration/simulation/synthetic_observations.h"
+#include "common/input_error.h"
+
+namespace parallax {
+namespace {
+
+// Bilinear sample of a CV_32F image at a continuous pixel position (centres at +0.5); zero
+// outside the image (no light beyond the module's frame).
+float sampleBilinear(const cv::Mat& image, float u, float v) {
+  const float x = u - 0.5f, y = v - 0.5f;
+  const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+  const float fx = x - static_cast<float>(x0), fy = y - static_cast<float>(y0);
+  auto at = [&](int xx, int yy) {
+    xx = std::clamp(xx, 0, image.cols - 1);
+    yy = std::clamp(yy, 0, image.rows - 1);
+    return image.at<float>(yy, xx);
+  };
+  return (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) +
+         fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
+}
+
+// The markers: each a disc of radius r on the screen frame, facing the observer line, drawn
+// with 4×4 supersampling (its centroid is then the projected centre to well under 0.1 px).
+cv::Mat renderMarkers(const Screen& screen, const CameraIntrinsics& intrinsics,
+                      const CameraPose& pose, const CameraRenderOptions& options) {
+  cv::Mat markers(intrinsics.height, intrinsics.width, CV_32F, cv::Scalar(0));
+  if (options.fiducialRadiusM <= 0.0) return markers;
+  const double r = options.fiducialRadiusM;
+  for (const Eigen::Vector2d& f : screenFiducials(screen)) {
+    const Eigen::Vector3d centre = screen.pointAt(f.x(), f.y());
+    Eigen::Vector2d c, edgeX, edgeY;
+    if (!projectPhysical(intrinsics, pose, centre, &c) ||
+        !projectPhysical(intrinsics, pose, centre + Eigen::Vector3d(r, 0, 0), &edgeX) ||
+        !projectPhysical(intrinsics, pose, centre + Eigen::Vector3d(0, r, 0), &edgeY)) {
+      continue;
+    }
+    // The disc's image is (nearly) an ellipse with these semi-axes.
+    const double ax = std::max((edgeX - c).norm(), 0.5), ay = std::max((edgeY - c).norm(), 0.5);
+    const int x0 = std::max(0, static_cast<int>(std::floor(c.x() - ax - 1)));
+    const int x1 = std::min(intrinsics.width - 1, static_cast<int>(std::ceil(c.x() + ax + 1)));
+    const int y0 = std::max(0, static_cast<int>(std::floor(c.y() - ay - 1)));
+    const int y1 = std::min(intrinsics.height - 1, static_cast<int>(std::ceil(c.y() + ay + 1)));
+    for (int y = y0; y <= y1; ++y) {
+      for (int x = x0; x <= x1; ++x) {
+        int inside = 0;
+        for (int sy = 0; sy < 4; ++sy) {
+          for (int sx = 0; sx < 4; ++sx) {
+            const double dx = (x + (sx + 0.5) / 4.0 - c.x()) / ax,
+                         dy = (y + (sy + 0.5) / 4.0 - c.y()) / ay;
+            inside += dx * dx + dy * dy <= 1.0 ? 1 : 0;
+          }
+        }
+        markers.at<float>(y, x) += static_cast<float>(options.fiducialBrightness * inside / 16.0);
+      }
+    }
+  }
+  return markers;
+}
+
+}  // namespace
+
+void CameraRenderOptions::validate() const {
+  auto check = [](bool ok, const char* field, const char* why) {
+    if (!ok) throw InputError({"", field, 0}, why);
+  };
+  check(ambient >= 0.0 && ambient < 1.0, "ambient", "must be 0..1");
+  check(gamma >= 0.2 && gamma <= 5.0, "gamma", "must be 0.2..5");
+  check(noiseSigma >= 0.0 && noiseSigma < 0.5, "noise_sigma", "must be 0..0.5");
+  check(blurSigmaPx >= 0.0 && blurSigmaPx < 20.0, "blur_sigma_px", "must be 0..20");
+  check(minLobeWeight > 0.0 && minLobeWeight < 0.5, "min_lobe_weight", "must be in (0, 0.5)");
+  check(fiducialRadiusM >= 0.0 && fiducialRadiusM < 0.1, "fiducial_radius_m", "must be 0..0.1");
+  check(fiducialBrightness >= 0.0 && fiducialBrightness <= 1.0, "fiducial_brightness",
+        "must be 0..1");
+}
+
+StationView viewFromStation(const DisplayModel& truth, const CameraIntrinsics& intrinsics,
+                            const CameraPose& pose, const CameraRenderOptions& options) {
+  options.validate();
+  StationView view;
+  view.width = intrinsics.width;
+  view.height = intrinsics.height;
+  view.pixels.resize(static_cast<size_t>(view.width) * static_cast<size_t>(view.height));
+  std::vector<ModuleOptics> optics;
+  for (const OpticalModule& m : truth.modules) optics.emplace_back(m);
+  // FWHM = diffusion width ⇒ σ = FWHM / (2 √(2 ln 2)).
+  const double sigma = radians(truth.screen.diffusionDeg) / 2.354820045;
+  const auto camera = packCamera(pose);
+  tbb::parallel_for(0, view.height, [&](int y) {
+    for (int x = 0; x < view.width; ++x) {
+      auto& out = view.pixels[static_cast<size_t>(y) * static_cast<size_t>(view.width) +
+                              static_cast<size_t>(x)];
+      const Eigen::Vector2d n = intrinsics.normalized({x + 0.5, y + 0.5});
+      Vec3<double> s;
+      if (!screenPointOfCameraRay(truth.screen.curvature, camera.data(), n.x(), n.y(), &s))
+        continue;
+      if (!truth.screen.contains(s.x(), s.y())) continue;
+      for (size_t m = 0; m < truth.modules.size(); ++m) {
+        const double angle = stripeAngle(truth.screen, s, truth.modules[m].position, pose.centre);
+        const double weight = std::exp(-0.5 * (angle / sigma) * (angle / sigma));
+        if (!(weight >= options.minLobeWeight)) continue;
+        Eigen::Vector2d uv;
+        if (!optics[m].project(s - truth.modules[m].position, &uv)) continue;
+        const OpticalModule& mod = truth.modules[m];
+        if (uv.x() < 0.0 || uv.y() < 0.0 || uv.x() > mod.width || uv.y() > mod.height) continue;
+        LobeContribution c{static_cast<int>(m), static_cast<float>(uv.x()),
+                           static_cast<float>(uv.y()), static_cast<float>(weight)};
+        // Keep the strongest few, sorted.
+        for (int k = 0; k < kMaxContributions; ++k) {
+          if (c.weight > out[static_cast<size_t>(k)].weight)
+            std::swap(c, out[static_cast<size_t>(k)]);
+        }
+      }
+    }
+  });
+  view.markers = renderMarkers(truth.screen, intrinsics, pose, options);
+  return view;
+}
+
+cv::Mat renderFrame(const StationView& view, const std::vector<cv::Mat>& moduleImages,
+                    const CameraRenderOptions& options, SeededRandom& random) {
+  cv::Mat linear(view.height, view.width, CV_32F);
+  tbb::parallel_for(0, view.height, [&](int y) {
+    float* row = linear.ptr<float>(y);
+    for (int x = 0; x < view.width; ++x) {
+      float value = static_cast<float>(options.ambient);
+      for (const LobeContribution& c : view.at(x, y)) {
+        if (c.module < 0) break;
+        const cv::Mat& image = moduleImages[static_cast<size_t>(c.module)];
+        if (image.empty()) continue;
+        value += c.weight * sampleBilinear(image, c.u, c.v);
+      }
+      row[x] = value;
+    }
+  });
+  if (!view.markers.empty()) linear += view.markers;
+  return recordThroughSensor(linear, options, random);
+}
+
+cv::Mat recordThroughSensor(const cv::Mat& light, const CameraRenderOptions& options,
+                            SeededRandom& random) {
+  cv::Mat linear = light;
+  if (options.blurSigmaPx > 0.0) {
+    linear = cv::Mat();  // a new buffer: the caller's light stays as it was
+    cv::GaussianBlur(light, linear, cv::Size(0, 0), options.blurSigmaPx);
+  }
+  // Sensor: response curve, then noise (drawn serially from the seeded stream: deterministic).
+  cv::Mat recorded(linear.rows, linear.cols, CV_32F);
+  for (int y = 0; y < linear.rows; ++y) {
+    const float* in = linear.ptr<float>(y);
+    float* out = recorded.ptr<float>(y);
+    for (int x = 0; x < linear.cols; ++x) {
+      const double v =
+          std::pow(std::clamp(static_cast<double>(in[x]), 0.0, 1.0), 1.0 / options.gamma) +
+          random.normal(options.noiseSigma);
+      out[x] = static_cast<float>(std::clamp(v, 0.0, 1.0));
+    }
+  }
+  return recorded;
+}
+
+cv::Mat linearFromRecorded(const cv::Mat& recorded, double gamma) {
+  cv::Mat linear(recorded.size(), CV_32F);
+  for (int y = 0; y < recorded.rows; ++y) {
+    const float* in = recorded.ptr<float>(y);
+    float* out = linear.ptr<float>(y);
+    for (int x = 0; x < recorded.cols; ++x)
+      out[x] = static_cast<float>(std::pow(std::max(in[x], 0.0f), gamma));
+  }
+  return linear;
+}
+
+}  // namespace parallax

@@ -1,0 +1,52 @@
+#pragma once
+// A calibration session through the link: the modules, in pattern mode, show the
+// structured-light patterns group by group (calibration/calibration_captures.h's
+// moduleGroups: every n-th module at once, the others dark); after every pattern frame has
+// been delivered to every module, the camera takes a picture, converted to linear light
+// through its response. At the end — completed, cancelled or failed — the modules go back to
+// playback mode and the camera is unlocked.
+//
+// Never half a session passed off as complete: a frame that cannot be delivered, a picture the
+// camera does not give or a wrong picture size throws std::runtime_error naming the module,
+// station and frame; `cancel` becoming true throws CalibrationCancelled.
+
+#include <atomic>
+#include <functional>
+#include <stdexcept>
+#include <vector>
+
+#include "calibration/capture/calibration_captures.h"
+#include "hw/camera/camera.h"
+#include "hw/link/link_client.h"
+
+namespace parallax::hw {
+
+struct CalibrationCaptureOptions {
+  StructuredLightOptions patterns;
+  std::vector<int> stations;      // empty: every station of the camera metadata
+  int groupStride = 3;            // modules showing patterns at once: every n-th
+  CameraSettings cameraSettings;  // locked for the whole session
+  // Called before the pictures of each station: a real camera is moved there by the operator
+  // or a rig (the call returns when it stands there). The simulated camera needs nothing.
+  std::function<void(int station)> beforeStation;
+
+  // Throws InputError naming the field.
+  void validate(const CameraMetadata& camera) const;
+};
+
+class CalibrationCancelled : public std::runtime_error {
+ public:
+  CalibrationCancelled()
+      : std::runtime_error("calibration cancelled; the modules are back in playback mode") {}
+};
+
+CalibrationCaptures captureCalibration(
+    LinkClient& link, Camera& camera, const DisplayModel& nominal, const CameraMetadata& metadata,
+    const CalibrationCaptureOptions& options,
+    const std::function<void(int done, int total)>& progress = {},
+    const std::atomic<bool>* cancel = nullptr);
+
+// A camera picture (8-bit grey or RGB) as linear light through the camera's response.
+cv::Mat linearPicture(const Image& picture, double responseGamma);
+
+}  // namespace parallax::hw

@@ -1,0 +1,86 @@
+#pragma once
+// The calibration camera. A calibration run locks exposure, gain and white balance before the
+// first capture and keeps them until it ends, so that every pattern is seen with the same
+// response (auto-exposure between two Gray-code frames would shift the decoding threshold).
+//
+// Backends: SimulatedCamera (the camera inside parallax-simhw, over the link) and OpenCvCamera
+// (any cv::VideoCapture source: a V4L2 device, a video file, an image sequence).
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hw/link/camera_settings.h"
+#include "hw/link/image.h"
+
+namespace parallax::hw {
+
+class LinkClient;
+
+struct CameraLockResult {
+  bool ok = false;
+  std::vector<std::string> unlocked;  // controls the backend could not pin, by name
+  std::string describe() const;       // one line
+};
+
+class Camera {
+ public:
+  virtual ~Camera() = default;
+  virtual std::string name() const = 0;
+  // Pins the settings (manual exposure, fixed gain, fixed white balance). Reports every
+  // control the device refused rather than pretending.
+  virtual CameraLockResult lock(const CameraSettings& settings) = 0;
+  virtual void unlock() = 0;
+  bool locked() const { return locked_; }
+  const CameraSettings& settings() const { return settings_; }
+  // One image; empty with `error` set when the camera gives none.
+  virtual Image capture(std::string* error) = 0;
+  // The calibration station the next pictures are taken from. The simulated camera moves
+  // there itself (the station travels in the capture request); a real camera is moved by the
+  // operator or a rig (captureCalibration's beforeStation hook), so it only records it.
+  void setStation(int station) { station_ = station; }
+  int station() const { return station_; }
+
+ protected:
+  bool locked_ = false;
+  int station_ = 0;
+  CameraSettings settings_;
+};
+
+// The simulated calibration camera behind the link: with parallax-simhw's calibration physics
+// (--truth, --camera) it photographs the screen from its station; otherwise it returns the
+// raw pattern of `viewModule`.
+class SimulatedCamera : public Camera {
+ public:
+  explicit SimulatedCamera(LinkClient& link, int viewModule = 0)
+      : link_(link), viewModule_(viewModule) {}
+  std::string name() const override { return "simulated camera"; }
+  CameraLockResult lock(const CameraSettings& settings) override;
+  void unlock() override { locked_ = false; }
+  Image capture(std::string* error) override;
+  void setViewModule(int module) { viewModule_ = module; }
+
+ private:
+  LinkClient& link_;
+  int viewModule_;
+};
+
+// A cv::VideoCapture source: "0" (device index) or a path / URL / image-sequence pattern.
+class OpenCvCamera : public Camera {
+ public:
+  OpenCvCamera();
+  ~OpenCvCamera() override;
+  // False with a one-line reason when the source does not open.
+  bool open(const std::string& source, std::string* error);
+  std::string name() const override { return "OpenCV camera " + source_; }
+  CameraLockResult lock(const CameraSettings& settings) override;
+  void unlock() override;
+  Image capture(std::string* error) override;
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
+  std::string source_;
+};
+
+}  // namespace parallax::hw

@@ -1,0 +1,469 @@
+#include "hw/link/link_client.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <stdexcept>
+#include <thread>
+
+#include "common/input_error.h"
+#include "hw/link/content_hash.h"
+#include "hw/link/crc32c.h"
+
+namespace parallax::hw {
+
+void LinkOptions::validate() const {
+  auto require = [](bool ok, const char* field, const std::string& why) {
+    if (!ok) throw InputError({"", field, 0}, why);
+  };
+  require(
+      chunkSize >= 4096 && chunkSize <= kMaxPayloadSize - kChunkPrefixSize, "chunk_size",
+      fmt::format("must be in 4096..{}, got {}", kMaxPayloadSize - kChunkPrefixSize, chunkSize));
+  require(windowFrames >= 1 && windowFrames <= 1024, "window_frames", "must be in 1..1024");
+  require(ackTimeoutMs >= 1, "ack_timeout_ms", "must be positive");
+  require(maxRetries >= 0 && maxRetries <= 100, "max_retries", "must be in 0..100");
+  require(keepAliveMs >= 1, "keep_alive_ms", "must be positive");
+  require(reconnectAttempts >= 0 && reconnectAttempts <= 100, "reconnect_attempts",
+          "must be in 0..100");
+  require(reconnectDelayMs >= 0, "reconnect_delay_ms", "must not be negative");
+  require(linkDownRetryMs >= 0, "link_down_retry_ms", "must not be negative");
+}
+
+std::string_view frameStatusName(FrameStatus status) {
+  switch (status) {
+    case FrameStatus::kPending:
+      return "pending";
+    case FrameStatus::kDelivered:
+      return "delivered";
+    case FrameStatus::kSkippedUnchanged:
+      return "skipped (unchanged)";
+    case FrameStatus::kSuperseded:
+      return "superseded";
+    case FrameStatus::kFailed:
+      return "failed";
+  }
+  return "unknown";
+}
+
+LinkClient::LinkClient(std::unique_ptr<LinkTransport> transport, LinkOptions options)
+    : transport_(std::move(transport)), options_(options) {
+  options_.validate();
+  std::string error;
+  if (!transport_->isOpen() && transport_->open(&error) != TransportStatus::kOk) {
+    throw std::runtime_error(error);
+  }
+  if (!helloOk()) {
+    throw std::runtime_error(
+        fmt::format("{}: the device did not answer Hello", transport_->name()));
+  }
+}
+
+LinkClient::~LinkClient() = default;
+
+bool LinkClient::helloOk() {
+  const uint32_t seq = nextSequence();
+  const HeaderBytes h = encodeHeader({PacketType::kHello, 0, kAllModules, seq, 0, 0}, {});
+  iovec piece{const_cast<uint8_t*>(h.data()), h.size()};
+  if (transport_->send(kAllModules, {&piece, 1}) != TransportStatus::kOk) return false;
+  std::vector<ModuleLinkInfo> found;
+  uint16_t expected = 0;
+  const auto deadline = Clock::now() + std::chrono::milliseconds(options_.ackTimeoutMs);
+  while (expected == 0 || found.size() < expected) {
+    std::vector<ReceivedPacket> packets;
+    const int left = static_cast<int>(
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count());
+    if (left <= 0) return false;
+    if (transport_->receive(&packets, left) == TransportStatus::kDisconnected) return false;
+    for (const ReceivedPacket& p : packets) {
+      if (p.header.type != PacketType::kDeviceInfo || p.header.sequence != seq) continue;
+      DeviceInfo info;
+      if (decodeDeviceInfo(p.payload, &info) != ProtocolError::kOk) return false;
+      if (info.moduleCount == 0 || p.header.module >= info.moduleCount) return false;
+      expected = info.moduleCount;
+      found.push_back({p.header.module, info});
+    }
+  }
+  std::sort(found.begin(), found.end(),
+            [](const ModuleLinkInfo& a, const ModuleLinkInfo& b) { return a.module < b.module; });
+  for (size_t i = 0; i < found.size(); ++i) {
+    if (found[i].module != static_cast<int>(i)) return false;  // duplicates or gaps
+  }
+  modules_ = std::move(found);
+  chunkSize_ = options_.chunkSize;
+  for (const ModuleLinkInfo& m : modules_) chunkSize_ = std::min(chunkSize_, m.info.maxChunkSize);
+  submittedHash_.resize(modules_.size());
+  hashValid_.resize(modules_.size(), false);
+  latestTicket_.resize(modules_.size(), 0);
+  // A new session: what the modules show is unknown again (see sessions()).
+  std::fill(hashValid_.begin(), hashValid_.end(), false);
+  ++sessions_;
+  lastHeard_ = Clock::now();
+  return true;
+}
+
+uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame) {
+  if (module < 0 || module >= static_cast<int>(modules_.size())) {
+    throw InputError({"", "module", 0},
+                     fmt::format("no module {} (the link has {})", module, modules_.size()));
+  }
+  const DeviceInfo& info = modules_[module].info;
+  if (!frame || frame->width != static_cast<int>(info.width) ||
+      frame->height != static_cast<int>(info.height) || frame->pixels.size() != frame->byteSize()) {
+    throw InputError({"", "frame", 0},
+                     fmt::format("module {} takes {}x{} frames, got {}x{} ({} bytes)", module,
+                                 info.width, info.height, frame ? frame->width : 0,
+                                 frame ? frame->height : 0, frame ? frame->pixels.size() : 0));
+  }
+  ++stats_.submitted;
+  const uint64_t ticket = ++ticket_;
+  const uint64_t hash = contentHash64(frame->pixels.data(), frame->pixels.size());
+  if (options_.skipUnchanged && hashValid_[module] && submittedHash_[module] == hash) {
+    ++stats_.skipped;
+    outcomes_.push_back({ticket, module, FrameStatus::kSkippedUnchanged, 0, ""});
+    return ticket;
+  }
+
+  // A link idle for a while may have died quietly: probe it before trusting it with a frame.
+  if (Clock::now() - lastHeard_ > std::chrono::milliseconds(options_.keepAliveMs)) ping();
+  while (static_cast<int>(pending_.size()) >= options_.windowFrames) waitForProgress();
+
+  Pending p;
+  p.ticket = ticket;
+  p.module = module;
+  p.frame = std::move(frame);
+  p.hash = hash;
+  // One CRC pass over the pixels: per-chunk CRCs, combined into the whole-frame CRC.
+  const size_t size = p.frame->pixels.size();
+  const uint8_t* data = p.frame->pixels.data();
+  for (size_t offset = 0; offset < size; offset += chunkSize_) {
+    const size_t n = std::min<size_t>(chunkSize_, size - offset);
+    const uint32_t crc = crc32c(data + offset, n);
+    p.chunkCrcs.push_back(crc);
+    p.frameCrc = offset == 0 ? crc : crc32cCombine(p.frameCrc, crc, n);
+  }
+  submittedHash_[module] = hash;
+  hashValid_[module] = true;
+  latestTicket_[module] = ticket;
+  pending_.push_back(std::move(p));
+  if (!transport_->isOpen() || !sendFrame(pending_.back())) {
+    reconnect("sending a frame failed");
+  }
+  pump(0);
+  return ticket;
+}
+
+bool LinkClient::sendFrame(Pending& p) {
+  p.sequence = nextSequence();
+  ++p.attempts;
+  ++stats_.attempts;
+  if (p.attempts > 1) ++stats_.retries;
+  p.deadline = Clock::now() + std::chrono::milliseconds(options_.ackTimeoutMs);
+
+  const Image& f = *p.frame;
+  const uint16_t module = static_cast<uint16_t>(p.module);
+  const size_t size = f.pixels.size();
+  const size_t chunks = p.chunkCrcs.size();
+  FrameBegin begin;
+  begin.width = static_cast<uint32_t>(f.width);
+  begin.height = static_cast<uint32_t>(f.height);
+  begin.format = f.format;
+  begin.mode = DisplayMode::kPlayback;
+  begin.totalSize = static_cast<uint32_t>(size);
+  begin.chunkCount = static_cast<uint32_t>(chunks);
+  begin.frameCrc = p.frameCrc;
+  begin.contentHash = p.hash;
+  const std::vector<uint8_t> beginBody = encodeFrameBegin(begin);
+
+  // Header storage must stay put while the iovecs point at it.
+  scratchHeaders_.resize(chunks + 2);
+  scratchPrefixes_.resize(chunks);
+  std::vector<iovec>& iov = scratchIov_;
+  iov.clear();
+  scratchHeaders_[0] =
+      encodeHeader({PacketType::kFrameBegin, 0, module, p.sequence, 0, 0}, beginBody);
+  iov.push_back({scratchHeaders_[0].data(), kHeaderSize});
+  iov.push_back({const_cast<uint8_t*>(beginBody.data()), beginBody.size()});
+  for (size_t c = 0; c < chunks; ++c) {
+    const size_t offset = c * chunkSize_;
+    const size_t n = std::min<size_t>(chunkSize_, size - offset);
+    scratchPrefixes_[c] = encodeChunkPrefix(p.sequence, static_cast<uint32_t>(offset));
+    PacketHeader h{PacketType::kFrameChunk,
+                   0,
+                   module,
+                   p.sequence,
+                   static_cast<uint32_t>(kChunkPrefixSize + n),
+                   0};
+    h.payloadCrc =
+        crc32cCombine(crc32c(scratchPrefixes_[c].data(), kChunkPrefixSize), p.chunkCrcs[c], n);
+    scratchHeaders_[c + 1] = encodeHeaderRaw(h);
+    iov.push_back({scratchHeaders_[c + 1].data(), kHeaderSize});
+    iov.push_back({scratchPrefixes_[c].data(), kChunkPrefixSize});
+    iov.push_back({const_cast<uint8_t*>(f.pixels.data() + offset), n});
+  }
+  scratchHeaders_[chunks + 1] =
+      encodeHeader({PacketType::kFrameEnd, 0, module, p.sequence, 0, 0}, {});
+  iov.push_back({scratchHeaders_[chunks + 1].data(), kHeaderSize});
+  if (transport_->send(module, iov) != TransportStatus::kOk) return false;
+  stats_.payloadBytesSent += size;
+  return true;
+}
+
+bool LinkClient::supersede(Pending& p) {
+  if (latestTicket_[p.module] == p.ticket) return false;
+  p.history += fmt::format("; not resent: frame {} for module {} is newer", latestTicket_[p.module],
+                           p.module);
+  finish(p, FrameStatus::kSuperseded, p.history);
+  return true;
+}
+
+void LinkClient::retryOrFail(Pending& p, const std::string& why) {
+  p.history += fmt::format("{}attempt {}: {}", p.history.empty() ? "" : "; ", p.attempts, why);
+  if (supersede(p)) return;
+  if (p.attempts > options_.maxRetries) {
+    finish(p, FrameStatus::kFailed, p.history);
+    return;
+  }
+  if (!transport_->isOpen() || !sendFrame(p)) reconnect("resending a frame failed");
+}
+
+void LinkClient::finish(Pending& p, FrameStatus status, const std::string& reason) {
+  if (p.done) return;
+  p.done = true;
+  if (status == FrameStatus::kDelivered) {
+    ++stats_.delivered;
+  } else if (status == FrameStatus::kSuperseded) {
+    ++stats_.superseded;
+  } else {
+    ++stats_.failed;
+    // The module may not show these bytes: never skip them as "unchanged" later.
+    if (hashValid_[p.module] && submittedHash_[p.module] == p.hash) hashValid_[p.module] = false;
+    spdlog::warn("link: frame {} for module {} failed: {}", p.ticket, p.module, reason);
+  }
+  outcomes_.push_back({p.ticket, p.module, status, p.attempts, reason});
+}
+
+void LinkClient::prune() {
+  std::erase_if(pending_, [](const Pending& p) { return p.done; });
+}
+
+TransportStatus LinkClient::pump(int timeoutMs) {
+  std::vector<ReceivedPacket> packets;
+  const TransportStatus status = transport_->receive(&packets, timeoutMs);
+  for (const ReceivedPacket& packet : packets) handle(packet);
+  if (status == TransportStatus::kDisconnected || status == TransportStatus::kProtocolError) {
+    const std::string why = status == TransportStatus::kProtocolError
+                                ? fmt::format("device sent a bad packet ({})",
+                                              protocolErrorName(transport_->lastProtocolError()))
+                                : "device closed the connection";
+    if (!reconnecting_) reconnect(why);
+  }
+  checkDeadlines();
+  prune();
+  return status;
+}
+
+void LinkClient::handle(const ReceivedPacket& packet) {
+  lastHeard_ = Clock::now();
+  if (packet.header.type == PacketType::kAck) {
+    Ack ack;
+    if (decodeAck(packet.payload, &ack) != ProtocolError::kOk ||
+        ack.ackedSequence != packet.header.sequence) {
+      ++stats_.staleAcks;  // malformed: the frame it meant will time out and be retried
+      return;
+    }
+    for (Pending& p : pending_) {
+      if (p.done || p.sequence != ack.ackedSequence) continue;
+      if (ack.status == AckStatus::kOk) {
+        finish(p, FrameStatus::kDelivered, p.history);
+      } else {
+        ++stats_.nacks;
+        retryOrFail(p, fmt::format("module answered {} ({} bytes verified)",
+                                   ackStatusName(ack.status), ack.detail));
+      }
+      return;
+    }
+  }
+  if (packet.header.type == PacketType::kError) {
+    ErrorBody e;
+    const bool ok = decodeError(packet.payload, &e) == ProtocolError::kOk;
+    lastDeviceError_ = ok ? fmt::format("device rejected packet {}: {}", e.offendingSequence,
+                                        protocolErrorName(e.error))
+                          : "device sent a malformed error packet";
+    spdlog::warn("link: {}", lastDeviceError_);
+  }
+  // Everything else answers a control request (or is stale): keep a bounded inbox.
+  inbox_.push_back(packet);
+  if (inbox_.size() > 64) {
+    inbox_.erase(inbox_.begin());
+    ++stats_.staleAcks;
+  }
+}
+
+void LinkClient::checkDeadlines() {
+  const auto now = Clock::now();
+  for (Pending& p : pending_) {
+    if (p.done || now < p.deadline) continue;
+    ++stats_.timeouts;
+    retryOrFail(p, fmt::format("no acknowledgement within {} ms", options_.ackTimeoutMs));
+  }
+}
+
+void LinkClient::waitForProgress() {
+  auto earliest = Clock::time_point::max();
+  for (const Pending& p : pending_) {
+    if (!p.done) earliest = std::min(earliest, p.deadline);
+  }
+  const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(earliest - Clock::now());
+  pump(static_cast<int>(std::clamp<int64_t>(left.count() + 1, 0, options_.ackTimeoutMs)));
+}
+
+void LinkClient::flush() {
+  while (!pending_.empty()) waitForProgress();
+}
+
+std::vector<FrameOutcome> LinkClient::takeOutcomes() {
+  std::vector<FrameOutcome> out;
+  out.swap(outcomes_);
+  return out;
+}
+
+bool LinkClient::reconnect(const std::string& why) {
+  if (reconnecting_) return false;
+  if (Clock::now() < downUntil_) {  // still in the quiet period after a failed reconnect
+    for (Pending& p : pending_) finish(p, FrameStatus::kFailed, downReason_);
+    return false;
+  }
+  reconnecting_ = true;
+  spdlog::warn("link: {}: {}; reconnecting", transport_->name(), why);
+  transport_->close();
+  inbox_.clear();
+  int delay = options_.reconnectDelayMs;
+  std::string error;
+  bool up = false;
+  for (int attempt = 0; attempt <= options_.reconnectAttempts && !up; ++attempt) {
+    if (attempt > 0) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(delay));
+      delay *= 2;
+    }
+    ++stats_.reconnects;
+    if (transport_->open(&error) != TransportStatus::kOk) continue;
+    if (!helloOk()) {
+      error = "the device did not answer Hello";
+      transport_->close();
+      continue;
+    }
+    // Everything in flight died with the old connection: send it again (each resend is an
+    // attempt, so a frame that keeps killing the link fails after maxRetries).
+    up = true;
+    for (Pending& p : pending_) {
+      if (p.done) continue;
+      p.history += fmt::format("{}attempt {}: {}", p.history.empty() ? "" : "; ", p.attempts, why);
+      if (supersede(p)) continue;
+      if (p.attempts > options_.maxRetries) {
+        finish(p, FrameStatus::kFailed, p.history);
+      } else if (!sendFrame(p)) {
+        error = "the link dropped again while resending";
+        up = false;
+        transport_->close();
+        break;
+      }
+    }
+  }
+  if (!up) {
+    downReason_ = fmt::format("link down ({}; reconnecting failed: {})", why, error);
+    downUntil_ = Clock::now() + std::chrono::milliseconds(options_.linkDownRetryMs);
+    for (Pending& p : pending_) finish(p, FrameStatus::kFailed, downReason_);
+  }
+  // No prune() here: callers may be iterating pending_.
+  reconnecting_ = false;
+  return up;
+}
+
+bool LinkClient::request(PacketType type, uint16_t module, std::span<const uint8_t> body,
+                         std::initializer_list<PacketType> answers, ReceivedPacket* reply) {
+  // A link that drops under a request (a disconnect fault firing, a device replugged) gets one
+  // reconnect and one more try; a request that simply goes unanswered does not.
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    if (!transport_->isOpen() && !reconnect("link closed")) return false;
+    const uint32_t seq = nextSequence();
+    const HeaderBytes h = encodeHeader({type, 0, module, seq, 0, 0}, body);
+    iovec pieces[2] = {{const_cast<uint8_t*>(h.data()), h.size()},
+                       {const_cast<uint8_t*>(body.data()), body.size()}};
+    if (transport_->send(module, {pieces, body.empty() ? 1u : 2u}) != TransportStatus::kOk) {
+      if (!reconnect("sending a request failed")) return false;
+      continue;
+    }
+    const auto deadline = Clock::now() + std::chrono::milliseconds(options_.ackTimeoutMs);
+    bool dropped = false;
+    while (!dropped) {
+      for (auto it = inbox_.begin(); it != inbox_.end(); ++it) {
+        if (it->header.sequence != seq) continue;
+        if (std::find(answers.begin(), answers.end(), it->header.type) == answers.end()) continue;
+        *reply = std::move(*it);
+        inbox_.erase(it);
+        return true;
+      }
+      const auto left =
+          std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+      if (left <= 0) return false;
+      // pump() reconnects by itself when the link drops; then the request is sent again.
+      const TransportStatus s = pump(static_cast<int>(left));
+      dropped = s == TransportStatus::kDisconnected || s == TransportStatus::kProtocolError ||
+                !transport_->isOpen();
+    }
+  }
+  return false;
+}
+
+bool LinkClient::ping() {
+  ++stats_.keepAlives;
+  ReceivedPacket reply;
+  if (request(PacketType::kKeepAlive, kAllModules, {}, {PacketType::kKeepAlive}, &reply)) {
+    return true;
+  }
+  // No echo: the link is dead even if the socket looks open. One reconnect, then ask again.
+  if (!reconnect("keep-alive not answered")) return false;
+  return request(PacketType::kKeepAlive, kAllModules, {}, {PacketType::kKeepAlive}, &reply);
+}
+
+bool LinkClient::setMode(DisplayMode mode) {
+  ReceivedPacket reply;
+  const std::vector<uint8_t> body = encodeSetMode(mode);
+  if (!request(PacketType::kSetMode, kAllModules, body, {PacketType::kAck}, &reply)) return false;
+  Ack ack;
+  return decodeAck(reply.payload, &ack) == ProtocolError::kOk && ack.status == AckStatus::kOk;
+}
+
+bool LinkClient::injectFault(int module, const Fault& fault) {
+  ReceivedPacket reply;
+  const std::vector<uint8_t> body = encodeFault(fault);
+  if (!request(PacketType::kFault, static_cast<uint16_t>(module), body, {PacketType::kAck},
+               &reply)) {
+    return false;
+  }
+  Ack ack;
+  return decodeAck(reply.payload, &ack) == ProtocolError::kOk && ack.status == AckStatus::kOk;
+}
+
+Image LinkClient::capture(int viewModule, const CaptureRequest& settings) {
+  CaptureRequest r = settings;
+  r.viewModule = static_cast<uint16_t>(viewModule);
+  const std::vector<uint8_t> body = encodeCaptureRequest(r);
+  ReceivedPacket reply;
+  if (!request(PacketType::kCaptureRequest, kCameraModule, body,
+               {PacketType::kCaptureReply, PacketType::kAck}, &reply) ||
+      reply.header.type != PacketType::kCaptureReply) {
+    return {};
+  }
+  CaptureReplyHeader h;
+  if (decodeCaptureReplyHeader(reply.payload, &h) != ProtocolError::kOk) return {};
+  Image image;
+  image.width = static_cast<int>(h.width);
+  image.height = static_cast<int>(h.height);
+  image.format = h.format;
+  image.pixels.assign(reply.payload.begin() + kCaptureReplyHeaderSize, reply.payload.end());
+  return image;
+}
+
+}  // namespace parallax::hw

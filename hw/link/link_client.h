@@ -1,0 +1,173 @@
+#pragma once
+// The host side of the link: pushes frames to modules and guarantees that every submitted
+// frame ends in exactly one outcome the caller sees — delivered (the module verified its
+// CRCs and shows it), skipped (the module already shows these bytes) or failed (with the
+// reason) — whatever the transport does: lost chunks, flipped bytes, stalled devices, a
+// disconnect, a crash. Retries, timeouts, keep-alive and reconnects live here, once, above
+// any LinkTransport.
+//
+// "Skipped" means: the same bytes as the last frame accepted for that module; if that frame
+// later fails, its own outcome says so and the next identical submit is sent again.
+// Destroying a LinkClient abandons frames still pending: flush() first to hear about them.
+// Not thread-safe: one thread (the render loop) owns a LinkClient.
+
+#include <sys/uio.h>
+
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <initializer_list>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hw/link/image.h"
+#include "hw/link/link_protocol.h"
+#include "hw/link/link_transport.h"
+
+namespace parallax::hw {
+
+struct LinkOptions {
+  uint32_t chunkSize = 1u << 20;  // clamped to what the device accepts
+  int windowFrames = 8;           // frames sent but not yet acknowledged
+  int ackTimeoutMs = 2000;        // per attempt
+  int maxRetries = 3;             // attempts = 1 + maxRetries
+  int keepAliveMs = 1000;         // idle time after which the link is probed before sending
+  int reconnectAttempts = 5;
+  int reconnectDelayMs = 50;  // doubled after each failed attempt
+  // After reconnecting failed, frames fail at once ("link down") for this long before the
+  // next reconnect: a dead link must not cost every frame of the render loop a full back-off.
+  int linkDownRetryMs = 1000;
+  bool skipUnchanged = true;  // content hash: unchanged frames are not re-sent
+
+  // Throws InputError naming the field.
+  void validate() const;
+};
+
+// kSuperseded: the frame needed a resend, but a newer frame for the same module had been
+// submitted meanwhile; resending the old one would show stale content after the new one, so
+// it is dropped and reported instead. Frames of one module are therefore shown in order.
+enum class FrameStatus { kPending, kDelivered, kSkippedUnchanged, kFailed, kSuperseded };
+std::string_view frameStatusName(FrameStatus status);
+
+struct FrameOutcome {
+  uint64_t ticket = 0;
+  int module = 0;
+  FrameStatus status = FrameStatus::kPending;
+  int attempts = 0;
+  std::string reason;  // why it failed, or what the retries were for
+};
+
+struct LinkStats {
+  uint64_t submitted = 0, delivered = 0, skipped = 0, failed = 0, superseded = 0;
+  uint64_t attempts = 0, retries = 0, nacks = 0, timeouts = 0, reconnects = 0;
+  uint64_t payloadBytesSent = 0, staleAcks = 0, keepAlives = 0;
+};
+
+struct ModuleLinkInfo {
+  int module = 0;
+  DeviceInfo info;
+};
+
+class LinkClient {
+ public:
+  // Opens the transport and says hello; throws std::runtime_error with the transport's one-line
+  // reason when the link cannot be brought up.
+  LinkClient(std::unique_ptr<LinkTransport> transport, LinkOptions options = {});
+  ~LinkClient();
+
+  const std::vector<ModuleLinkInfo>& modules() const { return modules_; }
+
+  // Queues a frame for `module`; returns its ticket. The pixels are borrowed through the
+  // shared_ptr (no copy) until the frame's outcome is final. May block while the window is
+  // full. Throws InputError for a frame the module cannot take (size, format, module index).
+  uint64_t submit(int module, std::shared_ptr<const Image> frame);
+
+  // Waits until every submitted frame has an outcome.
+  void flush();
+
+  // Outcomes that became final since the last call, in completion order.
+  std::vector<FrameOutcome> takeOutcomes();
+
+  // Round trip of a keep-alive; false when the device does not answer (after reconnecting).
+  bool ping();
+  // Mode change for every module; false if not acknowledged.
+  bool setMode(DisplayMode mode);
+  // Arms a fault on the simulator (ignored by real devices: they answer kUnsupported).
+  bool injectFault(int module, const Fault& fault);
+  // Asks the calibration camera for an image of what `viewModule` shows, with the given
+  // settings (zeros keep the camera's current ones). Empty when there is no answer.
+  Image capture(int viewModule, const CaptureRequest& settings = {});
+
+  const LinkStats& stats() const { return stats_; }
+  const LinkOptions& options() const { return options_; }
+  // Counts the link's sessions: 1 after construction, +1 for every reconnect that got a Hello
+  // back. A device that answered Hello again may have restarted and lost what it showed, so a
+  // new session also forgets which content each module holds (the next submit of the same
+  // bytes is sent, not skipped); a caller that keeps frames up compares this number and
+  // submits them again when it changes.
+  uint64_t sessions() const { return sessions_; }
+  std::string transportName() const { return transport_->name(); }
+
+ private:
+  struct Pending {
+    uint64_t ticket = 0;
+    int module = 0;
+    uint32_t sequence = 0;  // of the current attempt
+    std::shared_ptr<const Image> frame;
+    uint64_t hash = 0;
+    uint32_t frameCrc = 0;
+    std::vector<uint32_t> chunkCrcs;  // of the data of each chunk
+    int attempts = 0;
+    bool done = false;
+    std::chrono::steady_clock::time_point deadline;
+    std::string history;  // what went wrong with earlier attempts
+  };
+  using Clock = std::chrono::steady_clock;
+
+  bool helloOk();
+  // Closes, reopens (bounded attempts with back-off), says hello and resends what was in
+  // flight; when it cannot, fails every pending frame with the reason. False if still down.
+  bool reconnect(const std::string& why);
+  bool sendFrame(Pending& p);
+  // Receives for up to timeoutMs, applies acks, handles deadlines and a lost link.
+  TransportStatus pump(int timeoutMs);
+  void waitForProgress();
+  void handle(const ReceivedPacket& packet);
+  void retryOrFail(Pending& p, const std::string& why);
+  // True (and the frame finished as superseded) when a newer frame for its module exists.
+  bool supersede(Pending& p);
+  void finish(Pending& p, FrameStatus status, const std::string& reason);
+  void checkDeadlines();
+  void prune();
+  // Sends a small control packet and waits for a packet of one of `answers` types with the
+  // same sequence number.
+  bool request(PacketType type, uint16_t module, std::span<const uint8_t> body,
+               std::initializer_list<PacketType> answers, ReceivedPacket* reply);
+  uint32_t nextSequence() { return ++sequence_; }
+
+  std::unique_ptr<LinkTransport> transport_;
+  LinkOptions options_;
+  std::vector<ModuleLinkInfo> modules_;
+  uint32_t chunkSize_ = 0;
+  std::deque<Pending> pending_;          // sent, awaiting ack
+  std::vector<uint64_t> submittedHash_;  // per module: content of the last accepted submit
+  std::vector<bool> hashValid_;
+  std::vector<uint64_t> latestTicket_;  // per module: the newest submitted frame
+  std::vector<FrameOutcome> outcomes_;
+  std::vector<ReceivedPacket> inbox_;  // control replies that arrived while pumping
+  std::vector<HeaderBytes> scratchHeaders_;
+  std::vector<std::array<uint8_t, kChunkPrefixSize>> scratchPrefixes_;
+  std::vector<iovec> scratchIov_;
+  std::string lastDeviceError_;
+  LinkStats stats_;
+  uint32_t sequence_ = 0;
+  uint64_t ticket_ = 0;
+  uint64_t sessions_ = 0;
+  bool reconnecting_ = false;
+  Clock::time_point downUntil_;  // no reconnect attempts before this
+  std::string downReason_;
+  Clock::time_point lastHeard_;
+};
+
+}  // namespace parallax::hw

@@ -1,0 +1,163 @@
+// parallax-simhw: simulated optical modules and a calibration camera behind the link protocol,
+// served on a Unix socket (DESIGN.md, "Processes and interfaces").
+//
+//   parallax-simhw --socket /tmp/simhw.sock [--display demo|default|file.json]
+//                  [--modules N --resolution WxH] [--fault 3:drop:2 ...] [--dump DIR]
+//                  [--truth ground_truth.json --camera camera_truth.json]
+// With --truth and --camera (the files `parallax simulate` writes) the camera photographs the
+// ground-truth display from its true pose at the requested station (hw/calibration_physics.h);
+// the modules are then the truth's.
+
+#include <fmt/format.h>
+
+#include <CLI/CLI.hpp>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <regex>
+
+#include "calibration/display/display_model_json.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/simulation/camera_truth.h"
+#include "common/input_error.h"
+#include "hw/simulator/calibration_physics.h"
+#include "hw/simulator/fault_spec.h"
+#include "hw/simulator/simhw_server.h"
+#include "hw/simulator/simulated_hardware.h"
+
+namespace {
+
+std::atomic<bool> gStop{false};
+void onSignal(int) { gStop.store(true); }
+
+struct Args {
+  std::string socket;
+  std::string display;
+  int modules = 0;
+  std::string resolution;
+  std::vector<std::string> faults;
+  std::string dump;
+  std::string truth, camera;
+  uint32_t maxChunk = 4u << 20;
+};
+
+int run(const Args& args) {
+  using namespace parallax;
+  hw::SimulatedHardwareOptions options;
+  options.maxChunkSize = args.maxChunk;
+  if (args.truth.empty() != args.camera.empty()) {
+    throw InputError({"", args.truth.empty() ? "--truth" : "--camera", 0},
+                     "the calibration physics needs both --truth and --camera");
+  }
+  std::unique_ptr<hw::CameraPhysics> physics;
+  std::string displaySource = args.display;
+  std::optional<DisplayModel> truth;
+  if (!args.truth.empty()) {
+    if (!args.display.empty())
+      throw InputError({"", "--display", 0}, "not with --truth: the modules are the truth's");
+    truth = loadDisplayModel(args.truth);
+    displaySource = args.truth;
+  }
+  if (!displaySource.empty()) {
+    const DisplayModel model = truth ? *truth : resolveDisplay(displaySource);
+    options.modules = static_cast<int>(model.modules.size());
+    options.width = model.modules.front().width;
+    options.height = model.modules.front().height;
+    for (size_t i = 0; i < model.modules.size(); ++i) {
+      if (model.modules[i].width != options.width || model.modules[i].height != options.height) {
+        throw InputError({displaySource, fmt::format("modules[{}].width", i), 0},
+                         "parallax-simhw needs every module at the same resolution");
+      }
+    }
+  }
+  if (args.modules > 0) options.modules = args.modules;
+  if (!args.resolution.empty()) {
+    std::smatch m;
+    static const std::regex kPattern(R"((\d{1,5})x(\d{1,5}))");
+    if (!std::regex_match(args.resolution, m, kPattern)) {
+      throw InputError({"", "--resolution", 0}, "expected WIDTHxHEIGHT such as 1024x768");
+    }
+    options.width = std::stoi(m[1]);
+    options.height = std::stoi(m[2]);
+  }
+  if (truth) {
+    if (args.modules > 0 || !args.resolution.empty()) {
+      throw InputError({"", "--modules", 0}, "not with --truth: the modules are the truth's");
+    }
+    physics = std::make_unique<hw::CalibrationPhysics>(*truth, loadCameraTruth(args.camera));
+  }
+  hw::SimulatedHardware hardware(options, std::move(physics));
+  for (const std::string& text : args.faults) {
+    const hw::FaultSpec spec = hw::parseFaultSpec(text);
+    if (spec.module >= hardware.moduleCount()) {
+      throw InputError({"", "--fault", 0}, fmt::format("\"{}\": no module {} (there are {})", text,
+                                                       spec.module, hardware.moduleCount()));
+    }
+    hardware.arm(spec.module, spec.fault);
+  }
+
+  std::signal(SIGINT, onSignal);
+  std::signal(SIGTERM, onSignal);
+  std::signal(SIGPIPE, SIG_IGN);
+  std::fprintf(stderr, "parallax-simhw: %d modules of %dx%d on %s%s\n", hardware.moduleCount(),
+               options.width, options.height, args.socket.c_str(),
+               truth ? " (camera: calibration physics of the ground truth)" : "");
+  hw::SimhwServer server(hardware);
+  const hw::ConnectionEnd end = server.listenAndServe(args.socket, gStop);
+  if (end == hw::ConnectionEnd::kCrashRequested) std::abort();
+
+  if (!args.dump.empty()) {
+    std::filesystem::create_directories(args.dump);
+    int written = 0;
+    for (int i = 0; i < hardware.moduleCount(); ++i) {
+      if (hardware.shownFrame(i).empty()) continue;
+      hw::writePng(hardware.shownFrame(i), fmt::format("{}/module_{:03d}.png", args.dump, i));
+      ++written;
+    }
+    std::fprintf(stderr, "parallax-simhw: wrote %d frames to %s\n", written, args.dump.c_str());
+  }
+  for (int i = 0; i < hardware.moduleCount(); ++i) {
+    const hw::ModuleCounters& c = hardware.counters(i);
+    if (c.framesRejected || c.chunksDropped || c.bytesFlipped || c.acksStalled) {
+      std::fprintf(stderr,
+                   "parallax-simhw: module %d: %llu shown, %llu rejected, %llu chunks dropped, "
+                   "%llu flipped, %llu acks stalled\n",
+                   i, static_cast<unsigned long long>(c.framesShown),
+                   static_cast<unsigned long long>(c.framesRejected),
+                   static_cast<unsigned long long>(c.chunksDropped),
+                   static_cast<unsigned long long>(c.bytesFlipped),
+                   static_cast<unsigned long long>(c.acksStalled));
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"parallax-simhw: simulated optical modules and calibration camera"};
+  Args args;
+  app.add_option("--socket", args.socket, "Unix socket path to listen on")->required();
+  app.add_option("--display", args.display, "display model (demo, default or a JSON file)");
+  app.add_option("--modules", args.modules, "number of modules (overrides --display)");
+  app.add_option("--resolution", args.resolution, "module resolution WIDTHxHEIGHT");
+  app.add_option("--fault", args.faults, "inject MODULE:KIND[:COUNT[:PARAM]] (repeatable)");
+  app.add_option("--dump", args.dump, "on exit, save each module's last frame as PNG here");
+  app.add_option("--truth", args.truth,
+                 "ground-truth display for the camera's calibration physics (with --camera)");
+  app.add_option("--camera", args.camera,
+                 "camera truth (camera_truth.json: intrinsics, true station poses, sensor)");
+  app.add_option("--max-chunk", args.maxChunk, "largest chunk the modules accept (bytes)");
+  try {
+    app.parse(argc, argv);
+    return run(args);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "parallax-simhw: %s\n", e.what());
+    return 1;
+  }
+}

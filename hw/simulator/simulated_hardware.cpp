@@ -1,0 +1,410 @@
+#include "hw/simulator/simulated_hardware.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <utility>
+
+#include "common/check.h"
+#include "common/input_error.h"
+#include "hw/link/crc32c.h"
+
+namespace parallax::hw {
+
+void SimulatedHardwareOptions::validate() const {
+  if (modules < 1 || modules > 4096) {
+    throw InputError({"", "modules", 0}, fmt::format("must be in 1..4096, got {}", modules));
+  }
+  if (width < 1 || height < 1 || width > 16384 || height > 16384) {
+    throw InputError({"", "resolution", 0},
+                     fmt::format("must be in 1..16384 per side, got {}x{}", width, height));
+  }
+  if (static_cast<uint64_t>(width) * height * 3 > 0xFFFFFFFFull) {
+    throw InputError({"", "resolution", 0}, "a frame must fit in 4 GiB");
+  }
+  if (maxChunkSize < 4096 || maxChunkSize > kMaxPayloadSize - kChunkPrefixSize) {
+    throw InputError({"", "max_chunk", 0},
+                     fmt::format("must be in 4096..{}, got {}", kMaxPayloadSize - kChunkPrefixSize,
+                                 maxChunkSize));
+  }
+  if (serialPrefix.size() > 24) throw InputError({"", "serial_prefix", 0}, "at most 24 characters");
+}
+
+Image RawPatternPhysics::render(std::span<const Image* const> frames, int viewModule,
+                                int /*station*/, const CameraSettings& settings) const {
+  // The raw pattern: what the module shows, as it shows it (no optics, no exposure model).
+  if (viewModule < 0 || viewModule >= static_cast<int>(frames.size()) || !frames[viewModule]) {
+    return {};
+  }
+  return *frames[viewModule];
+}
+
+SimulatedHardware::SimulatedHardware(SimulatedHardwareOptions options,
+                                     std::unique_ptr<CameraPhysics> physics)
+    : options_(std::move(options)), physics_(std::move(physics)) {
+  options_.validate();
+  if (!physics_) physics_ = std::make_unique<RawPatternPhysics>();
+  modules_.resize(options_.modules);
+  for (int i = 0; i < options_.modules; ++i) {
+    modules_[i].serial = fmt::format("{}{:04d}", options_.serialPrefix, i);
+  }
+}
+
+const Image& SimulatedHardware::shownFrame(int module) const { return modules_.at(module).shown; }
+uint64_t SimulatedHardware::shownContentHash(int module) const {
+  return modules_.at(module).shownHash;
+}
+const ModuleCounters& SimulatedHardware::counters(int module) const {
+  return modules_.at(module).counters;
+}
+
+void SimulatedHardware::resetSession() {
+  for (Module& m : modules_) m.upload.active = false;
+}
+
+void SimulatedHardware::arm(int module, const Fault& fault) {
+  ArmedFaults& f = modules_.at(module).faults;
+  switch (fault.kind) {
+    case FaultKind::kDropChunks:
+      f.dropChunks += fault.count;
+      break;
+    case FaultKind::kFlipBytes:
+      f.flipChunks += fault.count;
+      break;
+    case FaultKind::kStall:
+      f.stallFrames += fault.count;
+      break;
+    case FaultKind::kSlowLink:
+      f.slowChunks += fault.count;
+      f.slowMicroseconds = fault.param;
+      break;
+    case FaultKind::kDisconnect:
+      f.disconnects += fault.count;
+      break;
+    case FaultKind::kCrash:
+      f.crash = true;
+      break;
+  }
+}
+
+void SimulatedHardware::appendReply(PacketType type, uint16_t module, uint32_t sequence,
+                                    std::span<const uint8_t> body, std::vector<uint8_t>* replies) {
+  PacketHeader h;
+  h.type = type;
+  h.module = module;
+  h.sequence = sequence;
+  const HeaderBytes bytes = encodeHeader(h, body);
+  replies->insert(replies->end(), bytes.begin(), bytes.end());
+  replies->insert(replies->end(), body.begin(), body.end());
+}
+
+void SimulatedHardware::ack(uint16_t module, uint32_t sequence, AckStatus status, uint32_t detail,
+                            std::vector<uint8_t>* replies) {
+  appendReply(PacketType::kAck, module, sequence, encodeAck({sequence, status, detail}), replies);
+}
+
+void SimulatedHardware::appendError(ProtocolError error, uint32_t sequence,
+                                    std::vector<uint8_t>* replies) {
+  PacketHeader h;
+  h.type = PacketType::kError;
+  h.module = kAllModules;
+  h.sequence = sequence;
+  const std::vector<uint8_t> body = encodeError({error, sequence});
+  const HeaderBytes bytes = encodeHeader(h, body);
+  replies->insert(replies->end(), bytes.begin(), bytes.end());
+  replies->insert(replies->end(), body.begin(), body.end());
+}
+
+SimAction SimulatedHardware::handlePacket(const PacketHeader& header,
+                                          std::span<const uint8_t> payload,
+                                          std::vector<uint8_t>* replies) {
+  SimAction action;
+  // Chunks check their CRC in finishChunk (after fault injection, as a real receiver would);
+  // a damaged chunk fails its frame, not the connection.
+  if (header.type != PacketType::kFrameChunk) {
+    if (const ProtocolError e = verifyPayload(header, payload); e != ProtocolError::kOk) {
+      appendError(e, header.sequence, replies);
+      action.close = true;
+      return action;
+    }
+  }
+  const bool moduleAddressed = header.module < modules_.size();
+  // A protocol error closes the connection: the peer is broken or hostile, and a stream
+  // cannot be trusted after it.
+  auto reject = [&](ProtocolError e) {
+    appendError(e, header.sequence, replies);
+    action.close = true;
+    return action;
+  };
+
+  switch (header.type) {
+    case PacketType::kHello: {
+      if (!payload.empty()) return reject(ProtocolError::kOversized);
+      for (size_t i = 0; i < modules_.size(); ++i) {
+        DeviceInfo info;
+        info.moduleCount = static_cast<uint16_t>(modules_.size());
+        info.width = options_.width;
+        info.height = options_.height;
+        info.pixelFormats = (1u << static_cast<int>(PixelFormat::kRgb8)) |
+                            (1u << static_cast<int>(PixelFormat::kGray8));
+        info.firmwareVersion = options_.firmwareVersion;
+        info.maxChunkSize = options_.maxChunkSize;
+        info.serial = modules_[i].serial;
+        appendReply(PacketType::kDeviceInfo, static_cast<uint16_t>(i), header.sequence,
+                    encodeDeviceInfo(info), replies);
+      }
+      return action;
+    }
+    case PacketType::kSetMode: {
+      DisplayMode mode;
+      if (const ProtocolError e = decodeSetMode(payload, &mode); e != ProtocolError::kOk) {
+        return reject(e);
+      }
+      mode_ = mode;
+      ack(header.module, header.sequence, AckStatus::kOk, 0, replies);
+      return action;
+    }
+    case PacketType::kKeepAlive:
+      if (!payload.empty()) return reject(ProtocolError::kOversized);
+      appendReply(PacketType::kKeepAlive, header.module, header.sequence, {}, replies);
+      return action;
+    case PacketType::kFrameBegin:
+      if (!moduleAddressed) return reject(ProtocolError::kBadBody);
+      return frameBegin(modules_[header.module], header, payload, replies);
+    case PacketType::kFrameChunk: {
+      uint32_t frameSequence, offset;
+      if (const ProtocolError e = decodeChunkPrefix(payload, &frameSequence, &offset);
+          e != ProtocolError::kOk) {
+        return reject(e);
+      }
+      const size_t dataSize = payload.size() - kChunkPrefixSize;
+      uint8_t* dst = chunkDestination(header, frameSequence, offset, dataSize);
+      std::vector<uint8_t> scratch;
+      std::span<uint8_t> data;
+      if (dst) {
+        std::copy(payload.begin() + kChunkPrefixSize, payload.end(), dst);
+        data = {dst, dataSize};
+      } else {
+        scratch.assign(payload.begin() + kChunkPrefixSize, payload.end());
+        data = scratch;
+      }
+      return finishChunk(header, frameSequence, offset, data, replies);
+    }
+    case PacketType::kFrameEnd:
+      if (!moduleAddressed) return reject(ProtocolError::kBadBody);
+      if (!payload.empty()) return reject(ProtocolError::kOversized);
+      frameEnd(modules_[header.module], header, replies);
+      return action;
+    case PacketType::kCaptureRequest:
+      if (header.module != kCameraModule) return reject(ProtocolError::kBadBody);
+      if (const ProtocolError e = capture(header, payload, replies); e != ProtocolError::kOk) {
+        return reject(e);
+      }
+      return action;
+    case PacketType::kFault: {
+      Fault fault;
+      if (const ProtocolError e = decodeFault(payload, &fault); e != ProtocolError::kOk) {
+        return reject(e);
+      }
+      if (!moduleAddressed) return reject(ProtocolError::kBadBody);
+      arm(header.module, fault);
+      ack(header.module, header.sequence, AckStatus::kOk, 0, replies);
+      return action;
+    }
+    case PacketType::kDeviceInfo:
+    case PacketType::kAck:
+    case PacketType::kCaptureReply:
+      return reject(ProtocolError::kUnexpected);  // device-to-host packets
+    case PacketType::kError:
+      action.close = true;  // the host gave up on us; nothing to answer
+      return action;
+  }
+  return reject(ProtocolError::kUnknownType);
+}
+
+SimAction SimulatedHardware::frameBegin(Module& m, const PacketHeader& header,
+                                        std::span<const uint8_t> payload,
+                                        std::vector<uint8_t>* replies) {
+  SimAction action;
+  FrameBegin begin;
+  if (const ProtocolError e = decodeFrameBegin(payload, &begin); e != ProtocolError::kOk) {
+    appendError(e, header.sequence, replies);
+    action.close = true;
+    return action;
+  }
+  // Faults that act on the whole link fire as the frame starts, before anything is acked.
+  if (m.faults.crash) {
+    m.faults.crash = false;  // a restarted simulator (in-process tests) does not crash again
+    action.crash = true;
+    return action;
+  }
+  if (m.faults.disconnects > 0) {
+    --m.faults.disconnects;
+    resetSession();
+    action.close = true;
+    return action;
+  }
+  Upload& u = m.upload;
+  u.active = false;
+  if (begin.width != static_cast<uint32_t>(options_.width) ||
+      begin.height != static_cast<uint32_t>(options_.height)) {
+    // Answered at its FrameEnd, like every frame: one ack per frame, never two.
+    u.rejectedSequence = header.sequence;
+    u.hasRejected = true;
+    return action;
+  }
+  u.hasRejected = false;
+  u.active = true;
+  u.damaged = false;
+  u.sequence = header.sequence;
+  u.begin = begin;
+  u.covered = 0;
+  u.chunks = 0;
+  u.outOfOrder = false;
+  u.runningCrc = 0;
+  u.buffer.resize(begin.totalSize);
+  return action;
+}
+
+uint8_t* SimulatedHardware::chunkDestination(const PacketHeader& header, uint32_t frameSequence,
+                                             uint32_t offset, size_t dataSize) {
+  if (header.module >= modules_.size()) return nullptr;
+  Upload& u = modules_[header.module].upload;
+  if (!u.active || frameSequence != u.sequence || header.sequence != u.sequence) return nullptr;
+  if (static_cast<uint64_t>(offset) + dataSize > u.buffer.size()) return nullptr;
+  return u.buffer.data() + offset;
+}
+
+SimAction SimulatedHardware::finishChunk(const PacketHeader& header, uint32_t frameSequence,
+                                         uint32_t offset, std::span<uint8_t> data,
+                                         std::vector<uint8_t>* replies) {
+  SimAction action;
+  if (header.module >= modules_.size()) {
+    appendError(ProtocolError::kBadBody, header.sequence, replies);
+    action.close = true;
+    return action;
+  }
+  Module& m = modules_[header.module];
+  Upload& u = m.upload;
+  m.counters.bytesReceived += data.size();
+
+  if (m.faults.slowChunks > 0) {
+    --m.faults.slowChunks;
+    action.sleepMicroseconds = m.faults.slowMicroseconds;
+  }
+  if (m.faults.dropChunks > 0) {  // as if the chunk never crossed the wire
+    --m.faults.dropChunks;
+    ++m.counters.chunksDropped;
+    return action;
+  }
+  if (m.faults.flipChunks > 0 && !data.empty()) {  // line corruption: after the sender's CRC
+    --m.faults.flipChunks;
+    ++m.counters.bytesFlipped;
+    data[data.size() / 2] ^= 0x10;
+  }
+  // The packet CRC covers prefix + data; the data was read in place, so combine the two.
+  const auto prefix = encodeChunkPrefix(frameSequence, offset);
+  const uint32_t dataCrc = crc32c(data.data(), data.size());
+  const bool crcOk = crc32cCombine(crc32c(prefix.data(), prefix.size()), dataCrc, data.size()) ==
+                     header.payloadCrc;
+  if (!u.active || frameSequence != u.sequence || header.sequence != u.sequence ||
+      static_cast<uint64_t>(offset) + data.size() > u.buffer.size()) {
+    // A chunk for no frame in progress (its FrameBegin was rejected, or it is a stray from an
+    // abandoned attempt): the frame it belonged to is answered by its FrameEnd.
+    return action;
+  }
+  if (!crcOk) {
+    u.damaged = true;
+    return action;
+  }
+  // Chunks must arrive in order, each where the previous one ended (PROTOCOL.md): coverage is
+  // then exact — no overlap can pass stale buffer bytes off as received — and the whole-frame
+  // CRC builds up as chunks come, without a second pass over the frame at FrameEnd.
+  if (offset != u.covered) {
+    u.outOfOrder = true;
+    return action;
+  }
+  u.runningCrc = u.covered == 0 ? dataCrc : crc32cCombine(u.runningCrc, dataCrc, data.size());
+  u.covered += data.size();
+  ++u.chunks;
+  return action;
+}
+
+void SimulatedHardware::frameEnd(Module& m, const PacketHeader& header,
+                                 std::vector<uint8_t>* replies) {
+  Upload& u = m.upload;
+  if (!u.active || header.sequence != u.sequence) {
+    ++m.counters.framesRejected;
+    const bool badFrame = u.hasRejected && u.rejectedSequence == header.sequence;
+    u.hasRejected = false;
+    ack(header.module, header.sequence, badFrame ? AckStatus::kBadFrame : AckStatus::kMissingChunks,
+        0, replies);
+    return;
+  }
+  u.active = false;
+  AckStatus status = AckStatus::kOk;
+  // Every byte came exactly once, in order, in a verified chunk; the end-to-end CRC then
+  // checks the frame against what the host declared.
+  if (u.damaged) {
+    status = AckStatus::kCrcMismatch;
+  } else if (u.outOfOrder || u.covered != u.begin.totalSize || u.chunks != u.begin.chunkCount) {
+    status = AckStatus::kMissingChunks;
+  } else if (u.runningCrc != u.begin.frameCrc) {
+    status = AckStatus::kCrcMismatch;
+  }
+  const uint32_t detail = static_cast<uint32_t>(std::min<uint64_t>(u.covered, 0xFFFFFFFFu));
+  if (status == AckStatus::kOk) {
+    m.shown.width = static_cast<int>(u.begin.width);
+    m.shown.height = static_cast<int>(u.begin.height);
+    m.shown.format = u.begin.format;
+    std::swap(m.shown.pixels, u.buffer);
+    m.shownHash = u.begin.contentHash;
+    ++m.counters.framesShown;
+  } else {
+    ++m.counters.framesRejected;
+  }
+  if (m.faults.stallFrames > 0) {  // the device hangs: no ack ever comes for this frame
+    --m.faults.stallFrames;
+    ++m.counters.acksStalled;
+    return;
+  }
+  ack(header.module, header.sequence, status, detail, replies);
+}
+
+ProtocolError SimulatedHardware::capture(const PacketHeader& header,
+                                         std::span<const uint8_t> payload,
+                                         std::vector<uint8_t>* replies) {
+  CaptureRequest request;
+  if (const ProtocolError e = decodeCaptureRequest(payload, &request); e != ProtocolError::kOk) {
+    return e;
+  }
+  if (request.exposureUs != 0) camera_.exposureUs = request.exposureUs;
+  if (request.gainCenti != 0) camera_.gain = request.gainCenti / 100.0;
+  if (request.whiteBalanceRedCenti != 0)
+    camera_.whiteBalanceRed = request.whiteBalanceRedCenti / 100.0;
+  if (request.whiteBalanceBlueCenti != 0) {
+    camera_.whiteBalanceBlue = request.whiteBalanceBlueCenti / 100.0;
+  }
+  std::vector<const Image*> frames(modules_.size());
+  for (size_t i = 0; i < modules_.size(); ++i) {
+    frames[i] = modules_[i].shown.empty() ? nullptr : &modules_[i].shown;
+  }
+  const Image image = physics_->render(frames, request.viewModule, request.station, camera_);
+  if (image.empty()) {
+    ack(kCameraModule, header.sequence, AckStatus::kUnsupported, 0, replies);
+    return ProtocolError::kOk;
+  }
+  PARALLAX_CHECK_OP(image.pixels.size(), ==, image.byteSize());
+  if (image.byteSize() + kCaptureReplyHeaderSize > kMaxPayloadSize) {
+    ack(kCameraModule, header.sequence, AckStatus::kUnsupported, 0, replies);
+    return ProtocolError::kOk;
+  }
+  std::vector<uint8_t> body = encodeCaptureReplyHeader({static_cast<uint32_t>(image.width),
+                                                        static_cast<uint32_t>(image.height),
+                                                        image.format, header.sequence});
+  body.insert(body.end(), image.pixels.begin(), image.pixels.end());
+  appendReply(PacketType::kCaptureReply, kCameraModule, header.sequence, body, replies);
+  return ProtocolError::kOk;
+}
+
+}  // namespace parallax::hw

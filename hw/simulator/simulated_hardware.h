@@ -1,0 +1,132 @@
+#pragma once
+// The simulated hardware: N optical modules and one calibration camera that speak the link
+// protocol exactly like real devices (a first-class backend, not a mock). Transport-free: the
+// socket server (simhw_server.h) and the fuzz target feed it packets; it answers with packets.
+//
+// Each module double-buffers: chunks land in a receive buffer and only a frame whose every
+// chunk CRC and whole-frame CRC verified replaces the shown frame, so a damaged upload never
+// shows and never goes unreported.
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "hw/link/image.h"
+#include "hw/link/link_protocol.h"
+#include "hw/simulator/camera_physics.h"
+
+namespace parallax::hw {
+
+struct SimulatedHardwareOptions {
+  int modules = 16;
+  int width = 512, height = 384;
+  std::string serialPrefix = "SIM";
+  uint32_t maxChunkSize = 4u << 20;
+  uint32_t firmwareVersion = (1u << 16) | 0u;
+
+  // Throws InputError naming the option.
+  void validate() const;
+};
+
+// Faults armed on one module; each counter decrements as the fault fires.
+struct ArmedFaults {
+  uint32_t dropChunks = 0;
+  uint32_t flipChunks = 0;
+  uint32_t stallFrames = 0;
+  uint32_t slowChunks = 0;
+  uint32_t slowMicroseconds = 0;
+  uint32_t disconnects = 0;  // fire at the module's next FrameBegin
+  bool crash = false;        // fires at the module's next FrameBegin
+};
+
+struct ModuleCounters {
+  uint64_t framesShown = 0;     // verified and swapped in
+  uint64_t framesRejected = 0;  // negatively acknowledged
+  uint64_t chunksDropped = 0, bytesFlipped = 0, acksStalled = 0;
+  uint64_t bytesReceived = 0;
+};
+
+// What the connection must do after a packet.
+struct SimAction {
+  bool close = false;              // drop the connection (a disconnect fault or a protocol error)
+  bool crash = false;              // abort the process (a crash fault)
+  uint32_t sleepMicroseconds = 0;  // a slow link
+};
+
+class SimulatedHardware {
+ public:
+  explicit SimulatedHardware(SimulatedHardwareOptions options,
+                             std::unique_ptr<CameraPhysics> physics = nullptr);
+
+  // A complete packet (header already decoded, payload CRC not yet checked). Replies are
+  // appended to `replies` as encoded packets.
+  SimAction handlePacket(const PacketHeader& header, std::span<const uint8_t> payload,
+                         std::vector<uint8_t>* replies);
+
+  // Zero-copy path for frame chunks: where `dataSize` bytes of chunk data for `header` should
+  // be read to, or nullptr when they are to be discarded (no frame in progress, out of range).
+  uint8_t* chunkDestination(const PacketHeader& header, uint32_t frameSequence, uint32_t offset,
+                            size_t dataSize);
+  // After the data arrived (at chunkDestination or elsewhere): verifies the packet CRC
+  // (prefix + data), applies faults and records coverage.
+  SimAction finishChunk(const PacketHeader& header, uint32_t frameSequence, uint32_t offset,
+                        std::span<uint8_t> data, std::vector<uint8_t>* replies);
+
+  // A protocol error on the connection: the kError reply to send before closing.
+  static void appendError(ProtocolError error, uint32_t sequence, std::vector<uint8_t>* replies);
+
+  void arm(int module, const Fault& fault);
+  // A new connection starts: partial uploads are abandoned (the host resends them).
+  void resetSession();
+
+  int moduleCount() const { return static_cast<int>(modules_.size()); }
+  const Image& shownFrame(int module) const;
+  uint64_t shownContentHash(int module) const;
+  const ModuleCounters& counters(int module) const;
+  DisplayMode mode() const { return mode_; }
+  const CameraSettings& cameraSettings() const { return camera_; }
+  const SimulatedHardwareOptions& options() const { return options_; }
+
+ private:
+  struct Upload {
+    bool active = false;
+    bool damaged = false;  // a chunk failed its CRC
+    uint32_t sequence = 0;
+    FrameBegin begin;
+    uint64_t covered = 0;      // bytes received in verified chunks
+    bool hasRejected = false;  // the FrameBegin of `rejectedSequence` was refused
+    uint32_t rejectedSequence = 0;
+    bool outOfOrder = false;  // a verified chunk did not start where the previous one ended
+    uint32_t runningCrc = 0;  // CRC-32C of the first `covered` bytes
+    uint32_t chunks = 0;
+    std::vector<uint8_t> buffer;
+  };
+  struct Module {
+    std::string serial;
+    Image shown;
+    uint64_t shownHash = 0;
+    Upload upload;
+    ArmedFaults faults;
+    ModuleCounters counters;
+  };
+
+  void appendReply(PacketType type, uint16_t module, uint32_t sequence,
+                   std::span<const uint8_t> body, std::vector<uint8_t>* replies);
+  void ack(uint16_t module, uint32_t sequence, AckStatus status, uint32_t detail,
+           std::vector<uint8_t>* replies);
+  SimAction frameBegin(Module& m, const PacketHeader& header, std::span<const uint8_t> payload,
+                       std::vector<uint8_t>* replies);
+  void frameEnd(Module& m, const PacketHeader& header, std::vector<uint8_t>* replies);
+  ProtocolError capture(const PacketHeader& header, std::span<const uint8_t> payload,
+                        std::vector<uint8_t>* replies);
+
+  SimulatedHardwareOptions options_;
+  std::unique_ptr<CameraPhysics> physics_;
+  std::vector<Module> modules_;
+  CameraSettings camera_;
+  DisplayMode mode_ = DisplayMode::kPlayback;
+};
+
+}  // namespace parallax::hw

@@ -87,11 +87,14 @@ void Conductor::startUp() {
   // configured to), else the nominal model with the reason in `status`.
   bool haveCalibration = false;
   try {
-    if (std::optional<DisplayModel> installed = store_.loadFor(nominal_)) {
-      calibration_ = std::move(*installed);
-      calibrationSource_ = store_.path();
+    if (std::optional<StoredCalibration> installed = store_.loadFor(nominal_)) {
+      calibration_ = std::move(installed->model);
+      calibrationSource_ = installed->source;
       haveCalibration = true;
-      spdlog::info("calibration: {}", store_.path());
+      spdlog::info("calibration: {}", installed->source);
+      if (!installed->refused.empty())
+        state_.fail("loading the calibration", installed->refused + "; using " + installed->source,
+                    DaemonState::kStarting);
     }
   } catch (const InputError& e) {
     state_.fail("loading the calibration", e.what(), DaemonState::kStarting);
@@ -179,7 +182,12 @@ void Conductor::calibrate(std::optional<int> onlyModule) {
     // Textures first: if they cannot be made, the old calibration stays installed.
     regenerate(run.model);
     if (texturesHash_ == displayContentHash(run.model)) {
-      store_.install(run.model);
+      try {
+        store_.install(run.model);  // returns only once the calibration is on disk
+      } catch (const std::exception&) {
+        regenerate(calibration_);  // not kept, so not shown: back to the installed one
+        throw;
+      }
       calibration_ = run.model;
       calibrationSource_ = store_.path();
       // The fit's report beside the calibration it describes, for the installer.

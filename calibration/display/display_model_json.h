@@ -10,7 +10,7 @@
 //               resolution: [width,height], mirror: bool}]
 //   checksum: "fnv1a64:..." (written by saveDisplayModel, verified by loadDisplayModel when
 //             present: a damaged calibration is refused, never used; hand-written files omit it)
-// Conventions: calibration/conventions.h. Doubles are written shortest-round-trip, so
+// Conventions: calibration/display/conventions.h. Doubles are written shortest-round-trip, so
 // save → load is exact.
 
 #include <cstddef>

@@ -80,7 +80,7 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
   // The runtime folder is checked (ours, 0700, no symlink) and locked before anything in it
   // is touched: a second daemon stops here, with the first one's sockets intact.
   const std::string folder =
-      std::filesystem::path(config.controlSocketPath()).parent_path().string();
+      std::filesystem::absolute(config.controlSocketPath()).parent_path().string();
   parallax::makePrivateFolder(folder);
   const InstanceLock lock(folder);
   // Only a socket of ours may be replaced; anything else at the path is refused, never deleted.

@@ -122,7 +122,9 @@ TEST_F(CalibrationInstall, AnInstallOnAFullDiskIsAnErrorAndTheOldCalibrationKeep
   EXPECT_EQ(after["calibration"], before["calibration"]) << after.dump();
   EXPECT_EQ(bytesOf(calibration), installed);
   const fs::path previous = calibration.string() + ".previous";
-  if (fs::exists(previous)) EXPECT_EQ(bytesOf(previous), installed);
+  if (fs::exists(previous)) {
+    EXPECT_EQ(bytesOf(previous), installed);
+  }
 }
 
 }  // namespace

@@ -160,8 +160,9 @@ TEST_F(CalibrationStoreTest, AnInstallOnAFullDiskFailsAndLeavesTheOldFilesAsThey
   EXPECT_EQ(bytesOf(path_), before);
   EXPECT_TRUE(sameModel(loadDisplayModel(path_), display(1.0)));
   // No empty or partial .previous, no temporary file left behind.
-  if (fs::exists(store.previousPath()))
+  if (fs::exists(store.previousPath())) {
     EXPECT_TRUE(sameModel(loadDisplayModel(store.previousPath()), display(1.0)));
+  }
   for (const auto& entry : fs::directory_iterator(folder_)) {
     const std::string name = entry.path().filename().string();
     EXPECT_TRUE(name == "calibration.json" || name == "calibration.json.previous") << name;

@@ -58,8 +58,9 @@ TEST_F(CliInput, ViewRefusesAViewerBeyondTheDaemonsRangeNamingTheOption) {
                                       {"--x", "-101"},
                                       {"--y", "inf"},
                                       {"--z", "1e9"}}) {
+    const std::string x = option == "--x" ? "" : " --x 0";  // --x is required
     const auto [code, out] =
-        run(view + " " + option + " " + value + " --out " + (folder_ / "v.png").string());
+        run(view + x + " " + option + " " + value + " --out " + (folder_ / "v.png").string());
     EXPECT_NE(code, 0) << option << " " << value << ": " << out;
     EXPECT_NE(out.find(option + ": must be a number within ±100 m"), std::string::npos)
         << option << " " << value << ": " << out;

@@ -141,8 +141,7 @@ class RuntimeSafety : public ::testing::Test {
  protected:
   void SetUp() override {
     folder_ = fs::temp_directory_path() /
-              ("plx-safety-" + std::to_string(::getpid()) + "-" +
-               ::testing::UnitTest::GetInstance()->current_test_info()->name());
+              ("plxs-" + std::to_string(::getpid()) + "-" + std::to_string(counter_++));
     fs::remove_all(folder_);
     fs::create_directories(folder_ / "run");
     runtime_ = folder_ / "run" / "parallax";
@@ -174,8 +173,18 @@ class RuntimeSafety : public ::testing::Test {
     return false;
   }
 
+  // The simulator child binds its socket a moment after the daemon answers.
+  bool waitForSimulatorSocket() const {
+    for (int i = 0; i < 1000; ++i) {
+      if (fs::exists(fs::symlink_status(runtime_ / "simhw.sock"))) return true;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return false;
+  }
+
   fs::path folder_;
   fs::path runtime_;
+  static inline int counter_ = 0;  // short folder names: a socket path has under 108 bytes
 };
 
 #define REQUIRE_ROOT() \
@@ -209,6 +218,7 @@ TEST_F(RuntimeSafety, AnOpenRuntimeFolderOfOursIsNarrowedAndItsSocketsArePrivate
   ::chmod(runtime_.c_str(), 0755);
   DaemonProcess daemon(writeConfig(), folder_ / "log", runtimeEnv());
   ASSERT_TRUE(waitUntilAnswering()) << daemon.log();
+  ASSERT_TRUE(waitForSimulatorSocket()) << daemon.log();
   EXPECT_EQ(modeOf(runtime_), 0700u);
   EXPECT_EQ(modeOf(runtime_ / "parallaxd.sock"), 0600u);
   EXPECT_EQ(modeOf(runtime_ / "simhw.sock"), 0600u);
@@ -218,6 +228,7 @@ TEST_F(RuntimeSafety, ASecondDaemonExitsNamingTheFirstAndLeavesItsSocketsAlone) 
   const fs::path config = writeConfig();
   DaemonProcess first(config, folder_ / "first.log", runtimeEnv());
   ASSERT_TRUE(waitUntilAnswering()) << first.log();
+  ASSERT_TRUE(waitForSimulatorSocket()) << first.log();
   struct stat before {};
   ASSERT_EQ(::lstat((runtime_ / "simhw.sock").c_str(), &before), 0);
 

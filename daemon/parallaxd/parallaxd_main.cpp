@@ -89,13 +89,14 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
   const parallax::DisplayModel nominal = nominalDisplayOf(config.display);
   std::string linkSpec = linkSpecOf(config.hardware, static_cast<int>(nominal.modules.size()));
   std::unique_ptr<SimhwChild> simulator;
+  std::string simulatorCamera;
   if (linkSpec.empty()) {
     simulator = std::make_unique<SimhwChild>(nominal, config.hardware, folder + "/simhw.sock",
                                              config.cacheDirPath());
     linkSpec = simulator->linkSpec();
     // What a real installation measures once; the daemon never sees the simulator's truth.
-    if (config.calibration.camera.empty())
-      config.calibration.camera = simulator->cameraMetadataPath();
+    // Kept apart from the config, so a reload that names no camera still has it.
+    simulatorCamera = simulator->cameraMetadataPath();
   }
   if (signals.stopRequested()) return std::nullopt;
 
@@ -103,6 +104,7 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
   ConductorOptions options;
   options.config = config;
   options.linkSpec = linkSpec;
+  options.simulatorCamera = simulatorCamera;
   options.onReady = [&notifier] {
     notifier.ready();
     spdlog::info("parallaxd ready");

@@ -137,4 +137,17 @@ int bindPrivately(int fd, const std::string& socketPath) {
   return bound;
 }
 
+int listenPrivately(int fd, const std::string& socketPath, int backlog) {
+  const std::string binding = socketPath + "~";
+  ::unlink(binding.c_str());  // left by a process that died between bind and rename
+  if (bindPrivately(fd, binding) != 0) return -1;
+  if (::listen(fd, backlog) != 0 || ::rename(binding.c_str(), socketPath.c_str()) != 0) {
+    const int error = errno;
+    ::unlink(binding.c_str());
+    errno = error;
+    return -1;
+  }
+  return 0;
+}
+
 }  // namespace parallax

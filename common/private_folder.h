@@ -32,4 +32,9 @@ void checkSocketToConnect(const std::string& socketPath);
 // Returns bind's result (errno set on failure).
 int bindPrivately(int fd, const std::string& socketPath);
 
+// Binds privately under a temporary name beside `socketPath`, listens, then renames the socket
+// onto `socketPath`: the path appears only once something listens there, so a client that sees
+// it can connect at once (no wait between bind and listen). Returns 0, or -1 with errno set.
+int listenPrivately(int fd, const std::string& socketPath, int backlog);
+
 }  // namespace parallax

@@ -152,12 +152,9 @@ ConnectionEnd SimhwServer::serveConnection(int fd, const std::atomic<bool>* stop
 }
 
 ConnectionEnd SimhwServer::listenAndServe(const std::string& path, const std::atomic<bool>& stop) {
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  if (path.size() >= sizeof addr.sun_path) {
+  if (path.size() + 1 >= sizeof(sockaddr_un::sun_path)) {  // + 1: the temporary name's "~"
     throw std::runtime_error(fmt::format("socket path too long: {}", path));
   }
-  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
   const int listener = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   if (listener < 0) throw std::runtime_error(fmt::format("socket(): {}", std::strerror(errno)));
   // A stale socket of ours from a previous (crashed) run is replaced; anything else at the
@@ -168,7 +165,7 @@ ConnectionEnd SimhwServer::listenAndServe(const std::string& path, const std::at
     ::close(listener);
     throw;
   }
-  if (bindPrivately(listener, path) != 0 || ::listen(listener, 4) != 0) {
+  if (listenPrivately(listener, path, 4) != 0) {
     const std::string reason = std::strerror(errno);
     ::close(listener);
     throw std::runtime_error(fmt::format("cannot listen on {}: {}", path, reason));

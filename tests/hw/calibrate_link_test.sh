@@ -20,11 +20,13 @@ trap cleanup EXIT
 "$parallax" simulate --display demo --seed 7 --out "$dir" --camera-resolution 640x360 --synthetic > /dev/null
 "$simhw" --socket "$sock" --truth "$dir/ground_truth.json" --camera "$dir/camera_truth.json" &
 pid=$!
+# The simulator's socket appears only once it listens (listenPrivately), so seeing it is enough.
 for _ in $(seq 1 600); do
   [ -S "$sock" ] && break
+  kill -0 "$pid" 2>/dev/null || { echo "FAIL: parallax-simhw exited"; exit 1; }
   sleep 0.1
 done
-sleep 0.5  # bound → listening
+[ -S "$sock" ] || { echo "FAIL: parallax-simhw never listened on $sock"; exit 1; }
 
 # Interrupted (Ctrl-C) once the pictures have started: it stops with a clear message, installs
 # nothing and hands the modules back, so the run below on the same simulator works.

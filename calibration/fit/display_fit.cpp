@@ -588,6 +588,7 @@ class DisplayFitter {
       double r;
       if (!stripeResidualMm(i, &r)) continue;
       ++result->modules[static_cast<size_t>(s.module)].stripes;
+      result->stripeResidualsMm.push_back(r);
       stripeSumSq[static_cast<size_t>(s.module)] += r * r;
       stripeTotal += r * r;
       stripeAbs.push_back(std::abs(r));
@@ -620,6 +621,7 @@ class DisplayFitter {
             std::sqrt(camFidSumSq[static_cast<size_t>(cf.camera)] / (2.0 * cf.fiducials));
     }
     result->correspondenceSigmaPx = sigmas_.correspondencePx;
+    result->stripeSigmaMm = sigmas_.stripeMm;
     result->correspondenceSigmaMm = sigmas_.correspondencePx * mmPerModulePx();
 
     // ---- the transfer check: stripes that the assumed transfer cannot explain ----
@@ -647,53 +649,6 @@ class DisplayFitter {
     for (size_t m = 0; m < held_.size(); ++m) held += held_[m] ? 1 : 0;
     if (held > 0)
       result->notes.push_back(fmt::format("{} module(s) held at their starting calibration", held));
-  }
-
-  // Largest σ (module px, RMS of u and v) of the pixel that the fitted module uses to light a
-  // screen point, over a 5 × 5 grid across its image: J Σ Jᵀ with J the derivative of the
-  // projection with respect to the module's tangent parameters (central differences through
-  // the manifold), the screen point held fixed.
-  double worstPixelStdDev(size_t m, const Eigen::MatrixXd& cov) const {
-    if (!cov.allFinite()) return std::numeric_limits<double>::infinity();
-    const OpticalModule& nominalModule = nominal_.modules[m];
-    OpticalModule fitted = nominalModule;
-    unpackModule(state_.modules[m].data(), &fitted);
-    const ModuleOptics optics(fitted);
-    const ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<9>>
-        manifold;
-    const double mirrorSign = fitted.mirror ? -1.0 : 1.0;
-    double worst = 0.0;
-    for (int gy = 0; gy < 5; ++gy) {
-      for (int gx = 0; gx < 5; ++gx) {
-        const double u = (0.02 + 0.96 * gx / 4.0) * fitted.width;
-        const double v = (0.02 + 0.96 * gy / 4.0) * fitted.height;
-        Eigen::Vector3d d, s;
-        double t;
-        if (!optics.rayDirection(u, v, &d)) continue;
-        // Pixels off the screen are masked: their uncertainty does not matter.
-        if (!nominal_.screen.intersect(fitted.position, d, &t, &s)) continue;
-        Eigen::Matrix<double, 2, kModuleTangentSize> jacobian;
-        bool ok = true;
-        for (int p = 0; p < kModuleTangentSize && ok; ++p) {
-          const double h = p < 3 ? 1e-6 : (p < 6 ? 1e-6 : 1e-7);
-          double delta[kModuleTangentSize] = {};
-          std::array<double, kModuleBlockSize> plus, minus;
-          delta[p] = h;
-          manifold.Plus(state_.modules[m].data(), delta, plus.data());
-          delta[p] = -h;
-          manifold.Plus(state_.modules[m].data(), delta, minus.data());
-          double a[2], b[2];
-          ok = projectIntoModule(plus.data(), fitted.width, mirrorSign, Vec3<double>(s), a) &&
-               projectIntoModule(minus.data(), fitted.width, mirrorSign, Vec3<double>(s), b);
-          jacobian(0, p) = (a[0] - b[0]) / (2.0 * h);
-          jacobian(1, p) = (a[1] - b[1]) / (2.0 * h);
-        }
-        if (!ok) continue;
-        const Eigen::Matrix2d pixelCov = jacobian * cov * jacobian.transpose();
-        worst = std::max(worst, std::sqrt(std::max(0.0, 0.5 * pixelCov.trace())));
-      }
-    }
-    return worst;
   }
 
   void diagnoseJacobian(FitResult* result) {
@@ -739,25 +694,20 @@ class DisplayFitter {
           sd *= width;
         mf.stdDev[static_cast<size_t>(p)] = sd;
       }
-      mf.worstPixelStdDevPx = worstPixelStdDev(moduleOf[j], d.moduleCovariance[j]);
-      const double limit =
-          std::max(options_.maxPixelStdDevPx, options_.maxPixelDilution * sigmas_.correspondencePx);
-      if (d.modules[j].state != Conditioning::kRankDeficient && !(mf.worstPixelStdDevPx <= limit)) {
-        // Well conditioned but too little data: the covariance says the rays are unknown.
-        Deficiency def;
-        def.module = static_cast<int>(moduleOf[j]);
-        def.state = Conditioning::kUndetermined;
-        def.reciprocalCondition = d.modules[j].reciprocalCondition;
-        def.parameters = {fmt::format("its rays (pixel σ up to {:.2f} px > {:.2f} px allowed)",
-                                      mf.worstPixelStdDevPx, limit)};
-        result->deficiencies.push_back(def);
-      } else if (mf.worstPixelStdDevPx > options_.maxPixelStdDevPx) {
-        result->notes.push_back(fmt::format(
-            "module {}: pixel σ up to {:.2f} px, {:.1f}× the correspondences' noise ({:.3f} module "
-            "px): "
-            "the camera's noise, not the setup, limits its rays",
-            moduleOf[j], mf.worstPixelStdDevPx, mf.worstPixelStdDevPx / sigmas_.correspondencePx,
-            sigmas_.correspondencePx));
+      // The module's covariance joined with k's, for the gate (ray_uncertainty.h).
+      Eigen::MatrixXd& cov = mf.rayCovariance;
+      cov = Eigen::MatrixXd::Zero(kModuleTangentSize + 1, kModuleTangentSize + 1);
+      cov.topLeftCorner(kModuleTangentSize, kModuleTangentSize) = d.moduleCovariance[j];
+      if (options_.fitCurvature) {
+        const Eigen::VectorXd cross = d.moduleSharedCovariance[j].col(sharedSize - 1);
+        cov.block(0, kModuleTangentSize, kModuleTangentSize, 1) = cross;
+        cov.block(kModuleTangentSize, 0, 1, kModuleTangentSize) = cross.transpose();
+        cov(kModuleTangentSize, kModuleTangentSize) =
+            d.sharedCovariance(sharedSize - 1, sharedSize - 1);
+      }
+      for (int p = 0; p < kModuleTangentSize; ++p) {
+        if (!std::isfinite(d.moduleStdDev[j][p]))
+          cov(p, p) = std::numeric_limits<double>::infinity();
       }
       if (d.modules[j].state != Conditioning::kGood) {
         Deficiency def;
@@ -863,8 +813,8 @@ void FitOptions::validate() const {
   positive(tapeSigmaM, "tape_sigma_m");
   positive(robustScale, "robust_scale");
   positive(transferMismatchRatio, "transfer_mismatch_ratio");
-  positive(maxPixelStdDevPx, "max_pixel_std_dev_px");
-  positive(maxPixelDilution, "max_pixel_dilution");
+  gate.validate();
+  rayGrid.validate();
   if (maxIterations < 1 || maxIterations > 10000)
     throw InputError({"", "max_iterations", 0}, "must be 1..10000");
   if (threads < 1 || threads > 256) throw InputError({"", "threads", 0}, "must be 1..256");
@@ -879,22 +829,7 @@ std::string Deficiency::describe() const {
                      conditioningName(state), reciprocalCondition, params);
 }
 
-bool FitResult::passesQualityChecks() const {
-  if (stopped || !converged || transferMismatch) return false;
-  for (const Deficiency& d : deficiencies) {
-    if (d.state == Conditioning::kRankDeficient || d.state == Conditioning::kUndetermined)
-      return false;
-  }
-  if (!std::isfinite(model.screen.curvature)) return false;
-  for (const OpticalModule& m : model.modules) {
-    if (!m.position.allFinite() || !std::isfinite(m.fx) || !std::isfinite(m.fy) ||
-        !std::isfinite(m.cx) || !std::isfinite(m.cy) || !std::isfinite(m.k1) ||
-        !std::isfinite(m.k2)) {
-      return false;
-    }
-  }
-  return true;
-}
+bool FitResult::passesQualityChecks() const { return !stopped && gate.passes; }
 
 FitResult fitDisplay(const DisplayModel& nominal, const CalibrationObservations& observations,
                      const FitOptions& options) {
@@ -909,21 +844,17 @@ FitResult fitDisplay(const DisplayModel& nominal, const CalibrationObservations&
   }
   const ScreenTransfer transfer = options.transfer.value_or(nominal.screen.transfer);
   FitResult result = DisplayFitter(nominal, observations, options, transfer).run();
-  if (result.transferMismatch && options.tryOtherTransfer && !result.stopped) {
+  if (options.tryOtherTransfer && !result.stopped) {
     FitOptions other = options;
     other.tryOtherTransfer = false;
     other.transfer =
         transfer == ScreenTransfer::kConical ? ScreenTransfer::kLinear : ScreenTransfer::kConical;
-    const FitResult alt = DisplayFitter(nominal, observations, other, *other.transfer).run();
-    result.otherTransferStripeRmsMm = alt.stripeRmsMm;
-    result.notes.push_back(fmt::format(
-        "under the {} transfer the stripe residuals are {:.3f} mm RMS (against {:.3f} mm under "
-        "{}){}",
-        transferName(*other.transfer), alt.stripeRmsMm, result.stripeRmsMm, transferName(transfer),
-        alt.transferMismatch
-            ? "; neither transfer explains the stripes"
-            : fmt::format(": the screen follows the {} transfer", transferName(*other.transfer))));
+    FitResult alt = DisplayFitter(nominal, observations, other, *other.transfer).run();
+    if (alt.stopped) return alt;
+    result = selectTransfer(std::move(result), std::move(alt), options.gate);
   }
+  result.heldModules = options.heldModules;
+  if (!result.stopped) applyGate(nominal, options.gate, options.rayGrid, &result);
   return result;
 }
 

@@ -6,9 +6,14 @@
 // buy a looser gate, it buys a refusal that says why.
 //
 // The default limits are what a viewer would not notice:
-//   1 module px: a ray lit one pixel off lands one pixel's width (1.6 mm on `default`'s screen,
-//     3 mm on `demo`'s) from its place; below the spot size of a projector pixel on a diffuser,
-//     so the image does not visibly shift.
+//   3 module px: the worst pixel of a module (near an image corner, where the fit extrapolates
+//     beyond what the cameras saw), even at the 3σ bound, lands at most three of its own pixels
+//     from its place: within the blur of a projector pixel on a diffuser (lens blur plus the
+//     diffuser's spread, 1.5–2 pitches) plus one pixel, seen only as a viewer crosses from that
+//     module's view to the next. Measured, not tuned per seed: on `demo` at 0.3 px camera noise
+//     (five stations over 3.2 m) the two modules whose images reach furthest beyond the
+//     stations' stripes have a 3σ bound of 2.1–2.7 px (true worst 0.8–1.6 px); 2 px would refuse
+//     that sound setup on every seed, 1 px (the display's own pixel) every demo calibration.
 //   15 mm on the observer line: a quarter of the eye separation (~63 mm), under a third of the
 //     distance between neighbouring modules' views at the observer line on `default` (68 mm):
 //     no eye ever receives the view meant for the other eye or the next module's, and at 2 m
@@ -25,7 +30,7 @@
 namespace parallax {
 
 struct GateLimits {
-  double worstPx = 1.0;           // module px
+  double worstPx = 3.0;           // module px
   double worstObserverMm = 15.0;  // mm on the observer line
   double sigmas = 3.0;            // the predicted worst error: this many σ at the worst pixel
   // Install the modules that pass, the others held at their nominal calibration and named;

@@ -2,11 +2,13 @@
 
 #include <ceres/manifold.h>
 #include <ceres/product_manifold.h>
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "calibration/camera/calibration_geometry.h"
 #include "calibration/display/ray_function.h"
@@ -48,8 +50,8 @@ void perturb(const DisplayModel& fitted, int module, int parameter, double delta
 }  // namespace
 
 void RayUncertaintyOptions::validate() const {
-  if (columns < 2 || columns > 256) throw InputError({"", "columns", 0}, "must be 2..256");
-  if (rows < 2 || rows > 256) throw InputError({"", "rows", 0}, "must be 2..256");
+  if (stepPx < 0 || stepPx > kMaxModuleSide)
+    throw InputError({"", "step_px", 0}, fmt::format("must be 0..{}", kMaxModuleSide));
 }
 
 RayUncertainty predictRayUncertainty(const DisplayModel& fitted, int module,
@@ -68,14 +70,26 @@ RayUncertainty predictRayUncertainty(const DisplayModel& fitted, int module,
   }
   const OpticalModule& fittedModule = fitted.modules[static_cast<size_t>(module)];
   const RayFunction rays(fitted, module);
-  // Two scratch models, one per side of each difference.
-  DisplayModel plus = fitted, minus = fitted;
+  // The fitted model with each parameter moved either way, made once for all pixels.
+  std::vector<DisplayModel> plus(kParameters, fitted), minus(kParameters, fitted);
+  std::vector<RayFunction> plusRays, minusRays;
+  std::vector<ModuleOptics> plusOptics, minusOptics;
+  for (int p = 0; p < kParameters; ++p) {
+    const double h = kStep[static_cast<size_t>(p)];
+    perturb(fitted, module, p, h, &plus[static_cast<size_t>(p)]);
+    perturb(fitted, module, p, -h, &minus[static_cast<size_t>(p)]);
+  }
+  for (int p = 0; p < kParameters; ++p) {
+    plusRays.emplace_back(plus[static_cast<size_t>(p)], module);
+    minusRays.emplace_back(minus[static_cast<size_t>(p)], module);
+    plusOptics.emplace_back(plus[static_cast<size_t>(p)].modules[static_cast<size_t>(module)]);
+    minusOptics.emplace_back(minus[static_cast<size_t>(p)].modules[static_cast<size_t>(module)]);
+  }
+  const int step = options.stepPx > 0 ? options.stepPx : std::max(4, fittedModule.width / 32);
   double sumPx = 0.0, sumMm = 0.0;
-  for (int gy = 0; gy < options.rows; ++gy) {
-    for (int gx = 0; gx < options.columns; ++gx) {
-      // Pixel centres from the first to the last: the image's corners are on the grid.
-      const double u = 0.5 + (fittedModule.width - 1.0) * gx / (options.columns - 1);
-      const double v = 0.5 + (fittedModule.height - 1.0) * gy / (options.rows - 1);
+  for (int j = step / 2; j < fittedModule.height; j += step) {
+    for (int i = step / 2; i < fittedModule.width; i += step) {
+      const double u = i + 0.5, v = j + 0.5;
       const PixelRay ray = rays.at(u, v);
       if (!ray.valid()) continue;  // masked: the pixel lights nothing
       Eigen::Matrix<double, 2, kParameters> pixelJacobian =
@@ -83,21 +97,18 @@ RayUncertainty predictRayUncertainty(const DisplayModel& fitted, int module,
       Eigen::Matrix<double, 3, kParameters> originJacobian;
       bool ok = true;
       for (int p = 0; p < kParameters && ok; ++p) {
-        const double h = kStep[static_cast<size_t>(p)];
-        perturb(fitted, module, p, h, &plus);
-        perturb(fitted, module, p, -h, &minus);
+        const size_t q = static_cast<size_t>(p);
+        const double h = kStep[q];
         // The ray continued past the screen's edges, so an edge pixel still differentiates.
-        const PixelRay a = RayFunction(plus, module).atUnclipped(u, v);
-        const PixelRay b = RayFunction(minus, module).atUnclipped(u, v);
+        const PixelRay a = plusRays[q].atUnclipped(u, v);
+        const PixelRay b = minusRays[q].atUnclipped(u, v);
         ok = a.valid() && b.valid();
         if (!ok) break;
         originJacobian.col(p) = (a.origin - b.origin) / (2.0 * h);
         if (p == kModuleTangentSize) continue;  // the true screen point's pixel ignores k
-        const ModuleOptics pa(plus.modules[static_cast<size_t>(module)]);
-        const ModuleOptics pb(minus.modules[static_cast<size_t>(module)]);
         Eigen::Vector2d ua, ub;
-        ok = pa.project(ray.screenPoint - pa.position(), &ua) &&
-             pb.project(ray.screenPoint - pb.position(), &ub);
+        ok = plusOptics[q].project(ray.screenPoint - plusOptics[q].position(), &ua) &&
+             minusOptics[q].project(ray.screenPoint - minusOptics[q].position(), &ub);
         pixelJacobian.col(p) = (ua - ub) / (2.0 * h);
       }
       if (!ok) continue;

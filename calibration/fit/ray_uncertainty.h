@@ -16,9 +16,11 @@
 namespace parallax {
 
 struct RayUncertaintyOptions {
-  // Grid over the image, corners included: the worst pixel is almost always a corner.
-  int columns = 9;
-  int rows = 7;
+  // Grid spacing (module px): the pixels compareRays samples (ray_error.h) at the same step,
+  // so a prediction and a truth comparison look at the same pixels. 0: the image's width / 32
+  // (at least 4 px), a few hundred pixels a module. The worst pixel is near the edge of the
+  // area that lands on the screen, so the grid must be dense, not a few corners.
+  int stepPx = 0;
 
   void validate() const;
 };

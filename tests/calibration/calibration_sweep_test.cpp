@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -27,7 +28,7 @@
 namespace parallax {
 namespace {
 
-struct Setup {
+struct SweepSetup {
   std::string name;
   int modules = 16;  // 16: demo (512×384); otherwise the default layout, small images
   int stations = 5;
@@ -39,37 +40,37 @@ struct Setup {
   std::vector<int> hidden;
 };
 
-std::vector<Setup> setups() {
-  std::vector<Setup> out;
+std::vector<SweepSetup> setups() {
+  std::vector<SweepSetup> out;
   auto add = [&](std::string name, auto&& change) {
-    Setup s;
+    SweepSetup s;
     s.name = std::move(name);
     change(s);
     out.push_back(s);
   };
-  add("base: 5 stations 0.3 px", [](Setup&) {});
-  add("noise 0.1 px", [](Setup& s) { s.noisePx = 0.1; });
-  add("noise 1 px", [](Setup& s) { s.noisePx = 1.0; });
-  add("noise 2 px", [](Setup& s) { s.noisePx = 2.0; });
-  add("3 stations", [](Setup& s) { s.stations = 3; });
-  add("2 stations", [](Setup& s) { s.stations = 2; });
-  add("linear screen", [](Setup& s) { s.truth = s.nominal = ScreenTransfer::kLinear; });
-  add("linear truth, conical nominal", [](Setup& s) { s.truth = ScreenTransfer::kLinear; });
-  add("conical truth, linear nominal", [](Setup& s) { s.nominal = ScreenTransfer::kLinear; });
-  add("mismatch at 1 px", [](Setup& s) {
+  add("base: 5 stations 0.3 px", [](SweepSetup&) {});
+  add("noise 0.1 px", [](SweepSetup& s) { s.noisePx = 0.1; });
+  add("noise 1 px", [](SweepSetup& s) { s.noisePx = 1.0; });
+  add("noise 2 px", [](SweepSetup& s) { s.noisePx = 2.0; });
+  add("3 stations", [](SweepSetup& s) { s.stations = 3; });
+  add("2 stations", [](SweepSetup& s) { s.stations = 2; });
+  add("linear screen", [](SweepSetup& s) { s.truth = s.nominal = ScreenTransfer::kLinear; });
+  add("linear truth, conical nominal", [](SweepSetup& s) { s.truth = ScreenTransfer::kLinear; });
+  add("conical truth, linear nominal", [](SweepSetup& s) { s.nominal = ScreenTransfer::kLinear; });
+  add("mismatch at 1 px", [](SweepSetup& s) {
     s.truth = ScreenTransfer::kLinear;
     s.noisePx = 1.0;
   });
-  add("observer line 1 m", [](Setup& s) {
+  add("observer line 1 m", [](SweepSetup& s) {
     s.observerM = 1.0;
     s.spanM = 1.6;
   });
-  add("observer line 6 m", [](Setup& s) { s.observerM = 6.0; });
-  add("observer line 10 m", [](Setup& s) { s.observerM = 10.0; });
-  add("narrow span 1 m", [](Setup& s) { s.spanM = 1.0; });
-  add("wide span 5 m", [](Setup& s) { s.spanM = 5.0; });
-  add("2 modules unseen", [](Setup& s) { s.hidden = {3, 12}; });
-  add("72 modules", [](Setup& s) { s.modules = 72; });
+  add("observer line 6 m", [](SweepSetup& s) { s.observerM = 6.0; });
+  add("observer line 10 m", [](SweepSetup& s) { s.observerM = 10.0; });
+  add("narrow span 1 m", [](SweepSetup& s) { s.spanM = 1.0; });
+  add("wide span 5 m", [](SweepSetup& s) { s.spanM = 5.0; });
+  add("2 modules unseen", [](SweepSetup& s) { s.hidden = {3, 12}; });
+  add("72 modules", [](SweepSetup& s) { s.modules = 72; });
   return out;
 }
 
@@ -96,6 +97,7 @@ struct Tally {
     predictedSumSqPx += o.predictedSumSqPx;
     trueSumSqMm += o.trueSumSqMm;
     predictedSumSqMm += o.predictedSumSqMm;
+    refusals.insert(refusals.end(), o.refusals.begin(), o.refusals.end());
   }
   double coverage() const { return modules ? static_cast<double>(covered) / modules : 1.0; }
   double ratioPx() const {
@@ -106,7 +108,7 @@ struct Tally {
   }
 };
 
-DisplayModel nominalOf(const Setup& s) {
+DisplayModel nominalOf(const SweepSetup& s) {
   NominalDisplayOptions options;
   options.preset = s.modules == 16 ? "demo" : "default";
   if (s.modules != 16) {
@@ -120,7 +122,7 @@ DisplayModel nominalOf(const Setup& s) {
   return model;
 }
 
-Tally runOne(const Setup& s, std::uint64_t seed) {
+Tally runOne(const SweepSetup& s, std::uint64_t seed) {
   const DisplayModel nominal = nominalOf(s);
   GroundTruthOptions gt;
   gt.seed = seed;
@@ -172,6 +174,13 @@ Tally runOne(const Setup& s, std::uint64_t seed) {
       continue;
     ++t.modules;
     const double k = options.gate.sigmas;
+    if (std::getenv("PARALLAX_SWEEP_VERBOSE"))
+      std::printf(
+          "  %s seed %d module %2d: true max %.3f px %.2f mm rms %.3f px %.2f mm | "
+          "σ worst %.3f px %.2f mm rms %.3f px %.2f mm\n",
+          s.name.c_str(), static_cast<int>(seed), g.module, e.maxPx, e.maxObserverMm, e.rmsPx,
+          e.rmsObserverMm, g.predicted.worstPx, g.predicted.worstObserverMm, g.predicted.rmsPx,
+          g.predicted.rmsObserverMm);
     t.covered +=
         e.maxPx <= k * g.predicted.worstPx && e.maxObserverMm <= k * g.predicted.worstObserverMm;
     t.trueSumSqPx += e.rmsPx * e.rmsPx;
@@ -188,7 +197,7 @@ void sweep(int seeds, const char* label) {
       "SWEEP | %-30s | runs | accepted | refused | true worst px / mm (accepted) | "
       "predicted 3σ worst px / mm (accepted) | coverage | true/pred RMS px, mm\n",
       label);
-  for (const Setup& s : setups()) {
+  for (const SweepSetup& s : setups()) {
     Tally t;
     for (int i = 0; i < seeds; ++i) t.add(runOne(s, 1000 + static_cast<std::uint64_t>(i)));
     std::printf(
@@ -217,6 +226,22 @@ void sweep(int seeds, const char* label) {
 TEST(CalibrationSweep, Fast) { sweep(2, "fast: 2 seeds per setup"); }
 
 TEST(CalibrationSweep, Slow) { sweep(20, "slow: 20 seeds per setup"); }
+
+// One setup by name, for looking into it: PARALLAX_SWEEP_SETUP="3 stations" PARALLAX_SWEEP_SEEDS=5.
+TEST(CalibrationSweep, One) {
+  const char* name = std::getenv("PARALLAX_SWEEP_SETUP");
+  if (!name) GTEST_SKIP() << "set PARALLAX_SWEEP_SETUP";
+  const char* seeds = std::getenv("PARALLAX_SWEEP_SEEDS");
+  for (const SweepSetup& s : setups()) {
+    if (s.name != name) continue;
+    Tally t;
+    for (int i = 0; i < (seeds ? std::atoi(seeds) : 2); ++i)
+      t.add(runOne(s, 1000 + static_cast<std::uint64_t>(i)));
+    std::printf("%s: %d/%d accepted, coverage %.1f%%, ratio %.2f %.2f\n", name, t.accepted, t.runs,
+                100.0 * t.coverage(), t.ratioPx(), t.ratioMm());
+    for (const std::string& r : t.refusals) std::printf("  refused: %s\n", r.c_str());
+  }
+}
 
 }  // namespace
 }  // namespace parallax

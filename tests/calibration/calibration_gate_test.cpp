@@ -114,8 +114,9 @@ TEST(CalibrationGate, AModuleNoCameraSawFailsTheGate) {
   EXPECT_FALSE(fit.gate.modules[5].passes);
   EXPECT_NE(fit.gate.modules[5].reason.find("no camera saw it"), std::string::npos);
   for (const ModuleGate& g : fit.gate.modules) {
-    if (g.module != 5 && !g.passes)  // a seen module fails only on its predicted error
+    if (g.module != 5 && !g.passes) {  // a seen module fails only on its predicted error
       EXPECT_NE(g.reason.find("predicted worst error"), std::string::npos) << g.reason;
+    }
   }
 }
 

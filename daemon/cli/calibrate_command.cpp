@@ -94,7 +94,6 @@ struct CalibrateArgs {
   double maxObserverMm = GateLimits{}.worstObserverMm;
 };
 
-<<<<<<< HEAD
 // A ground truth must describe the same display as the nominal: checked before the fit, so a
 // wrong file costs nothing.
 void requireMatchingTruth(const DisplayModel& truth, const DisplayModel& nominal,
@@ -113,7 +112,8 @@ void requireMatchingTruth(const DisplayModel& truth, const DisplayModel& nominal
                                    nominal.modules[m].width, nominal.modules[m].height));
     }
   }
-=======
+}
+
 // Captures of another display must not be fitted to this nominal (a 4-module session against
 // a 6-module nominal would leave two modules never seen and install nonsense): the modules the
 // session shows must be exactly the nominal's, named with both counts.
@@ -136,7 +136,6 @@ void requireModulesOfNominal(const std::set<int>& shown, const DisplayModel& nom
                   nominal.name, expected,
                   missing.empty() ? std::string()
                                   : fmt::format(" (never shown: {})", fmt::join(missing, ", "))));
->>>>>>> main
 }
 
 // The observations of the session and the file to blame for bad data in them.

@@ -1,6 +1,6 @@
 #pragma once
 // The conventional baseline the paper compares ray tracing against: per module, every triangle's
-// vertices are projected with the forward map (calibration/forward_map.h, the "double
+// vertices are projected with the forward map (calibration/display/forward_map.h, the "double
 // perspective"), the projected triangles are scan-converted at pixel centres with a z-buffer,
 // and attributes are interpolated across them. The forward map is not projective, so the
 // straight edges and the interpolation in the module image are only approximations of where the

@@ -8,7 +8,7 @@
 //               focal_px: [fx,fy], principal_px: [cx,cy] (pixel centres at +0.5),
 //               distortion: [k1,k2] (OpenCV radial, projection direction),
 //               resolution: [width,height], mirror: bool}]
-// Conventions: calibration/conventions.h. Doubles are written shortest-round-trip, so
+// Conventions: calibration/display/conventions.h. Doubles are written shortest-round-trip, so
 // save → load is exact.
 
 #include <nlohmann/json.hpp>

@@ -1,7 +1,7 @@
 // parallax bench link [--modules 72] [--resolution 1024x768] [--rounds 20] [--chunk BYTES]
 //                     [--window N] [--simhw PATH | --in-process]
 // Pushes frames to simulated modules over the socket transport and prints frames/s, MB/s and
-// CPU per frame (hw/link_bench.h). Figures only; nothing passes or fails on time.
+// CPU per frame (hw/simulator/link_bench.h). Figures only; nothing passes or fails on time.
 
 #include <fmt/format.h>
 #include <unistd.h>

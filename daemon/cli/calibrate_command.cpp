@@ -9,7 +9,7 @@
 // pictures, patterns.json and camera.json, decoded here; or decoded.json from `parallax
 // simulate --synthetic`) or taken now through the link: the modules show the patterns, the
 // camera (described by camera.json: intrinsics, response, tape-measured stations) photographs
-// them at every station (hw/calibration_capture.h). A captures folder with checkerboard
+// them at every station (hw/camera/calibration_capture.h). A captures folder with checkerboard
 // pictures (checkerboard_captures.h) gives the camera's intrinsics first (cv::calibrateCamera);
 // without them camera.json's intrinsics are used. The result is written
 // atomically (temporary file, then rename) and the previous calibration is kept as

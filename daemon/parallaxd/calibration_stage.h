@@ -1,6 +1,6 @@
 #pragma once
 // The calibrate stage through the link: patterns out to the modules, captures in through the
-// camera, decoded and fitted (calibration/display_fit.h), then the quality gate. It returns a
+// camera, decoded and fitted (calibration/fit/display_fit.h), then the quality gate. It returns a
 // fit that passed, or throws with the reason; it never installs anything itself (the conductor
 // does, after regenerating the textures, so a failure leaves the old calibration in place).
 

@@ -1,11 +1,11 @@
 #pragma once
 // The simulated display parallaxd starts for itself when the config names no hardware: a
 // `parallax-simhw` child (found next to the parallaxd binary) on a socket in the daemon's
-// runtime folder, photographing a seeded ground truth (calibration/ground_truth.h) with a
-// seeded camera rig (calibration/simulated_session.h). The daemon is given only the camera's
-// metadata (camera.json: intrinsics calibrated from the camera's own checkerboard pictures,
-// tape-measured stations), never the truth; the truth files are written beside it for tests
-// and reports:
+// runtime folder, photographing a seeded ground truth (calibration/simulation/ground_truth.h) with
+// a seeded camera rig (calibration/simulation/simulated_session.h). The daemon is given only the
+// camera's metadata (camera.json: intrinsics calibrated from the camera's own checkerboard
+// pictures, tape-measured stations), never the truth; the truth files are written beside it for
+// tests and reports:
 //   <cache_dir>/simulated-display/seed-N/{ground_truth,camera_truth,camera,checkerboard}.json
 //   <cache_dir>/simulated-display/seed-N/checkerboard/board_NN.png
 // If it dies (a crash fault, a kill), it is

@@ -1,6 +1,7 @@
 // Calibration: ray error of the fitted display against solver iterations and the number of
 // camera stations (capture count), on synthetic observations of a seeded ground truth of
-// `demo` (calibration/synthetic_observations.h; bench/calibration_fit_bench.cpp has more axes).
+// `demo` (calibration/simulation/synthetic_observations.h; bench/calibration_fit_bench.cpp has more
+// axes).
 
 #include <fmt/format.h>
 
@@ -113,7 +114,7 @@ void writeCalibrationSection(Report& report) {
       "seed 2026): {} camera stations over 3.2 m unless varied, 0.3 px camera noise, rows every "
       "{:.0f} px. Ray "
       "error of the fitted model against the truth on a 16 px grid of every module "
-      "(calibration/ray_error.h). "
+      "(calibration/display/ray_error.h). "
       "The gate is the quality check that decides whether `parallax calibrate` installs a fit. "
       "More axes: "
       "`build/bench/calibration_fit_bench`.\n",

@@ -1,6 +1,6 @@
 #pragma once
 // A calibration session through the link: the modules, in pattern mode, show the
-// structured-light patterns group by group (calibration/calibration_captures.h's
+// structured-light patterns group by group (calibration/capture/calibration_captures.h's
 // moduleGroups: every n-th module at once, the others dark); after every pattern frame has
 // been delivered to every module, the camera takes a picture, converted to linear light
 // through its response. At the end — completed, cancelled or failed — the modules go back to

@@ -1,5 +1,5 @@
 #pragma once
-// The Parallax link protocol, version 1 (hw/PROTOCOL.md is the normative description; this
+// The Parallax link protocol, version 1 (hw/link/PROTOCOL.md is the normative description; this
 // header is its executable form). Every packet is a 32-byte little-endian header followed by
 // `payloadSize` bytes whose CRC-32C the header carries; the header has its own CRC so that a
 // corrupted length can never desynchronise a stream silently.

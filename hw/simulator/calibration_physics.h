@@ -1,8 +1,8 @@
 #pragma once
 // The simulated calibration camera's real physics for parallax-simhw: the screen of a
 // ground-truth display photographed from the camera's true pose at the requested station
-// (calibration/camera_renderer.h: the HPO lobe, ambient light, the fiducial markers, blur,
-// the sensor's response and noise), given what every module currently shows.
+// (calibration/simulation/camera_renderer.h: the HPO lobe, ambient light, the fiducial markers,
+// blur, the sensor's response and noise), given what every module currently shows.
 //
 // Module frames are read as linear light, value / 255 (a module's response is taken as linear:
 // the patterns the host sends are 8-bit linear). The picture is 8-bit grey, through the

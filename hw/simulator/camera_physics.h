@@ -1,7 +1,7 @@
 #pragma once
 // What the simulated calibration camera sees, given what every module currently shows.
-// CalibrationPhysics (hw/calibration_physics.h) renders the screen of a ground-truth display
-// from the camera's station; RawPatternPhysics, the stand-in for link tests, returns the
+// CalibrationPhysics (hw/simulator/calibration_physics.h) renders the screen of a ground-truth
+// display from the camera's station; RawPatternPhysics, the stand-in for link tests, returns the
 // pattern of the module being looked at, unchanged.
 
 #include <memory>

@@ -5,8 +5,8 @@
 //                  [--modules N --resolution WxH] [--fault 3:drop:2 ...] [--dump DIR]
 //                  [--truth ground_truth.json --camera camera_truth.json]
 // With --truth and --camera (the files `parallax simulate` writes) the camera photographs the
-// ground-truth display from its true pose at the requested station (hw/calibration_physics.h);
-// the modules are then the truth's.
+// ground-truth display from its true pose at the requested station
+// (hw/simulator/calibration_physics.h); the modules are then the truth's.
 
 #include <fmt/format.h>
 

@@ -45,7 +45,7 @@ dev=$(ls "$work"/deb/parallax-dev_*.deb)
 
 step "lintian (no errors; warnings printed)"
 for p in "$deb" "$dev"; do
-  lintian --fail-on error --no-tag-display-limit "$p" || fail "lintian: errors in $(basename "$p")"
+  lintian --fail-on error --tag-display-limit 0 "$p" || fail "lintian: errors in $(basename "$p")"
 done
 
 step "the package's files"

@@ -4,6 +4,7 @@
 
 #include <numbers>
 
+#include "calibration/camera/calibration_geometry.h"
 #include "calibration/display/display_model_json.h"
 #include "calibration/display/display_presets.h"
 #include "calibration/simulation/seeded_random.h"

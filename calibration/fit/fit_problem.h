@@ -1,0 +1,125 @@
+#pragma once
+// The fit's problem, built stage by stage (display_fit.h describes the fit; display_fit.cpp
+// runs the stages in order). What a stage puts in its problem is stated by the stage struct it
+// is built from, never by state left behind by an earlier stage:
+//   CameraPlacementStage — the cameras (and k) from the fiducials and the tape alone;
+//   ModuleStage          — modules, cameras and k from every observation, the correspondences
+//                          in one of their two forms (CorrespondenceForm).
+// The same forms give the unrobustified residuals that the statistics between and after the
+// solves read (outliers, noise levels, the report). Internal to parallax_fit.
+
+#include <ceres/ceres.h>
+
+#include <array>
+#include <memory>
+#include <vector>
+
+#include "calibration/camera/calibration_geometry.h"
+#include "calibration/camera/calibration_observations.h"
+#include "calibration/display/display_model.h"
+#include "calibration/fit/display_fit.h"
+
+namespace parallax::fit {
+
+// A correspondence this many σ off is counted as an outlier in the report (the Cauchy loss has
+// already down-weighted it in the fit).
+constexpr double kOutlierSigmas = 5.0;
+
+// What a fit starts from and never changes: the observations, the options and the assumed
+// transfer, with what follows from them once.
+struct FitInputs {
+  FitInputs(const DisplayModel& nominalModel, const CalibrationObservations& observations,
+            const FitOptions& fitOptions, ScreenTransfer assumedTransfer);
+
+  const DisplayModel& nominal;
+  const CalibrationObservations& obs;
+  const FitOptions& options;
+  ScreenTransfer transfer;
+  std::vector<bool> observed;  // per module: in at least one correspondence
+  std::vector<bool> held;      // per module: FitOptions::heldModules
+  // Camera pixels in normalized coordinates (the camera intrinsics are fixed: undistortion
+  // happens once, here, never inside the solver).
+  std::vector<Eigen::Vector2d> correspondenceN, stripeN;
+};
+
+// The unknowns as Ceres parameter blocks (calibration_geometry.h's layouts).
+struct FitState {
+  std::vector<std::array<double, kModuleBlockSize>> modules;
+  std::vector<std::array<double, kCameraBlockSize>> cameras;
+  double k = 0.0;
+};
+
+// The start: nominal modules and k, cameras at their tape marks aimed at the screen centre.
+FitState startingState(const FitInputs& in);
+
+// Noise levels (σ) that scale the residuals: from the options, then re-estimated.
+struct NoiseLevels {
+  double correspondencePx, stripeMm, fiducialPx;
+};
+
+// The correspondence residual's two forms (fit_residuals.h), both in module px.
+struct CorrespondenceForm {
+  enum Kind { kModulePx, kCameraPx };
+  Kind kind = kModulePx;
+  // kCameraPx only, per correspondence: module px per camera px (fixed from the module-px
+  // answer), and the gross outliers of that answer, left out.
+  std::vector<double> cameraScale;
+  std::vector<bool> excluded;
+
+  bool uses(size_t i) const { return kind == kModulePx || !excluded[i]; }
+};
+
+// Stage 0: the fiducials (robust, which finds the misdetected ones) and the tape.
+struct CameraPlacementStage {};
+
+// Stages 1 and 2: every observed module added, the correspondences in `form`.
+struct ModuleStage {
+  const CorrespondenceForm* form = nullptr;
+  // Every stride-th correspondence (observations come in scan order, so every module and
+  // station keeps its share): a start needs no more than a few tens of thousands.
+  size_t stride = 1;
+  // Per fiducial sighting, found after stage 0: left out. The others enter without a loss.
+  const std::vector<bool>* fiducialOutliers = nullptr;
+};
+
+// A built problem and the robust loss its blocks share (owned here, not by the problem; the
+// problem is destroyed first).
+struct FitProblem {
+  std::unique_ptr<ceres::LossFunction> loss;
+  std::unique_ptr<ceres::Problem> problem;
+  bool withModules = false;
+};
+
+FitProblem buildProblem(const FitInputs& in, const NoiseLevels& sigmas,
+                        const CameraPlacementStage& stage, FitState* state);
+FitProblem buildProblem(const FitInputs& in, const NoiseLevels& sigmas, const ModuleStage& stage,
+                        FitState* state);
+
+// ---- unrobustified residuals, in their natural units, through the current state ----
+
+// Correspondence i in `form` (module px); false where it cannot be evaluated.
+bool correspondenceResidual(const FitInputs& in, const FitState& state,
+                            const CorrespondenceForm& form, size_t i, Eigen::Vector2d* r);
+// Stripe i (mm on the screen).
+bool stripeResidualMm(const FitInputs& in, const FitState& state, size_t i, double* r);
+// Fiducial sighting i (camera px).
+bool fiducialResidualPx(const FitInputs& in, const FitState& state, size_t i, Eigen::Vector2d* r);
+
+// ---- between the stages ----
+
+// Fiducial sightings more than kOutlierSigmas σ off once the cameras are placed.
+std::vector<bool> findFiducialOutliers(const FitInputs& in, const FitState& state,
+                                       const NoiseLevels& sigmas);
+// The camera-px form from the module-px answer: scales and gross outliers.
+CorrespondenceForm cameraPxForm(const FitInputs& in, const FitState& state,
+                                const NoiseLevels& sigmas);
+// σ from the residuals (median absolute deviation), floored.
+NoiseLevels reestimateNoise(const FitInputs& in, const FitState& state,
+                            const CorrespondenceForm& form, const NoiseLevels& sigmas);
+// Size of a module pixel on the screen (mm), for expressing module-px noise on the screen.
+double mmPerModulePx(const FitInputs& in, const FitState& state);
+
+// Robust σ: 1.4826 × median |r| is σ for Gaussian noise and ignores up to half outliers.
+double robustSigma(const std::vector<double>& absResiduals);
+
+}  // namespace parallax::fit

@@ -1,0 +1,140 @@
+#include "calibration/fit/fit_statistics.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace parallax::fit {
+namespace {
+
+void fillModel(const FitInputs& in, const FitState& state, DisplayModel* model) {
+  *model = in.nominal;
+  model->name = in.nominal.name + "-calibrated";
+  model->screen.curvature = state.k;
+  model->screen.transfer = in.transfer;
+  for (size_t m = 0; m < state.modules.size(); ++m) {
+    if (in.observed[m]) unpackModule(state.modules[m].data(), &model->modules[m]);
+  }
+}
+
+}  // namespace
+
+void summarizeResiduals(const FitInputs& in, const FitState& state, const CorrespondenceForm& form,
+                        const NoiseLevels& sigmas, FitResult* result) {
+  const CalibrationObservations& obs = in.obs;
+  const size_t modules = in.nominal.modules.size(), cameras = obs.stations.size();
+  fillModel(in, state, &result->model);
+
+  // ---- correspondences: outliers, RMS of the inliers per module and camera ----
+  result->modules.assign(modules, {});
+  result->cameras.assign(cameras, {});
+  std::vector<double> sumSqModule(modules, 0.0), sumSqCamera(cameras, 0.0);
+  std::vector<int> inliersModule(modules, 0), inliersCamera(cameras, 0);
+  for (size_t m = 0; m < modules; ++m) {
+    result->modules[m].module = static_cast<int>(m);
+    result->modules[m].observed = in.observed[m];
+  }
+  for (size_t c = 0; c < cameras; ++c) {
+    result->cameras[c].camera = static_cast<int>(c);
+    result->cameras[c].pose = unpackCamera(state.cameras[c].data());
+  }
+  for (size_t i = 0; i < obs.correspondences.size(); ++i) {
+    const Correspondence& c = obs.correspondences[i];
+    ModuleFit& mf = result->modules[static_cast<size_t>(c.module)];
+    CameraFit& cf = result->cameras[static_cast<size_t>(c.camera)];
+    ++mf.correspondences;
+    ++cf.correspondences;
+    Eigen::Vector2d r;
+    if (!correspondenceResidual(in, state, form, i, &r) ||
+        r.norm() > kOutlierSigmas * sigmas.correspondencePx) {
+      ++mf.outliers;
+      ++result->outliers;
+      continue;
+    }
+    sumSqModule[static_cast<size_t>(c.module)] += r.squaredNorm();
+    sumSqCamera[static_cast<size_t>(c.camera)] += r.squaredNorm();
+    ++inliersModule[static_cast<size_t>(c.module)];
+    ++inliersCamera[static_cast<size_t>(c.camera)];
+  }
+  // RMS per axis (so it compares with σ directly).
+  for (size_t m = 0; m < modules; ++m) {
+    if (inliersModule[m])
+      result->modules[m].rmsPx = std::sqrt(sumSqModule[m] / (2.0 * inliersModule[m]));
+  }
+  for (size_t c = 0; c < cameras; ++c) {
+    if (inliersCamera[c])
+      result->cameras[c].rmsPx = std::sqrt(sumSqCamera[c] / (2.0 * inliersCamera[c]));
+  }
+
+  // ---- stripes (mm on the screen) ----
+  std::vector<double> stripeAbs, stripeSumSq(modules, 0.0);
+  double stripeTotal = 0.0;
+  for (size_t i = 0; i < obs.stripes.size(); ++i) {
+    const StripeCentre& s = obs.stripes[i];
+    if (!in.observed[static_cast<size_t>(s.module)]) continue;
+    double r;
+    if (!stripeResidualMm(in, state, i, &r)) continue;
+    ++result->modules[static_cast<size_t>(s.module)].stripes;
+    stripeSumSq[static_cast<size_t>(s.module)] += r * r;
+    stripeTotal += r * r;
+    stripeAbs.push_back(std::abs(r));
+  }
+  for (size_t m = 0; m < modules; ++m) {
+    ModuleFit& mf = result->modules[m];
+    if (mf.stripes) mf.stripeRmsMm = std::sqrt(stripeSumSq[m] / mf.stripes);
+  }
+  if (!stripeAbs.empty())
+    result->stripeRmsMm = std::sqrt(stripeTotal / static_cast<double>(stripeAbs.size()));
+
+  // ---- fiducials (camera px) ----
+  double fidSumSq = 0.0;
+  int fidCount = 0;
+  std::vector<double> camFidSumSq(cameras, 0.0);
+  for (size_t i = 0; i < obs.fiducialSightings.size(); ++i) {
+    const FiducialSighting& f = obs.fiducialSightings[i];
+    Eigen::Vector2d r;
+    if (!fiducialResidualPx(in, state, i, &r)) continue;
+    const double sq = r[0] * r[0] + r[1] * r[1];
+    fidSumSq += sq;
+    ++fidCount;
+    camFidSumSq[static_cast<size_t>(f.camera)] += sq;
+    ++result->cameras[static_cast<size_t>(f.camera)].fiducials;
+  }
+  if (fidCount) result->fiducialRmsPx = std::sqrt(fidSumSq / (2.0 * fidCount));
+  for (CameraFit& cf : result->cameras) {
+    if (cf.fiducials)
+      cf.fiducialRmsPx =
+          std::sqrt(camFidSumSq[static_cast<size_t>(cf.camera)] / (2.0 * cf.fiducials));
+  }
+  result->correspondenceSigmaPx = sigmas.correspondencePx;
+  result->correspondenceSigmaMm = sigmas.correspondencePx * mmPerModulePx(in, state);
+
+  // ---- the transfer check: stripes that the assumed transfer cannot explain ----
+  const double stripeSigma = robustSigma(stripeAbs);
+  if (!stripeAbs.empty() && stripeSigma > in.options.transferMismatchRatio *
+                                              std::max(result->correspondenceSigmaMm, 0.1)) {
+    result->transferMismatch = true;
+    result->notes.push_back(fmt::format(
+        "the stripe centres disagree with the assumed {} transfer: their residuals are {:.2f} mm "
+        "(robust σ) against {:.3f} mm for the correspondences; the screen does not follow the {} "
+        "model",
+        transferName(in.transfer), stripeSigma, result->correspondenceSigmaMm,
+        transferName(in.transfer)));
+  }
+}
+
+void noteModulesNotEstimated(const FitInputs& in, FitResult* result) {
+  for (size_t m = 0; m < result->modules.size(); ++m) {
+    if (!in.observed[m]) {
+      result->notes.push_back(fmt::format(
+          "module {} was not seen by any camera: kept at its nominal pose and intrinsics", m));
+    }
+  }
+  int held = 0;
+  for (size_t m = 0; m < in.held.size(); ++m) held += in.held[m] ? 1 : 0;
+  if (held > 0)
+    result->notes.push_back(fmt::format("{} module(s) held at their starting calibration", held));
+}
+
+}  // namespace parallax::fit

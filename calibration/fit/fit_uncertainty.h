@@ -1,0 +1,17 @@
+#pragma once
+// The uncertainty of a finished fit: the Jacobian at the solution turned into standard
+// deviations, conditioning and the undetermined combinations (fit_diagnostics.h), and each
+// module's covariance carried to the pixels it lights (FitOptions::maxPixelStdDevPx).
+// Internal to parallax_fit.
+
+#include "calibration/fit/fit_problem.h"
+
+namespace parallax::fit {
+
+// Fills the modules' and cameras' standard deviations, conditioning, worst pixel σ, the
+// curvature's σ, the deficiencies and their notes. `built` is the final problem, its residuals
+// scaled by the final noise levels `sigmas`, its blocks pointing into `state`.
+void diagnoseUncertainty(const FitInputs& in, FitState& state, const NoiseLevels& sigmas,
+                         FitProblem& built, FitResult* result);
+
+}  // namespace parallax::fit

@@ -5,22 +5,31 @@
 // printed, and the fit's CPU time beside its wall time). "fit" is the solves; "diag" the
 // residual statistics, covariance and conditioning that follow them.
 //
-//   calibration_fit_bench [default|demo] [--quick] [--experiment]
+//   calibration_fit_bench [default|demo] [--quick] [--experiment] [--pictures N]
 // --experiment: only the errors-in-variables comparison (where the correspondences' noise sits:
 // on the camera pixel, as a camera gives it, or on the module pixel; the residual: two-stage
 // camera px, FitOptions' default, or module px only), at two sampling densities.
+// --pictures N: the picture path's seed sweep (issue 17) on demo: N seeds, each rendered
+// (checkerboard intrinsics, patterns from five stations over 4 m), decoded and fitted; per seed
+// the gate's verdict, the true worst error against the predicted 3σ worst, and over the sweep
+// the coverage (true worst within 3σ, per module) and the ratio of true to predicted RMS.
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <string>
 
+#include "calibration/capture/calibration_captures.h"
+#include "calibration/capture/checkerboard_calibration.h"
 #include "calibration/display/display_presets.h"
 #include "calibration/display/ray_error.h"
 #include "calibration/fit/display_fit.h"
 #include "calibration/simulation/ground_truth.h"
+#include "calibration/simulation/simulated_session.h"
 #include "calibration/simulation/synthetic_observations.h"
 
 namespace {
@@ -70,6 +79,82 @@ void print(const std::string& value, const Row& r) {
   std::fflush(stdout);
 }
 
+// The picture path on `seeds` seeds of demo (issue 17's benchmark half of the sweep).
+int pictureSweep(int seeds) {
+  const DisplayModel nominal = resolveDisplay("demo");
+  std::printf(
+      "# picture path sweep: demo, checkerboard intrinsics, 5 stations over 4 m, pixel step 6\n"
+      "| seed | gate | true worst px / mm | predicted 3σ worst px / mm | modules within 3σ | "
+      "true/pred RMS px, mm | σ module px | first refusal |\n|---|---|---|---|---|---|---|---|\n");
+  int modules = 0, covered = 0, accepted = 0, violations = 0;
+  double tPx = 0, pPx = 0, tMm = 0, pMm = 0;
+  for (int i = 0; i < seeds; ++i) {
+    const std::uint64_t seed = 3000 + static_cast<std::uint64_t>(i);
+    GroundTruthOptions gt;
+    gt.seed = seed;
+    const DisplayModel truth = makeGroundTruth(nominal, gt);
+    CameraRigOptions rig;
+    rig.spanM = 4.0;
+    rig.intrinsics = CameraIntrinsics::centred(640, 360, 700.0, -0.04);
+    const SimulatedRig camera = makeSimulatedRig(truth, rig, seed * 7919 + 1);
+    CalibrationCaptures captures = renderSession(truth, camera.truth, camera.metadata, {});
+    CheckerboardShotOptions shots;
+    shots.pictures = 12;
+    captures.checkerboard = simulateCheckerboardCaptures(camera.truth, CheckerboardBoard{}, shots);
+    captures.camera.intrinsicsKnown = false;
+    calibrateCapturesCamera(&captures);
+    CaptureDecoderOptions decoder;
+    decoder.pixelStep = 6;
+    const CalibrationObservations obs = decodeCaptures(captures, nominal, decoder);
+    FitOptions fit;
+    fit.threads = 2;
+    const FitResult result = fitDisplay(nominal, obs, fit);
+    const std::vector<RayErrorStats> rays = compareRays(truth, result.model);
+    const bool passes = result.passesQualityChecks();
+    accepted += passes;
+    double worstPx = 0, worstMm = 0, boundPx = 0, boundMm = 0;
+    int m0 = 0, c0 = 0;
+    double st = 0, sp = 0, smt = 0, smp = 0;
+    for (const ModuleGate& g : result.gate.modules) {
+      const RayErrorStats& e = rays[static_cast<size_t>(g.module)];
+      if (!g.predicted.bounded || g.predicted.samples == 0 || e.samples == 0) continue;
+      worstPx = std::max(worstPx, e.maxPx);
+      worstMm = std::max(worstMm, e.maxObserverMm);
+      boundPx = std::max(boundPx, g.boundPx);
+      boundMm = std::max(boundMm, g.boundObserverMm);
+      if (passes && (e.maxPx > fit.gate.worstPx || e.maxObserverMm > fit.gate.worstObserverMm))
+        ++violations;
+      if (!result.gate.reasons.empty()) continue;
+      ++m0;
+      c0 += e.maxPx <= 3.0 * g.predicted.worstPx &&
+            e.maxObserverMm <= 3.0 * g.predicted.worstObserverMm;
+      st += e.rmsPx * e.rmsPx;
+      sp += g.predicted.rmsPx * g.predicted.rmsPx;
+      smt += e.rmsObserverMm * e.rmsObserverMm;
+      smp += g.predicted.rmsObserverMm * g.predicted.rmsObserverMm;
+    }
+    modules += m0;
+    covered += c0;
+    tPx += st;
+    pPx += sp;
+    tMm += smt;
+    pMm += smp;
+    const std::vector<std::string> why = result.gate.describe();
+    std::printf("| %llu | %s | %.3f / %.2f | %.3f / %.2f | %d/%d | %.2f, %.2f | %.3f | %s |\n",
+                static_cast<unsigned long long>(seed), passes ? "accepted" : "refused", worstPx,
+                worstMm, boundPx, boundMm, c0, m0, sp > 0 ? std::sqrt(st / sp) : 0.0,
+                smp > 0 ? std::sqrt(smt / smp) : 0.0, result.correspondenceSigmaPx,
+                why.empty() ? "" : why.front().c_str());
+    std::fflush(stdout);
+  }
+  std::printf(
+      "\nall: %d/%d accepted, %d installed modules beyond the gate's limits; coverage %.1f%% of "
+      "%d modules within 3σ; true/predicted RMS %.2f px, %.2f mm\n",
+      accepted, seeds, violations, modules ? 100.0 * covered / modules : 0.0, modules,
+      pPx > 0 ? std::sqrt(tPx / pPx) : 0.0, pMm > 0 ? std::sqrt(tMm / pMm) : 0.0);
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -80,6 +165,8 @@ int main(int argc, char** argv) {
       quick = true;
     else if (std::strcmp(argv[i], "--experiment") == 0)
       experiment = true;
+    else if (std::strcmp(argv[i], "--pictures") == 0 && i + 1 < argc)
+      return pictureSweep(std::max(1, std::atoi(argv[++i])));
     else
       preset = argv[i];
   }

@@ -77,6 +77,10 @@ DisplayModel makeNominalDisplay(const NominalDisplayOptions& options) {
   const int count = options.modules.value_or(demo ? 16 : 72);
   const int width = options.width.value_or(demo ? 512 : 1024);
   const int height = options.height.value_or(demo ? 384 : 768);
+  // A variant is not the preset: "default" would claim a layout it does not have.
+  if (count != (demo ? 16 : 72)) model.name += fmt::format("-{}-modules", count);
+  if (width != (demo ? 512 : 1024) || height != (demo ? 384 : 768))
+    model.name += fmt::format("-{}x{}", width, height);
   const double rowHalfWidth = 0.5 * kScreenWidth * (1.0 + kModuleDistance / kObserverDistance);
   for (int i = 0; i < count; ++i) {
     OpticalModule m;

@@ -144,8 +144,8 @@ void FitOptions::validate() const {
   positive(tapeSigmaM, "tape_sigma_m");
   positive(robustScale, "robust_scale");
   positive(transferMismatchRatio, "transfer_mismatch_ratio");
-  positive(maxPixelStdDevPx, "max_pixel_std_dev_px");
-  positive(maxPixelDilution, "max_pixel_dilution");
+  gate.validate();
+  rayGrid.validate();
   if (maxIterations < 1 || maxIterations > 10000)
     throw InputError({"", "max_iterations", 0}, "must be 1..10000");
   if (threads < 1 || threads > 256) throw InputError({"", "threads", 0}, "must be 1..256");
@@ -160,22 +160,7 @@ std::string Deficiency::describe() const {
                      conditioningName(state), reciprocalCondition, params);
 }
 
-bool FitResult::passesQualityChecks() const {
-  if (stopped || !converged || transferMismatch) return false;
-  for (const Deficiency& d : deficiencies) {
-    if (d.state == Conditioning::kRankDeficient || d.state == Conditioning::kUndetermined)
-      return false;
-  }
-  if (!std::isfinite(model.screen.curvature)) return false;
-  for (const OpticalModule& m : model.modules) {
-    if (!m.position.allFinite() || !std::isfinite(m.fx) || !std::isfinite(m.fy) ||
-        !std::isfinite(m.cx) || !std::isfinite(m.cy) || !std::isfinite(m.k1) ||
-        !std::isfinite(m.k2)) {
-      return false;
-    }
-  }
-  return true;
-}
+bool FitResult::passesQualityChecks() const { return !stopped && gate.passes; }
 
 FitResult fitDisplay(const DisplayModel& nominal, const CalibrationObservations& observations,
                      const FitOptions& options) {
@@ -190,21 +175,17 @@ FitResult fitDisplay(const DisplayModel& nominal, const CalibrationObservations&
   }
   const ScreenTransfer transfer = options.transfer.value_or(nominal.screen.transfer);
   FitResult result = runStages(nominal, observations, options, transfer);
-  if (result.transferMismatch && options.tryOtherTransfer && !result.stopped) {
+  if (options.tryOtherTransfer && !result.stopped) {
     FitOptions other = options;
     other.tryOtherTransfer = false;
     other.transfer =
         transfer == ScreenTransfer::kConical ? ScreenTransfer::kLinear : ScreenTransfer::kConical;
-    const FitResult alt = runStages(nominal, observations, other, *other.transfer);
-    result.otherTransferStripeRmsMm = alt.stripeRmsMm;
-    result.notes.push_back(fmt::format(
-        "under the {} transfer the stripe residuals are {:.3f} mm RMS (against {:.3f} mm under "
-        "{}){}",
-        transferName(*other.transfer), alt.stripeRmsMm, result.stripeRmsMm, transferName(transfer),
-        alt.transferMismatch
-            ? "; neither transfer explains the stripes"
-            : fmt::format(": the screen follows the {} transfer", transferName(*other.transfer))));
+    FitResult alt = runStages(nominal, observations, other, *other.transfer);
+    if (alt.stopped) return alt;
+    result = selectTransfer(std::move(result), std::move(alt), options.gate);
   }
+  result.heldModules = options.heldModules;
+  if (!result.stopped) applyGate(nominal, options.gate, options.rayGrid, &result);
   return result;
 }
 

@@ -31,7 +31,9 @@
 
 #include "calibration/camera/calibration_observations.h"
 #include "calibration/display/display_model.h"
+#include "calibration/fit/calibration_gate.h"
 #include "calibration/fit/fit_diagnostics.h"
+#include "calibration/fit/transfer_selection.h"
 
 namespace parallax {
 
@@ -53,27 +55,16 @@ struct FitOptions {
   bool fitDistortion = true;
   int maxIterations = 100;
   int threads = 2;
-  // When the stripes disagree with the assumed transfer, fit again under the other one to
-  // say which describes the screen.
+  // Fit under both transfers and keep the one the stripes support (transfer_selection.h).
   bool tryOtherTransfer = true;
   // Stripe residuals this many times the correspondences' noise (both as mm on the screen)
   // mean the screen does not follow the assumed transfer.
   double transferMismatchRatio = 5.0;
   ConditioningOptions conditioning;
-  // The covariance side of the quality gate: each module's parameter covariance is carried to
-  // the pixel it would use to light a screen point, over a grid across its image; a module
-  // whose worst pixel σ exceeds this (module px) is reported as undetermined, whatever its
-  // conditioning. Catches well-conditioned but data-starved setups (two stations: each module
-  // seen in two stripes, its image corners extrapolated by tens of pixels).
-  double maxPixelStdDevPx = 1.5;
-  // ... unless the camera's noise explains it: the limit is max(maxPixelStdDevPx,
-  // maxPixelDilution × the re-estimated correspondence σ). The ratio of a module's worst pixel
-  // σ to its measurements' σ depends on the setup alone, not on the noise: measured 2.5–5
-  // with five stations (demo, default), ~14 with three or four, 60–280 with two. A module
-  // within the ratio is determined as well as its camera allows; refusing it for a noisy
-  // camera (2 px: pixel σ ~1.6 px at 2.6× the noise) would keep a worse calibration in
-  // place. The fit says so in a note.
-  double maxPixelDilution = 10.0;
+  // The gate (calibration_gate.h): fixed limits on every module's predicted worst ray error,
+  // over a grid of its pixels.
+  GateLimits gate;
+  RayUncertaintyOptions rayGrid;
   // Modules held at their starting values (the `nominal` argument, which for a refit is the
   // current calibration): constant in the solve, their correspondences still placing the
   // cameras. Refitting one replaced module holds all the others (`calibrate --module N`);
@@ -97,7 +88,10 @@ struct ModuleFit {
   // Standard deviations: rotation about x, y, z (deg), position x, y, z (mm), fx, fy, cx, cy
   // (px), k1, k2. +inf where the data cannot determine the parameter.
   std::array<double, 12> stdDev{};
-  double worstPixelStdDevPx = 0.0;  // the covariance carried to the image (see FitOptions)
+  // The covariance of the module's tangent parameters (12) and the curvature k (last), what
+  // the gate carries to its rays; empty when the module was not estimated.
+  Eigen::MatrixXd rayCovariance;
+  double worstPixelStdDevPx = 0.0;  // σ of its worst grid pixel (module px), from the gate
 };
 
 struct CameraFit {
@@ -127,9 +121,13 @@ struct FitResult {
   double correspondenceSigmaPx = 0.0;  // re-estimated noise (module px)
   double correspondenceSigmaMm = 0.0;  // the same as mm on the screen
   double stripeRmsMm = 0.0;
+  double stripeSigmaMm = 0.0;             // re-estimated (robust) noise of the stripe centres
+  std::vector<double> stripeResidualsMm;  // every stripe centre of an observed module, signed
   double fiducialRmsPx = 0.0;
+  // Set when the transfer cannot be decided and the choice matters (transfer_selection.h).
   bool transferMismatch = false;
-  std::optional<double> otherTransferStripeRmsMm;  // when the other transfer was tried
+  std::optional<TransferEvidence> transferEvidence;  // when both transfers were fitted
+  std::optional<double> otherTransferStripeRmsMm;    // when the other transfer was tried
   std::vector<std::string> notes;  // findings a user must read (mismatch, unseen modules, ...)
   int iterations = 0;
   double solveSeconds = 0.0;        // the solves (the fit)
@@ -138,10 +136,12 @@ struct FitResult {
   // FitOptions::stopRequested ended it: no model and no statistics, only `iterations`.
   bool stopped = false;
   int outliers = 0;
+  std::vector<int> heldModules;  // FitOptions::heldModules
+  GateResult gate;               // calibration_gate.h
 
-  // The quality gate: not stopped, converged, no NaN, every observed module determined
-  // (conditioning and position σ), no transfer mismatch. A calibration that fails it is not
-  // installed.
+  // The quality gate (calibration_gate.h): the fit finished and every module's predicted worst
+  // ray error is within the fixed limits (or, with GateLimits::allowPartial, the failing ones
+  // are held nominal and named). A calibration that fails it is not installed.
   bool passesQualityChecks() const;
 };
 

@@ -176,6 +176,7 @@ Diagnostics diagnose(const InformationBlocks& info, const ConditioningOptions& o
   std::vector<bool> sharedNull;
   const Eigen::MatrixXd sharedCov = pseudoInverse(schur, options.rankDeficientBelow, &sharedNull);
   out.sharedStdDev = sharedCov.diagonal().cwiseMax(0.0).cwiseSqrt();
+  out.sharedCovariance = sharedCov;
   for (int j = 0; j < sharedSize; ++j) {
     if (sharedNull[static_cast<size_t>(j)]) out.sharedStdDev[j] = kInf;
   }
@@ -189,6 +190,7 @@ Diagnostics diagnose(const InformationBlocks& info, const ConditioningOptions& o
     }
     out.moduleStdDev.push_back(sd);
     out.moduleCovariance.push_back(cov);
+    out.moduleSharedCovariance.push_back(-coupling * sharedCov);
   }
   return out;
 }

@@ -60,8 +60,12 @@ struct Diagnostics {
   std::vector<BlockConditioning> modules;
   std::vector<Eigen::VectorXd> moduleStdDev;      // +inf where undetermined
   std::vector<Eigen::MatrixXd> moduleCovariance;  // marginal, tangent units
+  // Cross-covariance of each module with the shared block, Σ_is = −H_ii⁻¹ H_is Σ_ss: a
+  // module's rays also depend on k, and its error and k's are correlated.
+  std::vector<Eigen::MatrixXd> moduleSharedCovariance;
   BlockConditioning shared;
   Eigen::VectorXd sharedStdDev;
+  Eigen::MatrixXd sharedCovariance;
 };
 
 // Builds the blocks from a row-major sparse Jacobian (Ceres' CRSMatrix fields) whose columns

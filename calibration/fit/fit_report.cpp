@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "calibration/display/ray_error.h"
@@ -16,8 +17,54 @@ std::string sd(double v, int precision) {
 
 }  // namespace
 
+PredictedRays predictedRays(const FitResult& r) {
+  PredictedRays p;
+  double sumPx = 0.0, sumMm = 0.0;
+  for (const ModuleGate& g : r.gate.modules) {
+    if (g.held || g.predicted.samples == 0 || !g.predicted.bounded) continue;
+    ++p.modules;
+    sumPx += g.predicted.rmsPx * g.predicted.rmsPx;
+    sumMm += g.predicted.rmsObserverMm * g.predicted.rmsObserverMm;
+    p.worstPx = std::max(p.worstPx, g.predicted.worstPx);
+    p.worstObserverMm = std::max(p.worstObserverMm, g.predicted.worstObserverMm);
+    p.boundPx = std::max(p.boundPx, g.boundPx);
+    p.boundObserverMm = std::max(p.boundObserverMm, g.boundObserverMm);
+  }
+  if (p.modules) {
+    p.rmsPx = std::sqrt(sumPx / p.modules);
+    p.rmsObserverMm = std::sqrt(sumMm / p.modules);
+  }
+  return p;
+}
+
+std::string formatTruthHeadline(const FitResult& r, const DisplayModel& truth,
+                                const DisplayModel& nominal) {
+  const std::vector<RayErrorStats> errors = compareRays(truth, r.model);
+  RayErrorStats installed;
+  for (const ModuleGate& g : r.gate.modules) {
+    const bool heldNominal = std::find(r.gate.heldNominal.begin(), r.gate.heldNominal.end(),
+                                       g.module) != r.gate.heldNominal.end();
+    if (!heldNominal && r.modules[static_cast<size_t>(g.module)].observed)
+      installed.merge(errors[static_cast<size_t>(g.module)]);
+  }
+  const PredictedRays p = predictedRays(r);
+  const RayErrorStats before = totalRayError(compareRays(truth, nominal));
+  return fmt::format(
+      "against the ground truth (fitted modules): ray error {:.4f} module px RMS, {:.3f} worst "
+      "(predicted σ {:.4f} RMS, {:.3f} worst); observer line {:.2f} mm RMS, {:.2f} worst "
+      "(predicted σ {:.2f} RMS, {:.2f} worst); the nominal was {:.3f} px, {:.1f} mm RMS\n",
+      installed.rmsPx, installed.maxPx, p.rmsPx, p.worstPx, installed.rmsObserverMm,
+      installed.maxObserverMm, p.rmsObserverMm, p.worstObserverMm, before.rmsPx,
+      before.rmsObserverMm);
+}
+
 std::string formatFitSummary(const FitResult& r) {
+  const PredictedRays p = predictedRays(r);
   std::string out = fmt::format(
+      "rays (predicted σ over {} modules): {:.4f} module px RMS, worst pixel {:.3f}; observer "
+      "line {:.2f} mm RMS, worst {:.2f}\n",
+      p.modules, p.rmsPx, p.worstPx, p.rmsObserverMm, p.worstObserverMm);
+  out += fmt::format(
       "fit: {} iterations, {:.2f} s, {}; k = {:.6f} ± {:.6f} 1/m ({} transfer)\n"
       "noise: correspondences σ = {:.3f} module px ({:.3f} mm on the screen), stripes {:.3f} mm "
       "RMS, "
@@ -27,7 +74,13 @@ std::string formatFitSummary(const FitResult& r) {
       r.correspondenceSigmaPx, r.correspondenceSigmaMm, r.stripeRmsMm, r.fiducialRmsPx, r.outliers);
   for (const Deficiency& d : r.deficiencies) out += "  " + d.describe() + "\n";
   for (const std::string& n : r.notes) out += "  note: " + n + "\n";
-  out += r.passesQualityChecks() ? "quality checks: passed\n" : "quality checks: FAILED\n";
+  for (const std::string& g : r.gate.describe()) out += "  gate: " + g + "\n";
+  const GateLimits& limits = r.gate.limits;
+  out += fmt::format(
+      "gate: every module's {:.0f}σ worst ray error ≤ {:.2f} module px and ≤ {:.1f} mm on the "
+      "observer line (largest: {:.3f} px, {:.2f} mm): ",
+      limits.sigmas, limits.worstPx, limits.worstObserverMm, p.boundPx, p.boundObserverMm);
+  out += r.passesQualityChecks() ? "passed\n" : "FAILED\n";
   return out;
 }
 

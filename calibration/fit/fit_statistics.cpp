@@ -76,6 +76,7 @@ void summarizeResiduals(const FitInputs& in, const FitState& state, const Corres
     double r;
     if (!stripeResidualMm(in, state, i, &r)) continue;
     ++result->modules[static_cast<size_t>(s.module)].stripes;
+    result->stripeResidualsMm.push_back(r);
     stripeSumSq[static_cast<size_t>(s.module)] += r * r;
     stripeTotal += r * r;
     stripeAbs.push_back(std::abs(r));
@@ -108,6 +109,7 @@ void summarizeResiduals(const FitInputs& in, const FitState& state, const Corres
           std::sqrt(camFidSumSq[static_cast<size_t>(cf.camera)] / (2.0 * cf.fiducials));
   }
   result->correspondenceSigmaPx = sigmas.correspondencePx;
+  result->stripeSigmaMm = sigmas.stripeMm;
   result->correspondenceSigmaMm = sigmas.correspondencePx * mmPerModulePx(in, state);
 
   // ---- the transfer check: stripes that the assumed transfer cannot explain ----
@@ -128,7 +130,9 @@ void noteModulesNotEstimated(const FitInputs& in, FitResult* result) {
   for (size_t m = 0; m < result->modules.size(); ++m) {
     if (!in.observed[m]) {
       result->notes.push_back(fmt::format(
-          "module {} was not seen by any camera: kept at its nominal pose and intrinsics", m));
+          "module {} was not seen by any camera: its rays are unknown (held nominal only under "
+          "--allow-partial)",
+          m));
     }
   }
   int held = 0;

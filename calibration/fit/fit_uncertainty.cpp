@@ -14,55 +14,6 @@ namespace {
 
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
-// Largest σ (module px, RMS of u and v) of the pixel that the fitted module uses to light a
-// screen point, over a 5 × 5 grid across its image: J Σ Jᵀ with J the derivative of the
-// projection with respect to the module's tangent parameters (central differences through
-// the manifold), the screen point held fixed.
-double worstPixelStdDev(const FitInputs& in, const FitState& state, size_t m,
-                        const Eigen::MatrixXd& cov) {
-  if (!cov.allFinite()) return std::numeric_limits<double>::infinity();
-  OpticalModule fitted = in.nominal.modules[m];
-  unpackModule(state.modules[m].data(), &fitted);
-  const ModuleOptics optics(fitted);
-  const ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<9>>
-      manifold;
-  const double mirrorSign = fitted.mirror ? -1.0 : 1.0;
-  double worst = 0.0;
-  for (int gy = 0; gy < 5; ++gy) {
-    for (int gx = 0; gx < 5; ++gx) {
-      const double u = (0.02 + 0.96 * gx / 4.0) * fitted.width;
-      const double v = (0.02 + 0.96 * gy / 4.0) * fitted.height;
-      Eigen::Vector3d d, s;
-      double t;
-      if (!optics.rayDirection(u, v, &d)) continue;
-      // Pixels off the screen are masked: their uncertainty does not matter.
-      if (!in.nominal.screen.intersect(fitted.position, d, &t, &s)) continue;
-      Eigen::Matrix<double, 2, kModuleTangentSize> jacobian;
-      bool ok = true;
-      for (int p = 0; p < kModuleTangentSize && ok; ++p) {
-        // Steps: rotation (rad) and position (m) 1e-6; intrinsics over the width and the
-        // distortion 1e-7.
-        const double h = p < 6 ? 1e-6 : 1e-7;
-        double delta[kModuleTangentSize] = {};
-        std::array<double, kModuleBlockSize> plus, minus;
-        delta[p] = h;
-        manifold.Plus(state.modules[m].data(), delta, plus.data());
-        delta[p] = -h;
-        manifold.Plus(state.modules[m].data(), delta, minus.data());
-        double a[2], b[2];
-        ok = projectIntoModule(plus.data(), fitted.width, mirrorSign, Vec3<double>(s), a) &&
-             projectIntoModule(minus.data(), fitted.width, mirrorSign, Vec3<double>(s), b);
-        jacobian(0, p) = (a[0] - b[0]) / (2.0 * h);
-        jacobian(1, p) = (a[1] - b[1]) / (2.0 * h);
-      }
-      if (!ok) continue;
-      const Eigen::Matrix2d pixelCov = jacobian * cov * jacobian.transpose();
-      worst = std::max(worst, std::sqrt(std::max(0.0, 0.5 * pixelCov.trace())));
-    }
-  }
-  return worst;
-}
-
 }  // namespace
 
 void diagnoseUncertainty(const FitInputs& in, FitState& state, const NoiseLevels& sigmas,
@@ -112,24 +63,20 @@ void diagnoseUncertainty(const FitInputs& in, FitState& state, const NoiseLevels
         sd *= width;
       mf.stdDev[static_cast<size_t>(p)] = sd;
     }
-    mf.worstPixelStdDevPx = worstPixelStdDev(in, state, moduleOf[j], d.moduleCovariance[j]);
-    const double limit =
-        std::max(options.maxPixelStdDevPx, options.maxPixelDilution * sigmas.correspondencePx);
-    if (d.modules[j].state != Conditioning::kRankDeficient && !(mf.worstPixelStdDevPx <= limit)) {
-      // Well conditioned but too little data: the covariance says the rays are unknown.
-      Deficiency def;
-      def.module = static_cast<int>(moduleOf[j]);
-      def.state = Conditioning::kUndetermined;
-      def.reciprocalCondition = d.modules[j].reciprocalCondition;
-      def.parameters = {fmt::format("its rays (pixel σ up to {:.2f} px > {:.2f} px allowed)",
-                                    mf.worstPixelStdDevPx, limit)};
-      result->deficiencies.push_back(def);
-    } else if (mf.worstPixelStdDevPx > options.maxPixelStdDevPx) {
-      result->notes.push_back(fmt::format(
-          "module {}: pixel σ up to {:.2f} px, {:.1f}× the correspondences' noise ({:.3f} module "
-          "px): the camera's noise, not the setup, limits its rays",
-          moduleOf[j], mf.worstPixelStdDevPx, mf.worstPixelStdDevPx / sigmas.correspondencePx,
-          sigmas.correspondencePx));
+    // The module's covariance joined with k's, for the gate (ray_uncertainty.h): its rays
+    // depend on both, and the two estimates are correlated.
+    Eigen::MatrixXd& cov = mf.rayCovariance;
+    cov = Eigen::MatrixXd::Zero(kModuleTangentSize + 1, kModuleTangentSize + 1);
+    cov.topLeftCorner(kModuleTangentSize, kModuleTangentSize) = d.moduleCovariance[j];
+    if (options.fitCurvature) {
+      const Eigen::VectorXd cross = d.moduleSharedCovariance[j].col(sharedSize - 1);
+      cov.block(0, kModuleTangentSize, kModuleTangentSize, 1) = cross;
+      cov.block(kModuleTangentSize, 0, 1, kModuleTangentSize) = cross.transpose();
+      cov(kModuleTangentSize, kModuleTangentSize) =
+          d.sharedCovariance(sharedSize - 1, sharedSize - 1);
+    }
+    for (int p = 0; p < kModuleTangentSize; ++p) {
+      if (!std::isfinite(d.moduleStdDev[j][p])) cov(p, p) = std::numeric_limits<double>::infinity();
     }
     if (d.modules[j].state != Conditioning::kGood) {
       Deficiency def;

@@ -1,7 +1,7 @@
 #pragma once
 // The uncertainty of a finished fit: the Jacobian at the solution turned into standard
 // deviations, conditioning and the undetermined combinations (fit_diagnostics.h), and each
-// module's covariance carried to the pixels it lights (FitOptions::maxPixelStdDevPx).
+// module's covariance joined with the curvature's for the gate (calibration_gate.h).
 // Internal to parallax_fit.
 
 #include "calibration/fit/fit_problem.h"

@@ -21,6 +21,7 @@
 #include <fmt/ranges.h>
 
 #include <atomic>
+#include <cmath>
 #include <csignal>
 #include <filesystem>
 #include <iostream>
@@ -88,7 +89,30 @@ struct CalibrateArgs {
   std::string cameraTruth;
   std::string transfer;
   int threads = 2;
+  bool allowPartial = false;
+  double maxErrorPx = GateLimits{}.worstPx;
+  double maxObserverMm = GateLimits{}.worstObserverMm;
 };
+
+// A ground truth must describe the same display as the nominal: checked before the fit, so a
+// wrong file costs nothing.
+void requireMatchingTruth(const DisplayModel& truth, const DisplayModel& nominal,
+                          const std::string& path) {
+  if (truth.modules.size() != nominal.modules.size()) {
+    throw InputError({path, "modules", 0},
+                     fmt::format("the ground truth has {} modules, the nominal display {}",
+                                 truth.modules.size(), nominal.modules.size()));
+  }
+  for (size_t m = 0; m < truth.modules.size(); ++m) {
+    if (truth.modules[m].width != nominal.modules[m].width ||
+        truth.modules[m].height != nominal.modules[m].height) {
+      throw InputError({path, fmt::format("modules[{}]", m), 0},
+                       fmt::format("{}x{} pixels, the nominal's module has {}x{}",
+                                   truth.modules[m].width, truth.modules[m].height,
+                                   nominal.modules[m].width, nominal.modules[m].height));
+    }
+  }
+}
 
 // Captures of another display must not be fitted to this nominal (a 4-module session against
 // a 6-module nominal would leave two modules never seen and install nonsense): the modules the
@@ -194,6 +218,21 @@ void runCalibrate(const CalibrateArgs& args) {
                      "--link needs the camera's metadata (camera.json: intrinsics, stations)");
   }
   const DisplayModel nominal = resolveDisplay(args.nominal);
+  FitOptions options;
+  options.threads = args.threads;
+  options.gate.allowPartial = args.allowPartial;
+  options.gate.worstPx = args.maxErrorPx;
+  options.gate.worstObserverMm = args.maxObserverMm;
+  for (const auto& [value, name] : {std::pair{args.maxErrorPx, "--max-error-px"},
+                                    std::pair{args.maxObserverMm, "--max-observer-mm"}}) {
+    if (!(std::isfinite(value) && value > 0.0))
+      throw InputError({"", name, 0}, fmt::format("must be > 0, got {}", value));
+  }
+  std::optional<DisplayModel> truth;
+  if (!args.truth.empty()) {
+    truth = loadDisplayModel(args.truth);
+    requireMatchingTruth(*truth, nominal, args.truth);
+  }
   const InterruptStopsCalibration interrupt;
   // The true camera, for the report only: --camera-truth, else camera_truth.json beside --truth.
   std::optional<CameraIntrinsics> cameraTruth;
@@ -211,8 +250,6 @@ void runCalibrate(const CalibrateArgs& args) {
   std::cout << fmt::format("{} correspondences, {} stripe centres, {} fiducial sightings\n",
                            observations.correspondences.size(), observations.stripes.size(),
                            observations.fiducialSightings.size());
-  FitOptions options;
-  options.threads = args.threads;
   if (!args.transfer.empty()) {
     ScreenTransfer transfer;
     if (!parseTransfer(args.transfer, &transfer))
@@ -235,20 +272,8 @@ void runCalibrate(const CalibrateArgs& args) {
         fmt::format("interrupted during the fit; {} was left untouched", args.out));
 
   std::cout << formatFitSummary(result);
-  std::optional<DisplayModel> truth;
-  if (!args.truth.empty()) truth = loadDisplayModel(args.truth);
-  if (truth && truth->modules.size() != result.model.modules.size()) {
-    throw InputError({args.truth, "modules", 0},
-                     "the ground truth has a different number of modules");
-  }
   if (args.report) std::cout << formatFitReport(result, truth ? &*truth : nullptr);
-  if (truth) {
-    const RayErrorStats rays = totalRayError(compareRays(*truth, result.model));
-    std::cout << fmt::format(
-        "against the ground truth: ray error rms {:.4f} max {:.3f} module px (nominal: rms "
-        "{:.3f})\n",
-        rays.rmsPx, rays.maxPx, totalRayError(compareRays(*truth, nominal)).rmsPx);
-  }
+  if (truth) std::cout << formatTruthHeadline(result, *truth, nominal);
   if (!result.passesQualityChecks()) {
     throw std::runtime_error(
         fmt::format("the calibration failed its quality checks; {} was left untouched", args.out));
@@ -292,6 +317,13 @@ void addCalibrateCommand(CLI::App& app) {
   command->add_option("--transfer", args->transfer,
                       "assumed screen transfer (default: the nominal's)");
   command->add_option("--threads", args->threads, "solver threads");
+  command->add_flag("--allow-partial", args->allowPartial,
+                    "install the modules that pass the gate; the others are held at their "
+                    "nominal calibration and named");
+  command->add_option("--max-error-px", args->maxErrorPx,
+                      "gate: largest predicted worst ray error of any module (module px)");
+  command->add_option("--max-observer-mm", args->maxObserverMm,
+                      "gate: largest predicted worst error where rays meet the observer line (mm)");
   command->callback([args] { runCalibrate(*args); });
 }
 

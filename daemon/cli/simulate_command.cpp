@@ -22,6 +22,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -67,7 +68,21 @@ CameraIntrinsics cameraOfSize(const std::string& resolution) {
   return CameraIntrinsics::centred(width, height, 2100.0 * width / 1920.0, -0.04);
 }
 
-void runSimulate(const SimulateArgs& args) {
+void runSimulate(const SimulateArgs& args, const CLI::App& command) {
+  // Options that would otherwise be ignored or give a session nothing can be fitted from.
+  if (command.count("--noise-px") && !args.synthetic) {
+    throw InputError(
+        {"", "--noise-px", 0},
+        "applies only with --synthetic (the pictures carry the camera's sensor noise)");
+  }
+  if (args.stations < 1 || args.stations > 64)
+    throw InputError({"", "--stations", 0}, fmt::format("must be 1..64, got {}", args.stations));
+  if (args.stations > 1 && !(std::isfinite(args.spanM) && args.spanM > 0.0)) {
+    throw InputError({"", "--span", 0},
+                     fmt::format("must be > 0 m with {} stations (they would all stand in one "
+                                 "place), got {}",
+                                 args.stations, args.spanM));
+  }
   const DisplayModel nominal = resolveDisplay(args.display);
   GroundTruthOptions truthOptions;
   truthOptions.seed = args.seed;
@@ -133,10 +148,10 @@ void runSimulate(const SimulateArgs& args) {
     pictures += s.columnFrames.size() + s.rowFrames.size();
   std::cout << header
             << fmt::format(
-                   "  {} pictures ({} station × group sets){}\n"
+                   "  {} pictures from {} station{} ({} sets: each station × module group){}\n"
                    "  written to {}: nominal.json, camera.json, patterns.json, set*.png{}; "
                    "ground_truth.json, camera_truth.json (simulator and tests only)\n",
-                   pictures, captures.stations.size(),
+                   pictures, args.stations, args.stations == 1 ? "" : "s", captures.stations.size(),
                    args.boards > 0
                        ? fmt::format(", {} checkerboard pictures (camera.json without intrinsics)",
                                      args.boards)
@@ -169,7 +184,7 @@ void addSimulateCommand(CLI::App& app) {
   command->add_option(
       "--boards", args->boards,
       "checkerboard pictures for the camera's intrinsics (0: none, camera.json then carries them)");
-  command->callback([args] { runSimulate(*args); });
+  command->callback([args, command] { runSimulate(*args, *command); });
 }
 
 }  // namespace parallax::cli

@@ -87,6 +87,7 @@ Outcome run(const std::string& name, const Case& c) {
       o.fit.passesQualityChecks() ? "passes" : "REFUSED");
   for (const Deficiency& d : o.fit.deficiencies) std::printf("    %s\n", d.describe().c_str());
   for (const std::string& n : o.fit.notes) std::printf("    note: %s\n", n.c_str());
+  for (const std::string& g : o.fit.gate.describe()) std::printf("    gate: %s\n", g.c_str());
   // No NaN in any case.
   EXPECT_TRUE(finite(o.rays)) << name;
   EXPECT_TRUE(std::isfinite(o.fit.model.screen.curvature));
@@ -127,14 +128,23 @@ TEST(DisplayFit, StronglyCurvedScreen) {
   gt.seed = 13;
   c.truth = makeGroundTruth(c.nominal, gt);
   const Outcome o = run("strongly curved R=0.6W", c);
-  EXPECT_TRUE(o.fit.passesQualityChecks());
+  // Rays leaving a strongly curved screen's edges at grazing angles meet the observer line far
+  // from where a small error would put them: the gate may refuse (measured: true worst 24 mm
+  // on the observer line against the 15 mm limit); what it installs is within its limits.
+  if (o.fit.passesQualityChecks()) {
+    EXPECT_LE(o.rays.maxObserverMm, c.fit.gate.worstObserverMm);
+  } else {
+    EXPECT_FALSE(o.fit.gate.describe().empty());
+  }
   EXPECT_NEAR(o.fit.model.screen.curvature, c.truth.screen.curvature, 2e-3);
   EXPECT_LT(o.rays.rmsPx, 0.15);
 }
 
 // ---- transfer mismatch ----
 
-TEST(DisplayFit, LinearTruthFittedAsConicalIsReported) {
+// Both transfers are fitted and the stripes' χ² decides (transfer_selection.h): a wrong assumed
+// transfer is not installed; the one the data support is, and the report says so.
+TEST(DisplayFit, LinearTruthFittedAsConicalIsDetectedAndCorrected) {
   Case c = demoCase(14);
   GroundTruthOptions gt;
   gt.seed = 14;
@@ -142,26 +152,29 @@ TEST(DisplayFit, LinearTruthFittedAsConicalIsReported) {
   c.truth = makeGroundTruth(c.nominal, gt);
   c.fit.transfer = ScreenTransfer::kConical;
   const Outcome o = run("linear truth, conical fit", c);
-  EXPECT_TRUE(o.fit.transferMismatch);
-  EXPECT_FALSE(o.fit.passesQualityChecks());
-  ASSERT_TRUE(o.fit.otherTransferStripeRmsMm.has_value());
-  EXPECT_LT(*o.fit.otherTransferStripeRmsMm, 0.2 * o.fit.stripeRmsMm);
+  EXPECT_FALSE(o.fit.transferMismatch);
+  EXPECT_EQ(o.fit.model.screen.transfer, ScreenTransfer::kLinear);
+  ASSERT_TRUE(o.fit.transferEvidence.has_value());
+  EXPECT_TRUE(o.fit.transferEvidence->decided);
+  EXPECT_GT(o.fit.transferEvidence->deltaChi2, kDecisiveChi2);
   bool said = false;
   for (const std::string& n : o.fit.notes)
-    said |= n.find("follows the linear transfer") != std::string::npos;
+    said |= n.find("the stripes reject the assumed conical transfer") != std::string::npos;
   EXPECT_TRUE(said) << "the report must name the transfer that fits";
+  EXPECT_LT(o.rays.maxObserverMm, c.fit.gate.worstObserverMm);
 }
 
-TEST(DisplayFit, ConicalTruthFittedAsLinearIsReported) {
+TEST(DisplayFit, ConicalTruthFittedAsLinearIsDetectedAndCorrected) {
   Case c = demoCase(15);
   c.fit.transfer = ScreenTransfer::kLinear;
   const Outcome o = run("conical truth, linear fit", c);
-  EXPECT_TRUE(o.fit.transferMismatch);
-  EXPECT_FALSE(o.fit.passesQualityChecks());
+  EXPECT_FALSE(o.fit.transferMismatch);
+  EXPECT_EQ(o.fit.model.screen.transfer, ScreenTransfer::kConical);
   bool said = false;
   for (const std::string& n : o.fit.notes)
-    said |= n.find("follows the conical transfer") != std::string::npos;
+    said |= n.find("the stripes reject the assumed linear transfer") != std::string::npos;
   EXPECT_TRUE(said);
+  EXPECT_LT(o.rays.maxObserverMm, c.fit.gate.worstObserverMm);
 }
 
 TEST(DisplayFit, MatchingTransferIsNotFlagged) {
@@ -218,7 +231,9 @@ TEST(DisplayFit, ModuleSeeingTwentyPercentOfTheScreen) {
 TEST(DisplayFit, UnseenModuleIsReportedAndKeptNominal) {
   Case c = demoCase(19);
   c.sim.hiddenModules = {3};
+  c.fit.gate.allowPartial = true;  // without it the unseen module fails the whole calibration
   const Outcome o = run("module not seen at all", c);
+  EXPECT_TRUE(o.fit.passesQualityChecks());
   EXPECT_FALSE(o.fit.modules[3].observed);
   EXPECT_EQ(o.fit.model.modules[3].position, c.nominal.modules[3].position);
   bool said = false;
@@ -271,19 +286,20 @@ TEST_P(NoiseLevel, RayErrorGrowsWithCameraNoise) {
   Case c = demoCase(20);
   c.sim.noisePx = noise;
   const Outcome o = run("camera noise " + std::to_string(noise).substr(0, 3) + " px", c);
-  EXPECT_TRUE(o.fit.passesQualityChecks());
-  EXPECT_LT(o.rays.rmsPx, tolerance);
   // The re-estimated noise (module px) tracks the camera noise (≈ 0.27 module px per camera px
   // on the demo display).
   EXPECT_NEAR(o.fit.correspondenceSigmaPx / noise, 0.27, 0.08);
-  // A module let through above the absolute pixel-σ limit because the noise explains it
-  // (FitOptions::maxPixelDilution) is named in a note.
-  for (const ModuleFit& m : o.fit.modules) {
-    if (!(m.worstPixelStdDevPx > c.fit.maxPixelStdDevPx)) continue;
-    bool said = false;
-    for (const std::string& n : o.fit.notes)
-      said |= n.find(fmt::format("module {}: pixel σ", m.module)) == 0;
-    EXPECT_TRUE(said) << "module " << m.module;
+  // The gate's limits are fixed: a noisier camera either still meets them, and then the rays
+  // truly do, or the calibration is refused with a reason — never installed beyond them.
+  if (o.fit.passesQualityChecks()) {
+    EXPECT_LT(o.rays.rmsPx, tolerance);
+    EXPECT_LE(o.rays.maxPx, c.fit.gate.worstPx);
+    EXPECT_LE(o.rays.maxObserverMm, c.fit.gate.worstObserverMm);
+  } else {
+    EXPECT_FALSE(o.fit.gate.describe().empty());
+  }
+  if (noise <= 0.1) {  // at 0.5 px the corners of demo's outer modules pass 3 px (3σ)
+    EXPECT_TRUE(o.fit.passesQualityChecks());
   }
 }
 
@@ -395,21 +411,24 @@ TEST(DisplayFit, TooFewStationsAreRefused) {
   c.sim.rig.stations = 2;
   const Outcome o = run("2 stations (too few)", c);
   EXPECT_FALSE(o.fit.passesQualityChecks());
-  EXPECT_FALSE(o.fit.deficiencies.empty());
+  EXPECT_GT(o.fit.gate.failingModules(), 0);
 }
 
 TEST(DisplayFit, TooFewStationsAreRefusedAtAnyNoise) {
-  // The pixel-σ limit grows with the camera's noise (FitOptions::maxPixelDilution), but only
-  // as far as a sound setup's rays spread: two stations at 2 px noise are still refused.
+  // The gate's limits do not grow with the camera's noise: two stations at 2 px noise are
+  // refused, each failing module named with its predicted error.
   Case c = demoCase(27);
   c.sim.rig.stations = 2;
   c.sim.noisePx = 2.0;
   const Outcome o = run("2 stations, 2 px noise", c);
   EXPECT_FALSE(o.fit.passesQualityChecks());
-  bool undetermined = false;
-  for (const Deficiency& d : o.fit.deficiencies)
-    undetermined |= d.state == Conditioning::kUndetermined;
-  EXPECT_TRUE(undetermined);
+  int named = 0;
+  for (const ModuleGate& g : o.fit.gate.modules) {
+    if (g.passes) continue;
+    EXPECT_FALSE(g.reason.empty()) << "module " << g.module;
+    named += g.reason.find("predicted worst error") != std::string::npos;
+  }
+  EXPECT_GT(named, 0);
 }
 
 TEST(DisplayFit, StandardDeviationsMatchTheActualErrors) {

@@ -47,7 +47,7 @@ out=$("$parallax" calibrate --link "simhw:$sock" --camera "$dir/camera.json" --n
         --out "$dir/calib.json" --truth "$dir/ground_truth.json" --pixel-step 6 2>&1)
 echo "$out"
 [ -f "$dir/calib.json" ] || { echo "FAIL: no calibration installed"; exit 1; }
-rms=$(echo "$out" | sed -n 's/.*ray error rms \([0-9.]*\) .*/\1/p')
+rms=$(echo "$out" | sed -n 's/.*ray error \([0-9.]*\) module px RMS.*/\1/p')
 [ -n "$rms" ] || { echo "FAIL: no ray error line"; exit 1; }
 awk -v r="$rms" 'BEGIN { exit !(r < 0.4) }' || { echo "FAIL: ray error rms $rms >= 0.4 px"; exit 1; }
 echo "ok: ray error rms $rms px"

@@ -13,6 +13,9 @@
 #ifndef PARALLAX_SCENE_LIBRARY
 #define PARALLAX_SCENE_LIBRARY ""
 #endif
+#ifndef PARALLAX_SCENE_LIBRARY_FROM_BINDIR
+#define PARALLAX_SCENE_LIBRARY_FROM_BINDIR "../share/parallax/scenes"
+#endif
 
 namespace parallax {
 namespace fs = std::filesystem;
@@ -45,7 +48,17 @@ struct AnimatedState {
 
 std::string ScriptOptions::defaultSceneLibrary() {
   if (const char* env = std::getenv("PARALLAX_SCENE_LIBRARY")) return env;
-  return PARALLAX_SCENE_LIBRARY;
+  // An installed program finds the library relative to itself, so any prefix (or a package
+  // unpacked anywhere) works; a program in the build tree has none there and uses the sources'.
+  static const std::string installed = [] {
+    std::error_code ec;
+    const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+    if (ec) return std::string();
+    const fs::path library =
+        (self.parent_path() / PARALLAX_SCENE_LIBRARY_FROM_BINDIR).lexically_normal();
+    return fs::is_directory(library, ec) ? library.string() : std::string();
+  }();
+  return installed.empty() ? PARALLAX_SCENE_LIBRARY : installed;
 }
 
 std::map<std::string, std::string> ScriptOptions::defaultAssetRoots() {

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <atomic>
 #include <stdexcept>
 
 #include "calibration/capture/calibration_captures.h"
@@ -16,7 +17,7 @@ CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& no
                                     const DisplayModel& start, const CalibrationConfig& config,
                                     std::optional<int> onlyModule,
                                     const std::function<void(const std::string&)>& progress,
-                                    const std::atomic<bool>* cancel) {
+                                    const std::function<bool()>& cancelled) {
   if (config.camera.empty()) {
     throw InputError({"", "calibration.camera", 0},
                      "calibrating needs the camera's metadata (camera.json)");
@@ -26,14 +27,17 @@ CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& no
   // The camera behind the link: parallax-simhw's, or a real one answering capture requests.
   hw::SimulatedCamera device(link);
   hw::CalibrationCaptureOptions capture;
+  // The capture asks a flag between pictures, right after reporting progress: the flag is
+  // refreshed from the predicate there.
+  std::atomic<bool> captureCancelled{cancelled()};
   const CalibrationCaptures captures = hw::captureCalibration(
       link, device, nominal, camera, capture,
-      [&progress](int done, int total) {
+      [&](int done, int total) {
         progress(fmt::format("pictures: {} of {}", done, total));
+        captureCancelled = cancelled();
       },
-      cancel);
+      &captureCancelled);
   // Decoding takes seconds and is not interrupted: a `cancel` meanwhile is seen after it.
-  const auto cancelled = [cancel] { return cancel && cancel->load(); };
   const auto stopIfCancelled = [&cancelled] {
     if (cancelled()) throw hw::CalibrationCancelled();
   };

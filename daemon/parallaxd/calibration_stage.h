@@ -4,7 +4,6 @@
 // fit that passed, or throws with the reason; it never installs anything itself (the conductor
 // does, after regenerating the textures, so a failure leaves the old calibration in place).
 
-#include <atomic>
 #include <functional>
 #include <optional>
 #include <string>
@@ -24,11 +23,12 @@ struct CalibrationRun {
 // `start` is the model the fit starts from (the nominal, or the current calibration for a
 // refit of one module: `onlyModule`, every other module held). Throws std::runtime_error
 // (or InputError for bad camera metadata) with a one-line reason, and hw::CalibrationCancelled
-// once *cancel is true (seen between pictures, between stages and at every solver iteration).
+// once `cancelled()` is true (asked between pictures, between stages and at every solver
+// iteration; from the calibrating thread).
 CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& nominal,
                                     const DisplayModel& start, const CalibrationConfig& config,
                                     std::optional<int> onlyModule,
                                     const std::function<void(const std::string&)>& progress,
-                                    const std::atomic<bool>* cancel);
+                                    const std::function<bool()>& cancelled);
 
 }  // namespace parallax::daemon

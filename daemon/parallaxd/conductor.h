@@ -25,6 +25,7 @@
 #include "calibration/display/display_model.h"
 #include "calibration/display/ray_textures.h"
 #include "daemon/parallaxd/calibration_store.h"
+#include "daemon/parallaxd/control_request.h"
 #include "daemon/parallaxd/daemon_config.h"
 #include "daemon/parallaxd/daemon_state.h"
 #include "daemon/parallaxd/loop_stats.h"
@@ -43,6 +44,9 @@ struct ConductorOptions {
   std::string linkSpec;  // "simhw:/path" or "usb:VID:PID[:SERIALS]"
   hw::LinkOptions link;
   RenderOptions render;
+  // The camera metadata of a simulator parallaxd started itself: used when the config names no
+  // camera (calibration.camera), also after a reload of a config that does not name one.
+  std::string simulatorCamera;
   int connectTimeoutMs = 10000;  // at start (a simulator we started may take a moment)
   int keepAliveMs = 1000;        // idle link probe: how soon a reconnect is noticed
   // Called from the conductor thread: once when the first stage sequence has finished (with
@@ -50,6 +54,11 @@ struct ConductorOptions {
   std::function<void()> onReady;
   std::function<void()> onHeartbeat;
 };
+
+// What `status` says about the link: kStalled when it is connected but frames fail (not
+// acknowledged, rejected), kDown when no module answers or there is no connection.
+enum class LinkHealth { kUp, kStalled, kDown };
+std::string_view linkHealthName(LinkHealth health);
 
 class Conductor {
  public:
@@ -79,19 +88,35 @@ class Conductor {
   StateSnapshot state() const { return state_.snapshot(); }
 
  private:
+  friend const std::vector<RequestSpec>& controlRequests();
   struct Job {
-    nlohmann::json request;
+    const RequestSpec* spec;
+    RequestArgs args;
     std::promise<nlohmann::json> reply;
   };
   using Clock = std::chrono::steady_clock;
 
-  // Stages (conductor thread).
+  // What a stage ended with: the caller replies from this, not from side effects.
+  struct StageResult {
+    enum class Outcome { kDone, kCancelled, kFailed } outcome = Outcome::kDone;
+    std::string error;    // kFailed: why (also in status as last_error)
+    std::string summary;  // calibrate: the fit's summary
+    bool done() const { return outcome == Outcome::kDone; }
+  };
+
+  // Stages (conductor thread; conductor.cpp, conductor_calibration.cpp).
   void startUp();
   bool connectLink(int timeoutMs);
-  void calibrate(std::optional<int> onlyModule);
-  void regenerate(const DisplayModel& model);
-  void loadScene(const std::string& script, const std::map<std::string, double>& parameters);
-  // Render loop.
+  StageResult calibrate(std::optional<int> onlyModule);
+  StageResult regenerate(const DisplayModel& model);
+  StageResult loadScene(const std::string& script, const std::map<std::string, double>& parameters);
+  // Where a stage returns to: what the modules show (playing or paused), `starting` during
+  // start-up, else `error` (nothing to show; last_error says why).
+  DaemonState restingState() const;
+  bool stopAsked() const;  // SIGTERM/SIGINT (run's flag) or a `shutdown` request
+  CalibrationConfig calibrationConfig() const;
+
+  // Render loop (conductor_render_loop.cpp).
   std::chrono::milliseconds timeToNextTurn() const;
   void turn();
   void renderAndPush();
@@ -99,15 +124,31 @@ class Conductor {
   void keepLinkAlive();
   void showOverlay(const std::string& kind, std::optional<int> module);
   void finishInFlight();
+  void noteLinkHealth(LinkHealth health, const std::string& problem);
 
-  // Requests (conductor thread), each returns the reply.
-  nlohmann::json dispatch(const nlohmann::json& request);
+  // Requests (conductor_requests.cpp): one handler each, named in the request table.
+  nlohmann::json answerStatus(const RequestArgs&);
+  nlohmann::json answerStats(const RequestArgs&);
+  nlohmann::json answerShutdown(const RequestArgs&);
+  nlohmann::json answerCancel(const RequestArgs&);
+  nlohmann::json answerCalibrate(const RequestArgs& args);
+  nlohmann::json answerRollback(const RequestArgs&);
+  nlohmann::json answerLoad(const RequestArgs& args);
+  nlohmann::json answerPlay(const RequestArgs&);
+  nlohmann::json answerPause(const RequestArgs&);
+  nlohmann::json answerSet(const RequestArgs& args);
+  nlohmann::json answerFrame(const RequestArgs& args);
+  nlohmann::json answerView(const RequestArgs& args);
+  nlohmann::json answerReload(const RequestArgs&);
+  nlohmann::json answerIdentify(const RequestArgs& args);
+  nlohmann::json answerTestcard(const RequestArgs&);
+
+  // Status (conductor_status.cpp): built on the conductor thread, published for any thread.
   nlohmann::json statusJson() const;
   nlohmann::json statsJson() const;
-  nlohmann::json writeModuleFrame(const nlohmann::json& request);
-  nlohmann::json writeObserverView(const nlohmann::json& request);
-  void drainJobs(Clock::time_point until);
   void publish();
+
+  void drainJobs(Clock::time_point until);
   void applyConfig(const DaemonConfig& config);
   DaemonState showingState() const;  // playing or paused, whichever we were in
 
@@ -135,7 +176,8 @@ class Conductor {
   std::unique_ptr<hw::LinkClient> link_;
   uint64_t linkSessions_ = 0;
   Clock::time_point lastLinkTry_, lastLinkActivity_;
-  std::string linkError_;
+  LinkHealth linkHealth_ = LinkHealth::kDown;
+  std::string linkError_;  // empty while the link is up; else why it is not (status)
   // What the modules show (8-bit sRGB); views decode it. No float copy is kept (680 MB on
   // `default`).
   std::vector<std::shared_ptr<const hw::Image>> currentImages_;
@@ -143,7 +185,6 @@ class Conductor {
 
   LoopStats stats_;
   RenderCounters lastCounters_;
-  std::string lastCalibrationSummary_;
 
   std::mutex jobsMutex_;
   std::condition_variable jobsChanged_;
@@ -152,8 +193,8 @@ class Conductor {
   std::atomic<bool> shutdown_{false};
   std::optional<DaemonConfig> restartWith_;
   std::atomic<bool> cancel_{false};  // set by `cancel` and `shutdown`: the calibration stops
-  bool calibrationCancelled_ =
-      false;  // the last calibration stopped at a `cancel` (conductor thread)
+  const std::atomic<bool>* stop_ = nullptr;  // run()'s flag (signals): stops every stage too
+  bool startingUp_ = true;
 
   mutable std::mutex publishedMutex_;
   nlohmann::json publishedStatus_, publishedStats_;

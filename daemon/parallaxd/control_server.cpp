@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 #include <poll.h>
 #include <spdlog/spdlog.h>
+#include <sys/ioctl.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -52,8 +53,8 @@ nlohmann::json errorReply(const std::string& why) { return {{"ok", false}, {"err
 
 }  // namespace
 
-ControlServer::ControlServer(std::string path, Handler handler)
-    : path_(std::move(path)), handler_(std::move(handler)) {
+ControlServer::ControlServer(std::string path, Handler handler, ControlServerLimits limits)
+    : path_(std::move(path)), handler_(std::move(handler)), limits_(limits) {
   namespace fs = std::filesystem;
   const fs::path folder = fs::path(path_).parent_path();
   if (!folder.empty() && !fs::exists(folder)) {
@@ -77,7 +78,7 @@ ControlServer::ControlServer(std::string path, Handler handler)
   const int bound = ::bind(listenFd_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr);
   const int bindErrno = errno;
   ::umask(oldMask);
-  if (bound != 0 || ::listen(listenFd_, 16) != 0) {
+  if (bound != 0 || ::listen(listenFd_, 64) != 0) {
     const std::string why = std::strerror(bound != 0 ? bindErrno : errno);
     ::close(listenFd_);
     throw std::runtime_error(fmt::format("cannot listen on {}: {}", path_, why));
@@ -94,10 +95,12 @@ ControlServer::~ControlServer() {
   [[maybe_unused]] const ssize_t n = ::write(wakePipe_[1], &byte, 1);
   if (acceptThread_.joinable()) acceptThread_.join();
   {
-    std::lock_guard lock(clientsMutex_);
-    for (int fd : clientFds_) ::shutdown(fd, SHUT_RDWR);  // wakes their recv()
+    std::lock_guard lock(connectionsMutex_);
+    for (auto& c : connections_) {
+      if (c->fd >= 0) ::shutdown(c->fd, SHUT_RDWR);  // wakes their poll()
+    }
   }
-  for (Client& c : clientThreads_) c.thread.join();
+  for (auto& c : connections_) c->thread.join();
   ::close(listenFd_);
   ::close(wakePipe_[0]);
   ::close(wakePipe_[1]);
@@ -117,30 +120,71 @@ void ControlServer::acceptLoop() {
     if (!(fds[0].revents & POLLIN)) continue;
     const int fd = ::accept4(listenFd_, nullptr, nullptr, SOCK_CLOEXEC);
     if (fd < 0) continue;
-    if (clients_.load() >= kMaxClients) {
-      writeAll(fd,
-               errorReply(fmt::format("too many clients (at most {})", kMaxClients)).dump() + "\n");
+    ucred peer{};
+    socklen_t peerSize = sizeof peer;
+    ::getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &peer, &peerSize);
+    // A client that stops reading its replies cannot hold a thread for ever.
+    const timeval sendTimeout{10, 0};
+    ::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &sendTimeout, sizeof sendTimeout);
+
+    std::lock_guard lock(connectionsMutex_);
+    reapFinishedClients();
+    int total = 0, fromPeer = 0;
+    for (const auto& c : connections_) {
+      if (c->evicted || c->done.load()) continue;
+      ++total;
+      if (c->peer == peer.pid) ++fromPeer;
+    }
+    const bool room = (fromPeer < limits_.maxPerClient || evictIdle(peer.pid)) &&
+                      (total < limits_.maxConnections || evictIdle(std::nullopt));
+    if (!room) {
+      writeAll(fd, errorReply(fmt::format("too many clients busy with requests (at most {}, {} "
+                                          "from one process)",
+                                          limits_.maxConnections, limits_.maxPerClient))
+                           .dump() +
+                       "\n");
       ::close(fd);
       continue;
     }
-    reapFinishedClients();
-    ++clients_;
-    auto done = std::make_shared<std::atomic<bool>>(false);
-    std::lock_guard lock(clientsMutex_);
-    clientFds_.push_back(fd);
-    clientThreads_.push_back({std::thread([this, fd, done] {
-                                serveClient(fd);
-                                *done = true;
-                              }),
-                              done});
+    auto connection = std::make_unique<Connection>();
+    connection->fd = fd;
+    connection->peer = peer.pid;
+    connection->lastByte = Clock::now();
+    Connection& c = *connection;
+    connections_.push_back(std::move(connection));
+    c.thread = std::thread([this, &c] {
+      serveClient(c);
+      c.done = true;
+    });
   }
 }
 
+bool ControlServer::evictIdle(std::optional<pid_t> peer) {
+  Connection* victim = nullptr;
+  for (auto& c : connections_) {
+    if (c->evicted || c->done.load() || c->inRequest || c->fd < 0) continue;
+    if (peer && c->peer != *peer) continue;
+    // Bytes waiting that its thread has not read yet: a request on its way, not idleness.
+    int waiting = 0;
+    if (::ioctl(c->fd, FIONREAD, &waiting) == 0 && waiting > 0) continue;
+    if (!victim || c->lastByte < victim->lastByte) victim = c.get();
+  }
+  if (!victim) return false;
+  victim->evicted = true;
+  // Never blocks (a client that reads nothing must not stall the accept thread).
+  const std::string notice =
+      errorReply("closed: a new client needed the place of this idle one").dump() + "\n";
+  [[maybe_unused]] const ssize_t sent =
+      ::send(victim->fd, notice.data(), notice.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+  ::shutdown(victim->fd, SHUT_RDWR);  // its thread sees the end and closes it
+  return true;
+}
+
 void ControlServer::reapFinishedClients() {
-  for (auto it = clientThreads_.begin(); it != clientThreads_.end();) {
-    if (it->done->load()) {
-      it->thread.join();
-      it = clientThreads_.erase(it);
+  for (auto it = connections_.begin(); it != connections_.end();) {
+    if ((*it)->done.load()) {
+      (*it)->thread.join();
+      it = connections_.erase(it);
     } else {
       ++it;
     }
@@ -167,24 +211,58 @@ std::string ControlServer::replyTo(const std::string& line, const Handler& handl
   return reply.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n";
 }
 
-void ControlServer::serveClient(int fd) {
+void ControlServer::serveClient(Connection& c) {
+  const int fd = c.fd;
   std::string buffer;
   bool discarding = false;  // inside an oversized line: drop bytes up to its newline
+  Clock::time_point lineBegan{};
   char chunk[4096];
+  std::string closing;  // why the server ends the connection (sent to the client)
   while (!stopping_.load()) {
+    // Wait for bytes until the idle deadline, or the unfinished line's deadline.
+    Clock::time_point deadline;
+    {
+      std::lock_guard lock(connectionsMutex_);
+      if (c.evicted) break;
+      deadline = buffer.empty() && !discarding ? c.lastByte + limits_.idleTimeout
+                                               : lineBegan + limits_.partialLineTimeout;
+    }
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+    if (left <= 0) {
+      closing = buffer.empty() && !discarding
+                    ? fmt::format("closed: idle for {} s", limits_.idleTimeout.count() / 1000.0)
+                    : fmt::format("closed: a request line unfinished after {} s",
+                                  limits_.partialLineTimeout.count() / 1000.0);
+      break;
+    }
+    pollfd p{fd, POLLIN, 0};
+    const int ready = ::poll(&p, 1, static_cast<int>(std::min<long long>(left, 1000)));
+    if (ready < 0 && errno == EINTR) continue;
+    if (ready < 0) break;
+    if (ready == 0) continue;
     const ssize_t n = ::recv(fd, chunk, sizeof chunk, 0);
-    if (n < 0 && errno == EINTR) continue;
+    if (n < 0 && (errno == EINTR || errno == EAGAIN)) continue;
     if (n <= 0) break;
+    {
+      // A chunk with a complete line is a request: from here until its reply is written the
+      // connection is not idle and keeps its place.
+      std::lock_guard lock(connectionsMutex_);
+      if (c.evicted) break;
+      c.lastByte = Clock::now();
+      c.inRequest = std::memchr(chunk, '\n', static_cast<size_t>(n)) != nullptr;
+    }
     bool alive = true;
     for (ssize_t i = 0; i < n && alive; ++i) {
-      const char c = chunk[i];
-      if (c == '\n') {
+      const char ch = chunk[i];
+      if (ch == '\n') {
         if (!discarding && !buffer.empty() && buffer != "\r")
           alive = writeAll(fd, replyTo(buffer, handler_));
         buffer.clear();
         discarding = false;
       } else if (!discarding) {
-        buffer.push_back(c);
+        if (buffer.empty()) lineBegan = Clock::now();
+        buffer.push_back(ch);
         if (buffer.size() > kMaxRequestBytes) {
           alive = writeAll(
               fd, errorReply(fmt::format("request too large (over {} bytes)", kMaxRequestBytes))
@@ -195,14 +273,17 @@ void ControlServer::serveClient(int fd) {
         }
       }
     }
+    {
+      std::lock_guard lock(connectionsMutex_);
+      c.inRequest = false;
+      c.lastByte = Clock::now();  // idle from the reply on, not from the request
+    }
     if (!alive) break;
   }
-  {
-    std::lock_guard lock(clientsMutex_);
-    clientFds_.remove(fd);
-  }
+  if (!closing.empty()) writeAll(fd, errorReply(closing).dump() + "\n");
+  std::lock_guard lock(connectionsMutex_);
   ::close(fd);
-  --clients_;
+  c.fd = -1;
 }
 
 }  // namespace parallax::daemon

@@ -213,6 +213,9 @@ void DaemonConfig::validate() const {
   require(!scene.script.empty(), "scene.script", "must not be empty");
   require(controlSocketPath().size() < 100, "daemon.socket",
           "a Unix socket path must be shorter than 100 bytes");
+  // A preset's size is checked here, before anything of that size exists (a display file's
+  // when nominalDisplayOf reads it).
+  if (display.file.empty()) nominalDisplayOf(display);
 }
 
 std::string DaemonConfig::controlSocketPath() const {
@@ -251,7 +254,12 @@ DaemonConfig parseDaemonConfig(const std::string& text, const std::string& name)
     }
   }
   top.refuseUnknownKeys();
-  config.validate();
+  try {
+    config.validate();
+  } catch (const InputError& e) {
+    if (e.location().file.empty()) throw e.inFile(name);
+    throw;
+  }
   return config;
 }
 
@@ -274,14 +282,90 @@ DaemonConfig loadDaemonConfig(const std::string& path) {
   return parseDaemonConfig(text, path);
 }
 
+namespace {
+
+// A preset's size is known before its model is made; a file's once its model is read (a
+// model is a few hundred bytes a module: the pixels come later, from its size).
+void checkDisplaySize(const DisplayModel& model, const DisplayConfig& d) {
+  const std::string where = d.file.empty() ? "" : d.file;
+  const auto refuse = [&](const char* key, const std::string& why) {
+    throw InputError({where, d.file.empty() ? key : "modules", 0}, why);
+  };
+  if (model.modules.size() > static_cast<size_t>(kMaxDisplayModules)) {
+    refuse("display.modules",
+           fmt::format("{} modules: at most {}", model.modules.size(), kMaxDisplayModules));
+  }
+  long long pixels = 0;
+  for (const OpticalModule& m : model.modules) {
+    if (m.width < 1 || m.height < 1 || m.width > 8192 || m.height > 8192)
+      refuse("display.resolution",
+             fmt::format("{}x{}: each side must be in 1..8192", m.width, m.height));
+    pixels += static_cast<long long>(m.width) * m.height;
+  }
+  if (pixels > kMaxDisplayPixels) {
+    refuse(d.file.empty() ? (d.modules ? "display.modules" : "display.resolution") : "display.file",
+           fmt::format("{} modules with {} pixels in all: more than the {} a display may have "
+                       "(modules × resolution)",
+                       model.modules.size(), pixels, kMaxDisplayPixels));
+  }
+}
+
+// The in-place list (daemon_config.h): copied from `from` onto `to`.
+void copyInPlaceFields(const DaemonConfig& from, DaemonConfig* to) {
+  to->sourceFile = from.sourceFile;
+  to->scene = from.scene;
+  to->calibration.camera = from.calibration.camera;
+  to->calibration.autoCalibrate = from.calibration.autoCalibrate;
+  to->logLevel = from.logLevel;
+}
+
+// Defaults made explicit, so an omitted key and its default value compare equal.
+DaemonConfig resolvedPaths(DaemonConfig c) {
+  c.calibration.file = c.calibrationFilePath();
+  c.controlSocket = c.controlSocketPath();
+  c.cacheDir = c.cacheDirPath();
+  return c;
+}
+
+}  // namespace
+
+std::vector<std::string> sectionsNeedingRestart(const DaemonConfig& running,
+                                                const DaemonConfig& next) {
+  DaemonConfig a = resolvedPaths(running), b = resolvedPaths(next);
+  copyInPlaceFields(a, &b);  // b now differs from a only where a restart is needed
+  std::vector<std::string> sections;
+  if (!(a.display == b.display)) sections.push_back("display");
+  if (!(a.hardware == b.hardware)) sections.push_back("hardware");
+  if (!(a.calibration == b.calibration)) sections.push_back("calibration");
+  // Whatever is left ([daemon] and any top-level field) is compared as a whole too.
+  b.display = a.display;
+  b.hardware = a.hardware;
+  b.calibration = a.calibration;
+  if (!(a == b)) sections.push_back("daemon");
+  return sections;
+}
+
+DaemonConfig withInPlaceChanges(const DaemonConfig& running, const DaemonConfig& next) {
+  DaemonConfig applied = running;
+  copyInPlaceFields(next, &applied);
+  applied.sourceFile = running.sourceFile;
+  return applied;
+}
+
 DisplayModel nominalDisplayOf(const DisplayConfig& d) {
-  if (!d.file.empty()) return loadDisplayModel(d.file);
+  if (!d.file.empty()) {
+    DisplayModel model = loadDisplayModel(d.file);
+    checkDisplaySize(model, d);
+    return model;
+  }
   NominalDisplayOptions o;
   o.preset = d.preset;
   o.modules = d.modules;
   o.width = d.width;
   o.height = d.height;
-  return makeNominalDisplay(o);
+  DisplayModel model = makeNominalDisplay(o);
+  checkDisplaySize(model, d);
+  return model;
 }
 
 std::string linkSpecOf(const HardwareConfig& hardware, int modules) {

@@ -28,6 +28,7 @@ struct DisplayConfig {
   std::string file;
   std::optional<int> modules;
   std::optional<int> width, height;
+  bool operator==(const DisplayConfig&) const = default;
 };
 
 struct HardwareConfig {
@@ -38,18 +39,21 @@ struct HardwareConfig {
   std::string dump;                 // our own simulator: where it saves what the modules show
   int vid = 0, pid = 0;             // usb
   std::map<std::string, int> serialToModule;  // usb
+  bool operator==(const HardwareConfig&) const = default;
 };
 
 struct CalibrationConfig {
   std::string file;           // the installed calibration (empty: in cache_dir)
   std::string camera;         // camera metadata (intrinsics, tape-measured stations)
   bool autoCalibrate = true;  // calibrate at start when there is no valid calibration
+  bool operator==(const CalibrationConfig&) const = default;
 };
 
 struct SceneConfig {
   std::string script = "cornell";
   double fps = 30.0;
   std::map<std::string, double> parameters;
+  bool operator==(const SceneConfig&) const = default;
 };
 
 struct DaemonConfig {
@@ -61,6 +65,7 @@ struct DaemonConfig {
   std::string controlSocket;  // empty → defaultControlSocketPath()
   std::string cacheDir;       // empty → defaultCacheDir()
   std::string logLevel = "info";
+  bool operator==(const DaemonConfig&) const = default;
 
   // Throws InputError naming the key (no line: values set in code).
   void validate() const;
@@ -69,7 +74,26 @@ struct DaemonConfig {
   std::string calibrationFilePath() const;
 };
 
+// What a running daemon takes from a reloaded config without being built again: the scene and
+// its parameters, the camera metadata, auto-calibrate, the log level (one list, in
+// daemon_config.cpp). Any other difference needs a restart.
+//
+// The sections ("display", "hardware", "calibration", "daemon") in which `next` differs from
+// `running` in something that needs a restart. Whole sections are compared (paths as resolved),
+// so a field added later restarts the daemon unless it joins the in-place list.
+std::vector<std::string> sectionsNeedingRestart(const DaemonConfig& running,
+                                                const DaemonConfig& next);
+// `running` with the in-place fields of `next`.
+DaemonConfig withInPlaceChanges(const DaemonConfig& running, const DaemonConfig& next);
+
+// The most pixels all modules together may have: what the frames, the ray textures and their
+// cache cost grows with (the `default` display has 72 × 1024×768 = 57 M).
+constexpr long long kMaxDisplayPixels = 128ll * 1024 * 1024;
+constexpr int kMaxDisplayModules = 1024;
+
 // The nominal display the config names (a built-in preset with its overrides, or a file).
+// Throws InputError naming the key (display.modules, display.resolution, display.file) when
+// the display is larger than the limits above, before anything of its size is allocated.
 DisplayModel nominalDisplayOf(const DisplayConfig& display);
 
 // The link the hardware section names: "usb:VID:PID:SERIAL,..." (serials in module order) or

@@ -36,10 +36,12 @@ struct StateSnapshot {
 
 class StateMachine {
  public:
-  // Moves to `next` if the transition is legal; a bug otherwise (PARALLAX_CHECK).
+  // Moves to `next` if the transition table (daemon_state.cpp) allows it; an illegal one is a
+  // bug in the caller: InternalError naming both states, and the state does not change.
   void enter(DaemonState next, std::string stage = {});
   void setStage(std::string stage);
-  // Records a stage failure; the state goes to `fallback` (the last good one, or kError).
+  // Records a stage failure; the state goes to `fallback` (the last good one, or kError),
+  // through the same table as enter().
   void fail(const std::string& stage, const std::string& error, DaemonState fallback);
   DaemonState state() const;
   StateSnapshot snapshot() const;
@@ -47,6 +49,8 @@ class StateMachine {
   static bool legal(DaemonState from, DaemonState to);
 
  private:
+  void moveTo(DaemonState next);  // mutex_ held
+
   mutable std::mutex mutex_;
   DaemonState state_ = DaemonState::kStarting;
   std::string stage_;

@@ -40,6 +40,7 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
   const parallax::DisplayModel nominal = nominalDisplayOf(config.display);
   std::string linkSpec = linkSpecOf(config.hardware, static_cast<int>(nominal.modules.size()));
   std::unique_ptr<SimhwChild> simulator;
+  std::string simulatorCamera;
   if (linkSpec.empty()) {
     const std::string folder =
         std::filesystem::path(config.controlSocketPath()).parent_path().string();
@@ -48,14 +49,15 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
                                              config.cacheDirPath());
     linkSpec = simulator->linkSpec();
     // What a real installation measures once; the daemon never sees the simulator's truth.
-    if (config.calibration.camera.empty())
-      config.calibration.camera = simulator->cameraMetadataPath();
+    // Kept apart from the config, so a reload that names no camera still has it.
+    simulatorCamera = simulator->cameraMetadataPath();
   }
 
   std::atomic<bool> stop{false};
   ConductorOptions options;
   options.config = config;
   options.linkSpec = linkSpec;
+  options.simulatorCamera = simulatorCamera;
   options.onReady = [&notifier] {
     notifier.ready();
     spdlog::info("parallaxd ready");

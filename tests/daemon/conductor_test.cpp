@@ -72,10 +72,7 @@ class ConductorTest : public ::testing::Test {
     o.config.calibration.autoCalibrate = false;
     o.config.calibration.camera = camera_;
     o.linkSpec = sim_->spec();
-    o.link.ackTimeoutMs = 1000;
-    o.link.reconnectAttempts = 20;
-    o.link.reconnectDelayMs = 10;
-    o.link.linkDownRetryMs = 0;
+    o.link = link_;
     o.keepAliveMs = 100;
     o.onReady = [this] { ready_ = true; };
     conductor_ = std::make_unique<Conductor>(o);
@@ -113,6 +110,14 @@ class ConductorTest : public ::testing::Test {
   fs::path folder_;
   std::string script_;
   std::string camera_;  // camera.json for calibrating (empty: the daemon cannot calibrate)
+  hw::LinkOptions link_ = [] {
+    hw::LinkOptions o;
+    o.ackTimeoutMs = 1000;
+    o.reconnectAttempts = 20;
+    o.reconnectDelayMs = 10;
+    o.linkDownRetryMs = 0;
+    return o;
+  }();
   std::unique_ptr<hw::InProcessSimhw> sim_;
   std::unique_ptr<Conductor> conductor_;
   std::thread thread_;
@@ -311,6 +316,113 @@ TEST_F(ConductorTest, CancelledCalibrationKeepsTheInstalledOneAndBringsTheSceneB
   stopConductor();
   sim_->stop();
   EXPECT_EQ(sim_->hardware().shownFrame(1).pixels, before);
+}
+
+// Every request is checked against the request table before it runs: unknown keys are refused
+// naming the key, integers are range-checked before they are narrowed (module 4294967299 is not
+// module 3, -4294967296 not module 0), and a view's size is an integer in range (issue 18,
+// items 11 and 17).
+TEST_F(ConductorTest, RequestsAreCheckedAgainstTheTable) {
+  startConductor();
+  waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });
+  auto refusedNaming = [&](const json& request, const std::string& key) {
+    const json r = ask(request);
+    EXPECT_EQ(r["ok"], false) << request.dump() << " -> " << r.dump();
+    const std::string error = r.value("error", "");
+    EXPECT_EQ(error.rfind(key + ":", 0), 0u) << request.dump() << " -> " << error;
+  };
+  const std::string out = (folder_ / "f.png").string();
+  refusedNaming({{"request", "frame"}, {"module", 4294967299ull}, {"path", out}}, "module");
+  refusedNaming({{"request", "frame"}, {"module", -4294967296ll}, {"path", out}}, "module");
+  refusedNaming({{"request", "frame"}, {"module", 1.5}, {"path", out}}, "module");
+  refusedNaming({{"request", "calibrate"}, {"module", -4294967296ll}}, "module");
+  refusedNaming({{"request", "identify"}, {"module", 4294967297ull}}, "module");
+  refusedNaming({{"request", "frame"}, {"module", 0}, {"pth", out}}, "pth");
+  refusedNaming({{"request", "status"}, {"verbose", true}}, "verbose");
+  refusedNaming({{"request", "view"}, {"x", 0.1}, {"width", 1e10}}, "width");
+  refusedNaming({{"request", "view"}, {"x", 0.1}, {"width", "big"}}, "width");
+  refusedNaming({{"request", "view"}, {"x", 0.1}, {"height", 4294967296ull}}, "height");
+  refusedNaming({{"request", "set"}, {"name", "unused"}, {"value", "3"}}, "value");
+  refusedNaming({{"request", "load"}, {"scene", "cornell"}, {"parameters", {{"a", "x"}}}},
+                "parameters.a");
+  refusedNaming({{"request", "dance"}}, "request");
+  EXPECT_FALSE(fs::exists(out));
+  EXPECT_EQ(ask({{"request", "status"}})["state"], "playing");
+  EXPECT_FALSE(ask({{"request", "status"}}).contains("showing")) << "identify must not have run";
+
+  // The error and the help list the table, all of it.
+  const std::string unknown = ask({{"request", "dance"}})["error"];
+  const std::string help = controlRequestHelp();
+  for (const RequestSpec& spec : controlRequests()) {
+    EXPECT_NE(unknown.find(std::string(spec.name)), std::string::npos) << spec.name;
+    EXPECT_NE(help.find("  " + std::string(spec.name)), std::string::npos) << spec.name;
+    EXPECT_NE(spec.handler, nullptr) << spec.name;
+  }
+  EXPECT_EQ(controlRequests().size(), 15u);
+}
+
+// `frame` and `view` write where a client says, but never through a symlink, never into a
+// folder they would have to create, never relative to the daemon's working folder (issue 18,
+// item 12).
+TEST_F(ConductorTest, OutputPathsDoNotFollowLinksOrCreateFolders) {
+  startConductor();
+  waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });
+  const fs::path victim = folder_ / "victim.txt";
+  std::ofstream(victim) << "keep me";
+  fs::create_symlink(victim, folder_ / "link.png");
+  json r = ask({{"request", "frame"}, {"module", 0}, {"path", (folder_ / "link.png").string()}});
+  EXPECT_EQ(r["ok"], false) << r.dump();
+  EXPECT_NE(r.value("error", "").find("symbolic link"), std::string::npos) << r.dump();
+  std::ifstream in(victim);
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in), {}), "keep me");
+
+  r = ask(
+      {{"request", "view"}, {"x", 0.0}, {"path", (folder_ / "no" / "such" / "v.png").string()}});
+  EXPECT_EQ(r["ok"], false) << r.dump();
+  EXPECT_FALSE(fs::exists(folder_ / "no"));
+
+  r = ask({{"request", "frame"}, {"module", 0}, {"path", "relative.png"}});
+  EXPECT_EQ(r["ok"], false) << r.dump();
+  EXPECT_NE(r.value("error", "").find("absolute"), std::string::npos) << r.dump();
+  EXPECT_FALSE(fs::exists("relative.png"));
+
+  // A plain absolute path works, and so does the default one in the cache folder.
+  r = ask({{"request", "frame"}, {"module", 0}, {"path", (folder_ / "ok.png").string()}});
+  EXPECT_EQ(r["ok"], true) << r.dump();
+  EXPECT_TRUE(fs::is_regular_file(folder_ / "ok.png"));
+  r = ask({{"request", "frame"}, {"module", 1}});
+  ASSERT_EQ(r["ok"], true) << r.dump();
+  EXPECT_TRUE(fs::is_regular_file(r["path"].get<std::string>()));
+  // An existing file is replaced.
+  r = ask({{"request", "frame"}, {"module", 2}, {"path", (folder_ / "ok.png").string()}});
+  EXPECT_EQ(r["ok"], true) << r.dump();
+}
+
+// `status` tells the truth about the link: down, with the reason, while the modules are gone;
+// up again once they are back (issue 18, item 10).
+TEST_F(ConductorTest, StatusSaysWhenTheLinkIsDown) {
+  link_.reconnectAttempts = 2;  // a dead link is noticed in a few keep-alives
+  startConductor();
+  waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });
+  json status = ask({{"request", "status"}});
+  EXPECT_EQ(status["link"]["up"], true) << status.dump();
+  sim_->stop();
+  for (int i = 0; i < 1000; ++i) {
+    status = ask({{"request", "status"}});
+    if (status["link"]["up"] == false) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(status["link"]["up"], false) << status.dump();
+  EXPECT_EQ(status["link"]["health"], "down") << status.dump();
+  EXPECT_FALSE(status["link"]["error"].get<std::string>().empty()) << status.dump();
+  sim_->start();
+  for (int i = 0; i < 1000; ++i) {
+    status = ask({{"request", "status"}});
+    if (status["link"]["up"] == true) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(status["link"]["up"], true) << status.dump();
+  EXPECT_EQ(status["link"]["error"], "") << status.dump();
 }
 
 }  // namespace

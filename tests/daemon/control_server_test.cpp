@@ -8,6 +8,7 @@
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -36,6 +37,15 @@ class Client {
   }
   ~Client() { ::close(fd_); }
   bool connected() const { return connected_; }
+  // True when the server closed the connection (after any lines still buffered).
+  bool closedByServer() {
+    char c;
+    return ::recv(fd_, &c, 1, 0) == 0;
+  }
+  bool trySend(const std::string& bytes) {
+    return ::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL) ==
+           static_cast<ssize_t>(bytes.size());
+  }
   void send(const std::string& bytes) {
     ASSERT_EQ(::send(fd_, bytes.data(), bytes.size(), MSG_NOSIGNAL),
               static_cast<ssize_t>(bytes.size()));
@@ -44,7 +54,10 @@ class Client {
     while (buffer_.find('\n') == std::string::npos) {
       char chunk[4096];
       const ssize_t n = ::recv(fd_, chunk, sizeof chunk, 0);
-      if (n <= 0) return nullptr;
+      if (n <= 0) {
+        if (n < 0) std::fprintf(stderr, "recv: %s\n", std::strerror(errno));
+        return nullptr;
+      }
       buffer_.append(chunk, static_cast<size_t>(n));
     }
     const std::string line = buffer_.substr(0, buffer_.find('\n'));
@@ -144,6 +157,103 @@ TEST(ControlServer, RefusesALiveSocketAndReplacesAStaleOne) {
   Client c(path);
   c.send("{\"request\": \"x\"}\n");
   EXPECT_EQ(c.reply()["echo"], "x");
+}
+
+// Opens `idle` connections that never send a byte and `halfLine` that send half a request, in
+// a child process (another client to the per-client limit); returns its pid once they are all
+// connected. The child holds them until it is killed.
+pid_t holdConnectionsInAChild(const std::string& path, int idle, int halfLine) {
+  int ready[2];
+  EXPECT_EQ(::pipe(ready), 0);
+  const pid_t child = ::fork();
+  if (child == 0) {
+    // Only system calls from here (the parent has threads).
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::strncpy(addr.sun_path, path.c_str(), sizeof addr.sun_path - 1);
+    for (int i = 0; i < idle + halfLine; ++i) {
+      const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+      if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) ::_exit(1);
+      if (i >= idle) {
+        const char half[] = "{\"request\": \"sta";
+        if (::send(fd, half, sizeof half - 1, MSG_NOSIGNAL) < 0) ::_exit(1);
+      }
+    }
+    const char ok = 'k';
+    if (::write(ready[1], &ok, 1) != 1) ::_exit(1);
+    for (;;) ::pause();
+  }
+  ::close(ready[1]);
+  char byte = 0;
+  EXPECT_EQ(::read(ready[0], &byte, 1), 1) << "the child could not connect";
+  ::close(ready[0]);
+  return child;
+}
+
+// Issue 18, item 8: idle and half-line connections, from another process and from this one,
+// more of them than the server has places, do not lock out a client that uses the socket.
+TEST(ControlServer, IdleAndHalfLineConnectionsDoNotLockOthersOut) {
+  const std::string path = tempSocket("crowd.sock");
+  ControlServer server(path, echo);
+  // Five other processes, each within the per-client limit, together beyond the total one.
+  std::vector<pid_t> children;
+  for (int i = 0; i < 5; ++i) children.push_back(holdConnectionsInAChild(path, 8, 7));
+  std::vector<std::unique_ptr<Client>> ours;
+  for (int i = 0; i < 24; ++i) {
+    ours.push_back(std::make_unique<Client>(path));
+    if (i % 2) ours.back()->send("{\"request\": ");
+  }
+  for (int k = 0; k < 5; ++k) {
+    Client c(path);
+    ASSERT_TRUE(c.connected());
+    c.send("{\"request\": \"served" + std::to_string(k) + "\"}\n");
+    const nlohmann::json r = c.reply();
+    EXPECT_EQ(r["echo"], "served" + std::to_string(k)) << r.dump();
+  }
+  // A client inside a request keeps its place while newcomers push idle ones out.
+  Client slow(path);
+  slow.send("{\"request\": \"slow\"}\n");
+  nlohmann::json slowReply;
+  std::thread reader([&] { slowReply = slow.reply(); });
+  for (int i = 0; i < 80; ++i) {
+    ours.push_back(std::make_unique<Client>(path));
+    ours.back()->send("{");
+  }
+  reader.join();
+  EXPECT_EQ(slowReply["echo"], "slow") << slowReply.dump();
+  for (pid_t child : children) {
+    ::kill(child, SIGKILL);
+    ::waitpid(child, nullptr, 0);
+  }
+}
+
+TEST(ControlServer, IdleAndUnfinishedLinesTimeOut) {
+  const std::string path = tempSocket("timeouts.sock");
+  ControlServerLimits limits;
+  limits.idleTimeout = std::chrono::milliseconds(300);
+  limits.partialLineTimeout = std::chrono::milliseconds(300);
+  ControlServer server(path, echo, limits);
+  Client idle(path), half(path), trickle(path), busy(path);
+  half.send("{\"request\": \"st");
+  // A line sent a byte at a time never finishes in time: its deadline runs from the first byte.
+  const std::string line = "{\"request\": \"trickle\"}\n";
+  for (size_t i = 0; i < 8; ++i) {
+    trickle.trySend(line.substr(i, 1));  // fails once the server has closed it
+    busy.send("{\"request\": \"busy\"}\n");
+    EXPECT_EQ(busy.reply()["echo"], "busy");
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  nlohmann::json r = idle.reply();
+  EXPECT_NE(r.value("error", "").find("idle"), std::string::npos) << r.dump();
+  EXPECT_TRUE(idle.closedByServer());
+  r = half.reply();
+  EXPECT_NE(r.value("error", "").find("unfinished"), std::string::npos) << r.dump();
+  EXPECT_TRUE(half.closedByServer());
+  r = trickle.reply();
+  EXPECT_NE(r.value("error", "").find("unfinished"), std::string::npos) << r.dump();
+  // The one that kept talking is still served.
+  busy.send("{\"request\": \"still\"}\n");
+  EXPECT_EQ(busy.reply()["echo"], "still");
 }
 
 }  // namespace

@@ -126,5 +126,60 @@ TEST(DaemonConfig, MissingFileIsNamed) {
   }
 }
 
+// A reload restarts the daemon for every change it cannot apply in place, found by comparing
+// whole sections: fields that were once compared one by one (seed, faults, the serial map)
+// restart it too, and what is applied in place (scene, camera, log level) does not.
+TEST(DaemonConfig, ReloadRestartsForAnyChangeOutsideTheInPlaceList) {
+  const DaemonConfig running = parseDaemonConfig("[daemon]\nsocket = \"/tmp/a.sock\"\n", "a");
+  auto restartFor = [&](const std::string& text) {
+    return sectionsNeedingRestart(running, parseDaemonConfig(text, "b"));
+  };
+  const std::string socket = "[daemon]\nsocket = \"/tmp/a.sock\"\n";
+  EXPECT_TRUE(restartFor(socket).empty());
+  using Sections = std::vector<std::string>;
+  EXPECT_EQ(restartFor(socket + "[hardware]\nseed = 8\n"), Sections{"hardware"});
+  EXPECT_EQ(restartFor(socket + "[hardware]\nfaults = [\"1:disconnect\"]\n"), Sections{"hardware"});
+  EXPECT_EQ(restartFor(socket + "[hardware]\ndump = \"/tmp/d\"\n"), Sections{"hardware"});
+  EXPECT_EQ(restartFor(socket + "[display]\nmodules = 4\n"), Sections{"display"});
+  EXPECT_EQ(restartFor(socket + "[calibration]\nfile = \"/tmp/c.json\"\n"),
+            Sections{"calibration"});
+  EXPECT_EQ(restartFor("[daemon]\nsocket = \"/tmp/b.sock\"\n"), Sections{"daemon"});
+  // In place: nothing to restart for.
+  EXPECT_TRUE(restartFor(socket + "[calibration]\ncamera = \"/tmp/cam.json\"\nauto = false\n"
+                                  "[scene]\nscript = \"shapes\"\nfps = 10\n")
+                  .empty());
+  EXPECT_TRUE(restartFor(socket + "log_level = \"debug\"\n").empty());
+  // An omitted key and its default are the same config.
+  DaemonConfig explicitCache = running;
+  explicitCache.cacheDir = running.cacheDirPath();
+  EXPECT_TRUE(sectionsNeedingRestart(running, explicitCache).empty());
+
+  HardwareConfig usb;
+  usb.kind = "usb";
+  usb.vid = 1;
+  usb.pid = 2;
+  DaemonConfig a = running, b = running;
+  a.hardware = b.hardware = usb;
+  b.hardware.serialToModule = {{"SERIAL", 0}};
+  EXPECT_EQ(sectionsNeedingRestart(a, b), Sections{"hardware"});
+
+  const DaemonConfig applied = withInPlaceChanges(
+      running, parseDaemonConfig(socket + "[calibration]\ncamera = \"/tmp/cam.json\"\n", "b"));
+  EXPECT_EQ(applied.calibration.camera, "/tmp/cam.json");
+  EXPECT_EQ(applied.sourceFile, "a");
+}
+
+// A display too large to hold is refused from the config, naming the key, before anything of
+// its size is allocated (issue 18, item 9).
+TEST(DaemonConfig, DisplaySizeIsBoundedBeforeAllocation) {
+  InputError e = errorOf("[display]\nmodules = 1024\nresolution = [8192, 8192]\n");
+  EXPECT_EQ(e.location().field, "display.modules") << e.what();
+  EXPECT_NE(std::string(e.what()).find("modules × resolution"), std::string::npos) << e.what();
+  e = errorOf("[display]\npreset = \"default\"\nresolution = [8192, 8192]\n");
+  EXPECT_EQ(e.location().field, "display.resolution") << e.what();
+  // The largest built-in display fits.
+  EXPECT_NO_THROW(parseDaemonConfig("[display]\npreset = \"default\"\n", "ok.toml"));
+}
+
 }  // namespace
 }  // namespace parallax::daemon

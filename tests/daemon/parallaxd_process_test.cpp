@@ -304,5 +304,62 @@ TEST_F(ParallaxdProcess, SighupRebuildsForANewDisplayRefusesABadOne) {
   EXPECT_TRUE(WIFEXITED(exit) && WEXITSTATUS(exit) == 0) << daemon.log();
 }
 
+// Waits until the daemon says it is calibrating and has taken a picture or two.
+json waitForPictures(const std::string& socket, int ms = 60000) {
+  json status;
+  for (int i = 0; i < ms / 20; ++i) {
+    status = ask(socket, {{"request", "status"}});
+    if (status.is_object() && status["state"] == "calibrating" &&
+        status["stage"].get<std::string>().rfind("pictures: 2", 0) == 0)
+      return status;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ADD_FAILURE() << "never saw the calibration take pictures; last status: " << status.dump();
+  return status;
+}
+
+// Issue 18, item 6: a reload keeps the camera of the simulator parallaxd started, so
+// `calibrate` still works after it.
+TEST_F(ParallaxdProcess, CalibrateWorksAfterAReload) {
+  Daemon daemon(folder_, config(), {runtimeEnv()});
+  waitForStats(socket_, [](const json& s) { return s["module_frames_sent"] == 4; });
+  ASSERT_EQ(::kill(daemon.pid(), SIGHUP), 0);
+  const json reloaded = ask(socket_, {{"request", "reload"}});
+  ASSERT_EQ(reloaded["ok"], true) << reloaded.dump();
+  json reply;
+  std::thread calibrating([&] {
+    reply = daemon::tryAskDaemon(socket_, {{"request", "calibrate"}}, 600.0).value_or(nullptr);
+  });
+  for (int i = 0; i < 500 && !reply.is_object(); ++i) {
+    const json status = ask(socket_, {{"request", "status"}});
+    if (status.is_object() && status["stage"].get<std::string>().rfind("pictures: 2", 0) == 0)
+      break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  if (!reply.is_object()) EXPECT_EQ(ask(socket_, {{"request", "cancel"}})["ok"], true);
+  calibrating.join();
+  EXPECT_EQ(reply["ok"], false) << reply.dump();
+  EXPECT_NE(reply.value("error", "").find("cancelled"), std::string::npos)
+      << "the calibration did not run: " << reply.dump() << daemon.log();
+  ::kill(daemon.pid(), SIGTERM);
+  EXPECT_NE(daemon.waitExit(20000), -1);
+}
+
+// Issue 18, item 7: SIGTERM during a calibration stops it at its next step: nothing is
+// installed and the daemon exits, well before the calibration would have finished.
+TEST_F(ParallaxdProcess, SigtermStopsARunningCalibration) {
+  std::string text = config();
+  text.replace(text.find("auto = false"), 12, "auto = true");
+  Daemon daemon(folder_, text, {runtimeEnv()});
+  waitForPictures(socket_);
+  ASSERT_EQ(::kill(daemon.pid(), SIGTERM), 0);
+  const int exit = daemon.waitExit(15000);
+  ASSERT_NE(exit, -1) << "still running 15 s after SIGTERM\n" << daemon.log();
+  EXPECT_TRUE(WIFEXITED(exit) && WEXITSTATUS(exit) == 0) << daemon.log();
+  EXPECT_FALSE(fs::exists(folder_ / "calibration.json")) << daemon.log();
+  EXPECT_EQ(daemon.log().find("calibration installed"), std::string::npos) << daemon.log();
+  EXPECT_FALSE(fs::exists(socket_));
+}
+
 }  // namespace
 }  // namespace parallax::daemon

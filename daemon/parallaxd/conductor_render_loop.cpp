@@ -1,0 +1,199 @@
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+
+#include "daemon/parallaxd/conductor.h"
+#include "daemon/parallaxd/installer_patterns.h"
+#include "daemon/parallaxd/module_renderer.h"
+
+// The conductor's render loop: frame pacing, rendering, pushing to the modules, keeping the
+// link alive and knowing whether it works.
+
+namespace parallax::daemon {
+
+std::chrono::milliseconds Conductor::timeToNextTurn() const {
+  using std::chrono::milliseconds;
+  const auto idle = milliseconds(std::min(250, options_.keepAliveMs));
+  if (state_.state() != DaemonState::kPlaying || !script_ || !script_->script().animated())
+    return idle;
+  const auto left = std::chrono::duration_cast<milliseconds>(nextFrameDue_ - Clock::now());
+  return std::clamp(left, milliseconds(0), idle);
+}
+
+void Conductor::turn() {
+  if (!link_ && Clock::now() - lastLinkTry_ > std::chrono::seconds(2)) connectLink(0);
+  if (state_.state() == DaemonState::kPlaying && script_ && overlay_.empty()) {
+    if (script_->reloadIfChanged() == ScriptedScene::Reload::kFailed) {
+      sceneError_ = script_->lastError();
+      spdlog::error("scene reload failed, the previous version keeps playing: {}", sceneError_);
+    }
+    const bool animated = script_->script().animated();
+    bool due = !animated;
+    if (animated && Clock::now() >= nextFrameDue_) {
+      // Frame pacing: the animation follows the wall clock; periods that passed while the
+      // previous frame was still being made are dropped (counted), not made up for.
+      const double period = 1.0 / options_.config.scene.fps;
+      const double late = std::chrono::duration<double>(Clock::now() - nextFrameDue_).count();
+      const auto missed = static_cast<uint64_t>(std::floor(late / period));
+      stats_.droppedFrames += missed;
+      const double step = period * static_cast<double>(missed + 1);
+      nextFrameDue_ +=
+          std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(step));
+      if (renderedSceneVersion_ != 0) sceneTime_ += step;
+      if (!script_->setTime(sceneTime_)) sceneError_ = script_->lastError();
+      due = true;
+    }
+    if (due && textures_.size() == nominal_.modules.size() &&
+        (script_->version() != renderedSceneVersion_ ||
+         texturesVersion_ != renderedTexturesVersion_)) {
+      renderAndPush();
+    }
+  }
+  keepLinkAlive();
+  if (needsPush_ && link_ && !currentImages_.empty()) {
+    ++stats_.resendsAfterReconnect;
+    push(currentImages_);
+  }
+}
+
+void Conductor::renderAndPush() {
+  const auto started = Clock::now();
+  try {
+    const PhysicalScene physical(script_->scene(), calibration_.displayableBox);
+    DisplayFrame frame = renderDisplayFrame(physical, textures_, options_.render);
+    stats_.render.add(frame.renderMs);
+    stats_.encode.add(frame.encodeMs);
+    ++stats_.displayFrames;
+    lastCounters_ = frame.counters;
+    currentImages_ = std::move(frame.images);
+    renderedSceneVersion_ = script_->version();
+    renderedTexturesVersion_ = texturesVersion_;
+  } catch (const std::exception& e) {
+    // Nothing of a failed frame reaches the modules: they keep the last complete one.
+    ++stats_.renderFailures;
+    sceneError_ = e.what();
+    renderedSceneVersion_ = script_->version();
+    spdlog::error("render failed, the modules keep the previous frame: {}", e.what());
+    return;
+  }
+  if (link_) {
+    push(currentImages_);
+    stats_.latency.add(std::chrono::duration<double, std::milli>(Clock::now() - started).count());
+  } else {
+    needsPush_ = true;
+  }
+}
+
+void Conductor::push(const std::vector<std::shared_ptr<const hw::Image>>& images) {
+  const auto started = Clock::now();
+  needsPush_ = false;
+  try {
+    for (size_t i = 0; i < images.size(); ++i) link_->submit(static_cast<int>(i), images[i]);
+    link_->flush();
+  } catch (const std::exception& e) {
+    spdlog::error("push failed: {}", e.what());
+    needsPush_ = true;
+  }
+  std::string failure;
+  bool delivered = false;
+  for (const hw::FrameOutcome& o : link_->takeOutcomes()) {
+    if (o.status == hw::FrameStatus::kFailed && failure.empty())
+      failure = fmt::format("module {}: {}", o.module, o.reason);
+    if (o.status == hw::FrameStatus::kDelivered || o.status == hw::FrameStatus::kSkippedUnchanged)
+      delivered = true;
+    switch (o.status) {
+      case hw::FrameStatus::kDelivered:
+        ++stats_.moduleFramesSent;
+        break;
+      case hw::FrameStatus::kSkippedUnchanged:
+        ++stats_.moduleFramesUnchanged;
+        break;
+      case hw::FrameStatus::kFailed:
+        ++stats_.moduleFramesFailed;
+        needsPush_ = true;  // try again on the next turn (the link may be back by then)
+        break;
+      default:
+        break;
+    }
+  }
+  stats_.push.add(std::chrono::duration<double, std::milli>(Clock::now() - started).count());
+  lastLinkActivity_ = Clock::now();
+  if (!failure.empty()) {
+    noteLinkHealth(LinkHealth::kStalled, "frames fail: " + failure);
+  } else if (delivered) {
+    noteLinkHealth(LinkHealth::kUp, "");
+  }
+  if (link_->sessions() != linkSessions_) {
+    // The link reconnected during the push: LinkClient resent what was in flight, but a
+    // module that restarted may have lost frames delivered before; send them all again.
+    linkSessions_ = link_->sessions();
+    needsPush_ = true;
+  }
+}
+
+void Conductor::keepLinkAlive() {
+  if (!link_) return;
+  if (Clock::now() - lastLinkActivity_ >= std::chrono::milliseconds(options_.keepAliveMs)) {
+    // Reconnects by itself when the link dropped; false when no module answers even then.
+    if (link_->ping()) {
+      if (!needsPush_) noteLinkHealth(LinkHealth::kUp, "");
+    } else {
+      noteLinkHealth(LinkHealth::kDown, "the modules do not answer the keep-alive");
+    }
+    lastLinkActivity_ = Clock::now();
+  }
+  if (link_->sessions() != linkSessions_) {
+    // The link came back: the modules behind it may have restarted blank. Send them the
+    // current frames again (LinkClient forgot their content, so nothing is skipped).
+    spdlog::warn("link: reconnected (session {}); sending the current frames again",
+                 link_->sessions());
+    linkSessions_ = link_->sessions();
+    needsPush_ = !currentImages_.empty();
+  }
+}
+
+void Conductor::showOverlay(const std::string& kind, std::optional<int> module) {
+  std::vector<std::shared_ptr<const hw::Image>> images = currentImages_;
+  images.resize(nominal_.modules.size());
+  for (size_t i = 0; i < nominal_.modules.size(); ++i) {
+    const OpticalModule& m = nominal_.modules[i];
+    const int index = static_cast<int>(i);
+    if (!module || index == *module) {
+      images[i] =
+          encodeForLink(kind == "identify" ? identifyFrame(m.width, m.height, index, m.mirror)
+                                           : testCardFrame(m.width, m.height, index, m.mirror));
+    } else if (!images[i] || images[i]->width != m.width || images[i]->height != m.height) {
+      images[i] = encodeForLink(Frame(m.width, m.height));  // nothing shown there yet: black
+    }
+  }
+  currentImages_ = std::move(images);
+  overlay_ = kind;
+  renderedSceneVersion_ = 0;  // `play` renders the scene again
+  state_.enter(DaemonState::kPaused, kind);
+  if (link_) push(currentImages_);
+}
+
+void Conductor::finishInFlight() {
+  if (!link_) return;
+  try {
+    link_->flush();
+  } catch (const std::exception& e) {
+    spdlog::warn("link: {}", e.what());
+  }
+  link_->takeOutcomes();
+}
+
+void Conductor::noteLinkHealth(LinkHealth health, const std::string& problem) {
+  if (health != linkHealth_ || problem != linkError_) {
+    if (health == LinkHealth::kUp) {
+      spdlog::info("link: up again");
+    } else {
+      spdlog::warn("link: {}: {}", linkHealthName(health), problem);
+    }
+  }
+  linkHealth_ = health;
+  linkError_ = problem;
+}
+
+}  // namespace parallax::daemon

@@ -1,0 +1,277 @@
+#include <fmt/format.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "common/input_error.h"
+#include "daemon/parallaxd/conductor.h"  // IWYU pragma: associated
+#include "daemon/parallaxd/module_renderer.h"
+#include "daemon/parallaxd/output_file.h"
+#include "tracer/observer_view.h"
+
+// The control socket's requests: the table every request is declared in once, the entry
+// that checks a request against it, and one handler per request.
+
+namespace parallax::daemon {
+namespace {
+
+using Reply = nlohmann::json;
+
+Reply ok(Reply j = Reply::object()) {
+  j["ok"] = true;
+  return j;
+}
+
+Reply refused(const std::string& why) { return {{"ok", false}, {"error", why}}; }
+
+}  // namespace
+
+const std::vector<RequestSpec>& controlRequests() {
+  using C = Conductor;
+  using K = ArgKind;
+  constexpr Served kAtOnce = Served::kAtOnce;
+  constexpr Served kQueued = Served::kOnConductorThread;
+  // The scene's parameters are bounded as in the config ([scene.parameters]).
+  constexpr double kParameterLimit = 1e9;
+  // A view is made in memory at once: a bound a client cannot turn into gigabytes.
+  constexpr double kMaxViewSide = 8192;
+  static const std::vector<RequestSpec> table = {
+      {"status",
+       {},
+       "state, stage, calibration, link health, scene, last error",
+       kAtOnce,
+       &C::answerStatus},
+      {"stats",
+       {},
+       "frame counts and timings of the render loop and the link",
+       kAtOnce,
+       &C::answerStats},
+      {"calibrate",
+       {{"module", K::kModule, false, 0, 0, "refit this module only, the others held"}},
+       "calibrate through the link and install the fit (minutes)",
+       kQueued,
+       &C::answerCalibrate},
+      {"cancel",
+       {},
+       "stop a running calibration; the installed one stays",
+       kAtOnce,
+       &C::answerCancel},
+      {"rollback", {}, "install the previous calibration again", kQueued, &C::answerRollback},
+      {"load",
+       {{"scene", K::kString, true, 0, 0, "library name (cornell, ...) or .lua file"},
+        {"parameters", K::kNumberMap, false, 0, 0, "the scene's parameters by name"}},
+       "load a scene script",
+       kQueued,
+       &C::answerLoad},
+      {"play", {}, "play the scene (ends identify and testcard)", kQueued, &C::answerPlay},
+      {"pause", {}, "hold the frame the modules show", kQueued, &C::answerPause},
+      {"set",
+       {{"name", K::kString, true, 0, 0, "a parameter the scene declares"},
+        {"value", K::kNumber, true, -kParameterLimit, kParameterLimit, "its new value"}},
+       "set a scene parameter",
+       kQueued,
+       &C::answerSet},
+      {"frame",
+       {{"module", K::kModule, true, 0, 0, "the module"},
+        {"path", K::kPath, false, 0, 0, "PNG to write (default: in the cache folder)"}},
+       "write what a module shows as a PNG",
+       kQueued,
+       &C::answerFrame},
+      {"view",
+       {{"x", K::kNumber, true, -100, 100, "the viewer's x on the observer line (m)"},
+        {"width", K::kInteger, false, 1, kMaxViewSide, "view pixels across"},
+        {"height", K::kInteger, false, 1, kMaxViewSide, "view pixels down"},
+        {"path", K::kPath, false, 0, 0, "PNG to write (default: in the cache folder)"}},
+       "write what a viewer on the observer line sees",
+       kQueued,
+       &C::answerView},
+      {"reload", {}, "read the config file and the scene script again", kQueued, &C::answerReload},
+      {"identify",
+       {{"module", K::kModule, false, 0, 0, "only this module"}},
+       "show each module's number (`play` returns to the scene)",
+       kQueued,
+       &C::answerIdentify},
+      {"testcard", {}, "show the test card on every module", kQueued, &C::answerTestcard},
+      {"shutdown",
+       {},
+       "stop the daemon (a running calibration is cancelled)",
+       kAtOnce,
+       &C::answerShutdown},
+  };
+  return table;
+}
+
+Reply Conductor::handle(const Reply& request) {
+  std::shared_ptr<Job> job;
+  try {
+    const std::string name =
+        request.contains("request") && request["request"].is_string() ? request["request"] : "";
+    const RequestSpec* spec = findControlRequest(name);
+    if (spec == nullptr) throw InputError({"", "request", 0}, unknownRequestMessage(name));
+    RequestArgs args = parseRequestArgs(*spec, request, static_cast<int>(nominal_.modules.size()));
+    // Answered at once: from the published snapshot, or a flag the conductor thread polls.
+    if (spec->served == Served::kAtOnce) return (this->*spec->handler)(args);
+    job = std::make_shared<Job>(Job{spec, std::move(args), {}});
+  } catch (const std::exception& e) {
+    return refused(e.what());
+  }
+  std::future<Reply> reply = job->reply.get_future();
+  {
+    // Queued even during a long start-up stage: answered once the loop runs.
+    std::lock_guard lock(jobsMutex_);
+    if (!acceptingJobs_ || stopAsked()) return refused("the daemon is stopping");
+    jobs_.push_back(job);
+  }
+  jobsChanged_.notify_all();
+  return reply.get();
+}
+
+// ---- answered at once (any thread) ----------------------------------------------------------
+
+Reply Conductor::answerStatus(const RequestArgs&) {
+  std::lock_guard lock(publishedMutex_);
+  return publishedStatus_;
+}
+
+Reply Conductor::answerStats(const RequestArgs&) {
+  std::lock_guard lock(publishedMutex_);
+  return publishedStats_;
+}
+
+Reply Conductor::answerShutdown(const RequestArgs&) {
+  shutdown_ = true;
+  cancel_ = true;
+  jobsChanged_.notify_all();
+  return ok({{"message", "stopping"}});
+}
+
+Reply Conductor::answerCancel(const RequestArgs&) {
+  // The conductor thread is inside the calibration. It stops at the next picture, stage or
+  // solver iteration; the installed calibration stays.
+  if (state_.snapshot().state != DaemonState::kCalibrating)
+    return refused("nothing to cancel: the daemon is not calibrating");
+  cancel_ = true;
+  return ok({{"message", "cancelling the calibration; the installed one stays"}});
+}
+
+// ---- queued to the conductor thread ---------------------------------------------------------
+
+Reply Conductor::answerCalibrate(const RequestArgs& args) {
+  const StageResult result = calibrate(args.module("module"));
+  if (!result.done()) return refused(result.error);
+  return ok({{"calibration", calibrationSource_},
+             {"hash", hashHex(texturesHash_)},
+             {"summary", result.summary}});
+}
+
+Reply Conductor::answerRollback(const RequestArgs&) {
+  const DisplayModel previous = store_.rollback(nominal_);
+  const StageResult result = regenerate(previous);
+  if (!result.done()) return refused(result.error);
+  calibration_ = previous;
+  calibrationSource_ = store_.path() + " (rolled back)";
+  return ok({{"calibration", calibrationSource_}, {"hash", hashHex(texturesHash_)}});
+}
+
+Reply Conductor::answerLoad(const RequestArgs& args) {
+  const StageResult result = loadScene(args.string("scene"), args.numberMap("parameters"));
+  if (!result.done()) return refused(result.error);
+  return ok({{"scene", sceneArgument_}});
+}
+
+Reply Conductor::answerPlay(const RequestArgs&) {
+  if (!script_) return refused("no scene loaded: " + sceneError_);
+  paused_ = false;
+  overlay_.clear();
+  nextFrameDue_ = Clock::now();
+  state_.enter(DaemonState::kPlaying);
+  return ok();
+}
+
+Reply Conductor::answerPause(const RequestArgs&) {
+  if (!script_) return refused("no scene loaded");
+  paused_ = true;
+  state_.enter(DaemonState::kPaused);
+  return ok();
+}
+
+Reply Conductor::answerSet(const RequestArgs& args) {
+  if (!script_) return refused("no scene loaded");
+  const std::string parameter = args.string("name");
+  const double value = args.number("value");
+  if (!script_->setParameter(parameter, value)) {
+    sceneError_ = script_->lastError();
+    return refused("the scene kept its previous state: " + sceneError_);
+  }
+  options_.config.scene.parameters[parameter] = value;
+  return ok();
+}
+
+Reply Conductor::answerFrame(const RequestArgs& args) {
+  const int m = *args.module("module");
+  if (m >= static_cast<int>(currentImages_.size())) {
+    throw InputError(
+        {"", "module", 0},
+        fmt::format("no frame for module {} ({} modules show frames)", m, currentImages_.size()));
+  }
+  std::string path = args.string("path");
+  if (path.empty()) {
+    const std::string folder =
+        std::filesystem::absolute(options_.config.cacheDirPath() + "/frames").string();
+    std::filesystem::create_directories(folder);  // the daemon's own folder
+    path = moduleFrameStem(folder, m) + ".png";
+  }
+  const std::shared_ptr<const hw::Image> shown = currentImages_[static_cast<size_t>(m)];
+  writeOutputFile(path, "path", [&](const std::string& file) { hw::writePng(*shown, file); });
+  return ok({{"path", path}, {"module", m}});
+}
+
+Reply Conductor::answerView(const RequestArgs& args) {
+  if (currentImages_.size() != calibration_.modules.size())
+    return refused("the modules show no frames yet");
+  const double x = args.number("x");
+  ObserverViewOptions vo;
+  vo.width = args.integer("width", vo.width);
+  vo.height = args.integer("height", vo.height);
+  vo.validate();
+  std::string path = args.string("path");
+  if (path.empty()) {
+    const std::string folder =
+        std::filesystem::absolute(options_.config.cacheDirPath() + "/views").string();
+    std::filesystem::create_directories(folder);  // the daemon's own folder
+    path = fmt::format("{}/view_x{:+.3f}.png", folder, x);
+  }
+  const Eigen::Vector3d viewer(x, calibration_.observer.y, calibration_.observer.z);
+  // From what the modules show (8-bit), back in linear light: the view includes quantisation.
+  std::vector<Frame> shown;
+  shown.reserve(currentImages_.size());
+  for (const auto& image : currentImages_) shown.push_back(frameShownBy(*image));
+  const Frame view = synthesizeObserverView(calibration_, shown, viewer, vo);
+  writeOutputFile(path, "path", [&](const std::string& file) { writePng(view, file); });
+  return ok({{"path", path}, {"x", x}});
+}
+
+Reply Conductor::answerReload(const RequestArgs&) {
+  if (!options_.config.sourceFile.empty())
+    applyConfig(loadDaemonConfig(options_.config.sourceFile));
+  if (script_ && script_->reloadIfChanged() == ScriptedScene::Reload::kFailed) {
+    sceneError_ = script_->lastError();
+    return refused("scene reload failed, the previous version keeps playing: " + sceneError_);
+  }
+  return ok(
+      {{"config", options_.config.sourceFile.empty() ? "built-in" : options_.config.sourceFile}});
+}
+
+Reply Conductor::answerIdentify(const RequestArgs& args) {
+  if (nominal_.modules.empty()) return refused("no display");
+  showOverlay("identify", args.module("module"));
+  return ok({{"message", "`play` returns to the scene"}});
+}
+
+Reply Conductor::answerTestcard(const RequestArgs&) {
+  if (nominal_.modules.empty()) return refused("no display");
+  showOverlay("testcard", std::nullopt);
+  return ok({{"message", "`play` returns to the scene"}});
+}
+
+}  // namespace parallax::daemon

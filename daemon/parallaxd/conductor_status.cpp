@@ -1,0 +1,78 @@
+#include "daemon/parallaxd/conductor.h"
+
+// What `status` and `stats` answer: built on the conductor thread after every turn and
+// request, published for the socket's threads.
+
+namespace parallax::daemon {
+
+std::string_view linkHealthName(LinkHealth health) {
+  switch (health) {
+    case LinkHealth::kUp:
+      return "up";
+    case LinkHealth::kStalled:
+      return "stalled";
+    case LinkHealth::kDown:
+      return "down";
+  }
+  return "unknown";
+}
+
+nlohmann::json Conductor::statusJson() const {
+  const StateSnapshot s = state_.snapshot();
+  nlohmann::json j = {
+      {"ok", true},
+      {"state", daemonStateName(s.state)},
+      {"stage", s.stage},
+      {"seconds_in_state", s.secondsInState},
+      {"display", {{"name", nominal_.name}, {"modules", nominal_.modules.size()}}},
+      {"calibration", {{"source", calibrationSource_}, {"hash", hashHex(texturesHash_)}}},
+      {"ray_textures", {{"from_cache", cacheStats_.loaded}, {"generated", cacheStats_.generated}}},
+      {"link",
+       {{"up", link_ != nullptr && linkHealth_ == LinkHealth::kUp},
+        {"health", linkHealthName(link_ ? linkHealth_ : LinkHealth::kDown)},
+        {"sessions", linkSessions_},
+        {"error", link_ || !linkError_.empty() ? linkError_ : "not connected"}}},
+      {"fps", options_.config.scene.fps}};
+  if (!s.lastError.empty()) j["last_error"] = {{"stage", s.lastErrorStage}, {"error", s.lastError}};
+  if (script_) {
+    j["scene"] = {{"name", sceneArgument_},
+                  {"animated", script_->script().animated()},
+                  {"time", sceneTime_},
+                  {"reloads", script_->reloads()},
+                  {"failed_reloads", script_->failedReloads()}};
+    nlohmann::json params = nlohmann::json::object();
+    for (const ScriptParameter& p : script_->script().parameters()) params[p.name] = p.value;
+    j["scene"]["parameters"] = params;
+  }
+  if (!sceneError_.empty()) j["scene_error"] = sceneError_;
+  if (!overlay_.empty()) j["showing"] = overlay_;
+  return j;
+}
+
+nlohmann::json Conductor::statsJson() const {
+  nlohmann::json j = stats_.toJson();
+  j["ok"] = true;
+  j["summary"] = stats_.summary();
+  j["render_counters"] = lastCounters_.lines();
+  if (link_) {
+    const hw::LinkStats& l = link_->stats();
+    j["link"] = {{"submitted", l.submitted},
+                 {"delivered", l.delivered},
+                 {"skipped_unchanged", l.skipped},
+                 {"failed", l.failed},
+                 {"retries", l.retries},
+                 {"reconnects", l.reconnects},
+                 {"bytes_sent", l.payloadBytesSent},
+                 {"sessions", link_->sessions()}};
+  }
+  return j;
+}
+
+void Conductor::publish() {
+  nlohmann::json status = statusJson(), stats = statsJson();
+  std::lock_guard lock(publishedMutex_);
+  publishedStatus_ = std::move(status);
+  publishedStats_ = std::move(stats);
+}
+
+}  // namespace parallax::daemon

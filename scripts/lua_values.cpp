@@ -198,29 +198,29 @@ double Options::number(const char* key, double fallback) const {
 
 double Options::number(const char* key) const {
   const int i = push(key);
-  if (lua_isnil(L_, i)) throw ScriptArgumentError(field(key) + ": required");
-  const double v = toNumber(L_, i, field(key));
+  if (lua_isnil(L_, i)) throw ScriptArgumentError(std::string(key) + ": required");
+  const double v = toNumber(L_, i, key);
   lua_pop(L_, 1);
   return v;
 }
 
 long Options::integer(const char* key, long fallback, long min, long max) const {
   const int i = push(key);
-  const long v = lua_isnil(L_, i) ? fallback : toInteger(L_, i, field(key), min, max);
+  const long v = lua_isnil(L_, i) ? fallback : toInteger(L_, i, key, min, max);
   lua_pop(L_, 1);
   return v;
 }
 
 std::string Options::string(const char* key, const std::string& fallback) const {
   const int i = push(key);
-  std::string v = lua_isnil(L_, i) ? fallback : toString(L_, i, field(key));
+  std::string v = lua_isnil(L_, i) ? fallback : toString(L_, i, key);
   lua_pop(L_, 1);
   return v;
 }
 
 bool Options::boolean(const char* key, bool fallback) const {
   const int i = push(key);
-  const bool v = lua_isnil(L_, i) ? fallback : toBoolean(L_, i, field(key));
+  const bool v = lua_isnil(L_, i) ? fallback : toBoolean(L_, i, key);
   lua_pop(L_, 1);
   return v;
 }
@@ -231,15 +231,15 @@ Eigen::Vector3d Options::vector3(const char* key, const Eigen::Vector3d& fallbac
 
 Eigen::Vector3d Options::vector3(const char* key) const {
   const int i = push(key);
-  if (lua_isnil(L_, i)) throw ScriptArgumentError(field(key) + ": required");
-  const Eigen::Vector3d v = toVector3(L_, i, field(key));
+  if (lua_isnil(L_, i)) throw ScriptArgumentError(std::string(key) + ": required");
+  const Eigen::Vector3d v = toVector3(L_, i, key);
   lua_pop(L_, 1);
   return v;
 }
 
 Rgb Options::color(const char* key, const Rgb& fallback) const {
   const int i = push(key);
-  const Rgb v = lua_isnil(L_, i) ? fallback : toColor(L_, i, field(key));
+  const Rgb v = lua_isnil(L_, i) ? fallback : toColor(L_, i, key);
   lua_pop(L_, 1);
   return v;
 }

@@ -47,7 +47,6 @@ class Options {
   // Pushes the field's raw value (nil when absent) and returns its absolute stack index; the
   // caller pops it.
   int push(const char* key) const;
-  std::string field(const char* key) const { return key; }
 
  private:
   lua_State* L_;

@@ -41,6 +41,13 @@ struct ShadowTransmittance {
   // The fraction of light that gets through, per channel (after an unoccluded query). A ray that
   // enters glass and ends inside it (a light inside glass, an open mesh) keeps no absorption.
   Rgb factor() const { return fresnel * (-opticalDepth.cwiseMax(0.0f)).array().exp().matrix(); }
+
+  // Ready for a new ray: only the running fields (`crossed` is read below `crossings` only).
+  void reset() {
+    fresnel = 1.0f;
+    opticalDepth.setZero();
+    crossings = 0;
+  }
 };
 
 // The context every occlusion query on a PhysicalScene passes to Embree (base first: Embree

@@ -6,8 +6,6 @@
 #include <cstring>
 #include <limits>
 
-#include "tracer/glass_shadows.h"
-
 namespace parallax {
 namespace {
 
@@ -103,34 +101,6 @@ void intersectBatch(RTCScene scene, std::span<RTCRayHit> rays, Traversal travers
           r.hit.Ng_y = packet.hit.Ng_y[i];
           r.hit.Ng_z = packet.hit.Ng_z[i];
         }
-      }
-      break;
-    }
-  }
-}
-
-void occludedBatch(RTCScene scene, std::span<RTCRay> rays, Traversal traversal, bool coherent) {
-  if (rays.empty()) return;
-  // Every occlusion query carries the context the glass filter expects (glass_shadows.h); with
-  // no transmittance states, glass blocks.
-  ShadowQueryContext query = shadowQueryContext(coherent);
-  RTCIntersectContext& context = query.base;
-  switch (traversal) {
-    case Traversal::kSingle:
-      for (RTCRay& r : rays) rtcOccluded1(scene, &context, &r);
-      break;
-    case Traversal::kStream:
-      rtcOccluded1M(scene, &context, rays.data(), static_cast<unsigned>(rays.size()),
-                    sizeof(RTCRay));
-      break;
-    case Traversal::kPacket16: {
-      alignas(64) RTCRay16 packet;
-      alignas(64) int valid[16];
-      for (size_t start = 0; start < rays.size(); start += 16) {
-        const int count = static_cast<int>(std::min<size_t>(16, rays.size() - start));
-        toPacket(rays.data() + start, count, &packet, valid);
-        rtcOccluded16(valid, scene, &context, &packet);
-        for (int i = 0; i < count; ++i) rays[start + static_cast<size_t>(i)].tfar = packet.tfar[i];
       }
       break;
     }

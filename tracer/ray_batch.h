@@ -52,30 +52,10 @@ inline RTCRayHit makeRayHit(const Eigen::Vector3f& origin, const Eigen::Vector3f
   return r;
 }
 
-// Occlusion ray: on return tfar is -inf when something blocks it (Embree's convention).
-inline RTCRay makeShadowRay(const Eigen::Vector3f& origin, const Eigen::Vector3f& direction,
-                            float tfar) {
-  RTCRay r;
-  r.org_x = origin.x();
-  r.org_y = origin.y();
-  r.org_z = origin.z();
-  r.tnear = 0.0f;
-  r.dir_x = direction.x();
-  r.dir_y = direction.y();
-  r.dir_z = direction.z();
-  r.time = 0.0f;
-  r.tfar = tfar;
-  r.mask = 0xFFFFFFFFu;
-  r.id = 0;
-  r.flags = 0;
-  return r;
-}
-
 // The context of one batch: coherent (primary rays and their shadow rays) or incoherent.
 RTCIntersectContext intersectContext(bool coherent);
 
 void intersectBatch(RTCScene scene, std::span<RTCRayHit> rays, Traversal traversal, bool coherent);
-void occludedBatch(RTCScene scene, std::span<RTCRay> rays, Traversal traversal, bool coherent);
 
 // Moves a hit point p off its surface along the unit geometric normal n (pointing to the side
 // the new ray leaves from) by an amount that scales with |p|: a few float ulps of each

@@ -3,6 +3,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -45,24 +46,33 @@ RayTextures generateOffsetRayTextures(const DisplayModel& model, int moduleIndex
   return out;
 }
 
-Frame renderFrame(const PhysicalScene& scene, const DisplayModel& model, int moduleIndex,
-                  const RayTextures& centres, const RenderOptions& options,
-                  RenderCounters* counters, SupersampleTimes* times) {
+void renderFrameInto(const PhysicalScene& scene, const DisplayModel& model, int moduleIndex,
+                     const RayTextures& centres, const RenderOptions& options, Frame* frame,
+                     RenderCounters* counters, SupersampleTimes* times) {
   options.validate();
   RenderOptions single = options;
   single.samplesPerPixel = 1;
   if (options.samplesPerPixel == 1) {
     const auto start = std::chrono::steady_clock::now();
-    Frame frame = renderFrame(scene, centres, single, counters);
+    renderFrameInto(scene, centres, single, frame, counters);
     if (times) *times = {0.0, msSince(start)};
-    return frame;
+    return;
   }
   const int n =
       static_cast<int>(std::lround(std::sqrt(static_cast<double>(options.samplesPerPixel))));
-  Frame sum(centres.width(), centres.height());
+  // `frame` holds the sum until the end (its memory reused when it has the right size).
+  Frame& sum = *frame;
+  if (sum.width != centres.width() || sum.height != centres.height() ||
+      sum.pixels.size() !=
+          static_cast<size_t>(centres.width()) * static_cast<size_t>(centres.height())) {
+    sum = Frame(centres.width(), centres.height());
+  } else {
+    std::fill(sum.pixels.begin(), sum.pixels.end(), Rgb::Zero());
+  }
   std::vector<int> samples(sum.pixels.size(), 0);
   SupersampleTimes spent;
   RenderCounters total;
+  Frame sample;  // one sub-pixel grid's frame, its memory reused from grid to grid
   for (int b = 0; b < n; ++b) {
     for (int a = 0; a < n; ++a) {
       auto start = std::chrono::steady_clock::now();
@@ -71,11 +81,11 @@ Frame renderFrame(const PhysicalScene& scene, const DisplayModel& model, int mod
       spent.rayGenerationMs += msSince(start);
       start = std::chrono::steady_clock::now();
       RenderCounters c;
-      const Frame frame = renderFrame(scene, grid, single, &c);
+      renderFrameInto(scene, grid, single, &sample, &c);
       total += c;
       for (size_t i = 0; i < sum.pixels.size(); ++i) {
         if (grid.rays()[i].masked()) continue;
-        sum.pixels[i] += frame.pixels[i];
+        sum.pixels[i] += sample.pixels[i];
         ++samples[i];
       }
       spent.traceMs += msSince(start);
@@ -90,7 +100,14 @@ Frame renderFrame(const PhysicalScene& scene, const DisplayModel& model, int mod
   }
   if (counters) *counters = total;
   if (times) *times = spent;
-  return sum;
+}
+
+Frame renderFrame(const PhysicalScene& scene, const DisplayModel& model, int moduleIndex,
+                  const RayTextures& centres, const RenderOptions& options,
+                  RenderCounters* counters, SupersampleTimes* times) {
+  Frame frame;
+  renderFrameInto(scene, model, moduleIndex, centres, options, &frame, counters, times);
+  return frame;
 }
 
 }  // namespace parallax

@@ -20,8 +20,15 @@ struct SupersampleTimes {
   double traceMs = 0.0;          // tracing and shading them
 };
 
-// `centres`: the module's ray textures. samplesPerPixel 1 is exactly renderFrame(scene,
-// centres, options).
+// Renders one module frame at options.samplesPerPixel into `frame`, reusing its memory when it
+// already has the size of `centres`, the module's ray textures (a daemon renders every frame
+// into the same buffers). 1 sample is exactly whitted_integrator.h's renderFrameInto(scene,
+// centres, ...); above, each call generates the sub-pixel ray textures from `model` again
+// (SupersampleTimes::rayGenerationMs).
+void renderFrameInto(const PhysicalScene& scene, const DisplayModel& model, int moduleIndex,
+                     const RayTextures& centres, const RenderOptions& options, Frame* frame,
+                     RenderCounters* counters = nullptr, SupersampleTimes* times = nullptr);
+// The same into a new frame.
 Frame renderFrame(const PhysicalScene& scene, const DisplayModel& model, int moduleIndex,
                   const RayTextures& centres, const RenderOptions& options,
                   RenderCounters* counters = nullptr, SupersampleTimes* times = nullptr);

@@ -8,8 +8,6 @@
 // array and traced together (ray_batch.h), shadow rays likewise, so Embree can use packets or
 // streams; tiles run in parallel under TBB. Every ray it traces is counted.
 
-#include <atomic>
-#include <mutex>
 #include <string>
 #include <vector>
 
@@ -19,6 +17,8 @@
 #include "tracer/ray_batch.h"
 
 namespace parallax {
+
+struct RayLog;  // ray_log.h: the bench records a frame's rays
 
 struct RenderOptions {
   Traversal traversal =
@@ -31,7 +31,7 @@ struct RenderOptions {
   int maxDepth = 0;              // 0: the scene's own (always capped at what its materials need)
   bool textureFiltering = true;  // false: bilinear on the full-resolution level only
   // Anti-aliasing: n × n sub-pixel rays a pixel (a square: 1, 4, 9, ...). Sub-pixel rays come
-  // from the ray function, so anything above 1 needs the display model: renderFrame of
+  // from the ray function, so anything above 1 needs the display model: renderFrameInto of
   // supersampled_render.h. 1 is the plain ray textures, unchanged.
   int samplesPerPixel = 1;
   // Time each phase of the render (RenderCounters::phaseThreadMs): a clock read at every phase
@@ -76,38 +76,17 @@ struct RenderCounters {
   std::vector<std::string> lines() const;
 };
 
-// Every batch a render traced, kept for replay without shading (the bench's "raw Embree cost
-// of the same rays").
-struct RayLog {
-  struct Batch {
-    bool occlusion = false;
-    bool coherent = false;  // primary rays and their shadow rays
-    int generation = 0;     // 0: primary (and its shadow rays)
-    std::vector<RTCRay> rays;
-  };
-  std::mutex mutex;
-  std::vector<Batch> batches;
-};
-
 // Renders one module frame into `frame`, reusing its memory when it already has the textures'
 // size (a daemon renders every frame into the same buffers). `textures` must come from the
-// display the scene was mapped into.
+// display the scene was mapped into. samplesPerPixel > 1 throws InputError: sub-pixel rays need
+// the display model (renderFrameInto of supersampled_render.h). `log` (the bench's, ray_log.h)
+// receives every batch traced.
 void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures,
                      const RenderOptions& options, Frame* frame, RenderCounters* counters = nullptr,
                      RayLog* log = nullptr);
 // The same into a new frame.
-// Throws InputError for samplesPerPixel > 1 (see supersampled_render.h).
 Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures,
                   const RenderOptions& options, RenderCounters* counters = nullptr,
                   RayLog* log = nullptr);
-
-enum class RayKind { kAll, kPrimary, kShadow, kSecondary };
-
-// Traces the logged batches of `kind` again (in parallel, no shading) with `traversal`; returns
-// the wall-clock ms of the Embree calls (a pass that only copies each batch into packets is
-// timed too and subtracted). `rays` (optional) receives how many rays that was, `cpuMs`
-// (optional) the process CPU time of those calls (all threads).
-double replayRayLog(const PhysicalScene& scene, const RayLog& log, Traversal traversal,
-                    RayKind kind = RayKind::kAll, long* rays = nullptr, double* cpuMs = nullptr);
 
 }  // namespace parallax

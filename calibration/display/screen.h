@@ -63,11 +63,6 @@ struct Screen {
                  Eigen::Vector3d* hit) const {
     return intersectFrom(p, d, +1.0, true, t, hit);
   }
-  // The same for a ray arriving from the viewers' side (a primary ray from the observer line).
-  bool intersectFromFront(const Eigen::Vector3d& p, const Eigen::Vector3d& d, double* t,
-                          Eigen::Vector3d* hit) const {
-    return intersectFrom(p, d, -1.0, true, t, hit);
-  }
   // side = +1: the ray must arrive from behind (d·n > 0); −1: from the front. Without
   // withinExtent the surface continues past the screen's edges (searches that must bracket a
   // root lying right at an edge need that).

@@ -18,8 +18,10 @@
 #include "calibration/display/display_presets.h"
 #include "calibration/display/ray_textures.h"
 #include "common/input_error.h"
+#include "common/process_cpu_time.h"
 #include "daemon/cli/commands.h"
 #include "tracer/physical_scene.h"
+#include "tracer/ray_log.h"
 #include "tracer/scene_source.h"
 #include "tracer/whitted_integrator.h"
 
@@ -36,15 +38,6 @@ struct BenchArgs {
   bool renderOnly = false;
 };
 
-// Process CPU time (all threads), ms. On a machine shared with other builds, wall-clock
-// figures include time the scheduler gave to someone else; CPU time divided by the worker count
-// is what the frame would take on two idle cores.
-double cpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
-}
-
 struct Timing {
   double wallMs = 0.0;
   double cpuMsPerCore = 0.0;
@@ -59,12 +52,12 @@ double median(std::vector<double> v) {
 Timing timeOneFrame(const PhysicalScene& scene, const RayTextures& textures,
                     const RenderOptions& options, Frame* frame) {
   const double cores = std::max(1u, std::thread::hardware_concurrency());
-  const double cpu0 = cpuMs();
+  const double cpu0 = processCpuMs();
   const auto start = std::chrono::steady_clock::now();
   renderFrameInto(scene, textures, options, frame);
   return {
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count(),
-      (cpuMs() - cpu0) / cores};
+      (processCpuMs() - cpu0) / cores};
 }
 
 Timing timeFrames(const PhysicalScene& scene, const RayTextures& textures,

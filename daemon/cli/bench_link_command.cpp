@@ -9,9 +9,9 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
-#include <regex>
 
 #include "common/input_error.h"
+#include "common/width_height.h"
 #include "daemon/cli/commands.h"
 #include "hw/simulator/link_bench.h"
 
@@ -39,13 +39,9 @@ std::string findSimhw() {
 }
 
 void runBenchLink(BenchLinkArgs args) {
-  std::smatch m;
-  static const std::regex kPattern(R"((\d{1,5})x(\d{1,5}))");
-  if (!std::regex_match(args.resolution, m, kPattern)) {
-    throw InputError({"", "--resolution", 0}, "expected WIDTHxHEIGHT such as 1024x768");
-  }
-  args.options.width = std::stoi(m[1]);
-  args.options.height = std::stoi(m[2]);
+  const WidthHeight size = parseWidthHeight(args.resolution, "--resolution");
+  args.options.width = size.width;
+  args.options.height = size.height;
   if (!args.inProcess) {
     args.options.simhwPath = args.simhw.empty() ? findSimhw() : args.simhw;
     if (args.options.simhwPath.empty()) {

@@ -20,17 +20,12 @@
 #include <thread>
 
 #include "common/input_error.h"
+#include "common/process_cpu_time.h"
 #include "daemon/cli/commands.h"
 #include "tracer/texture_image.h"
 
 namespace parallax::cli {
 namespace {
-
-double processCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
-}
 
 struct BenchTextureArgs {
   int lookups = 400000;

@@ -6,11 +6,11 @@
 
 #include <iostream>
 #include <memory>
-#include <regex>
 
 #include "calibration/display/display_model_json.h"
 #include "calibration/display/display_presets.h"
 #include "common/input_error.h"
+#include "common/width_height.h"
 #include "daemon/cli/commands.h"
 
 namespace parallax::cli {
@@ -31,15 +31,9 @@ void runDisplay(const DisplayArgs& args, const CLI::App& command) {
   options.preset = args.preset;
   if (command.count("--modules")) options.modules = args.modules;
   if (!args.resolution.empty()) {
-    std::smatch match;
-    static const std::regex kPattern(R"((\d{1,6})x(\d{1,6}))");
-    if (!std::regex_match(args.resolution, match, kPattern)) {
-      throw InputError(
-          {"", "--resolution", 0},
-          fmt::format("expected WIDTHxHEIGHT such as 1024x768, got \"{}\"", args.resolution));
-    }
-    options.width = std::stoi(match[1]);
-    options.height = std::stoi(match[2]);
+    const WidthHeight size = parseWidthHeight(args.resolution, "--resolution");
+    options.width = size.width;
+    options.height = size.height;
   }
   if (command.count("--curvature")) options.curvature = args.curvature;
   if (!args.transfer.empty()) {

@@ -13,6 +13,7 @@
 #include "common/input_error.h"
 #include "common/progress_bar.h"
 #include "daemon/cli/commands.h"
+#include "daemon/cli/module_argument.h"
 #include "daemon/cli/ray_texture_files.h"
 
 namespace parallax::cli {
@@ -26,24 +27,7 @@ struct RaytexArgs {
 
 void runRaytex(const RaytexArgs& args) {
   const DisplayModel model = resolveDisplay(args.display);
-  std::vector<int> indices;
-  if (args.module == "all") {
-    for (size_t i = 0; i < model.modules.size(); ++i) indices.push_back(static_cast<int>(i));
-  } else {
-    int index = -1;
-    try {
-      size_t used = 0;
-      index = std::stoi(args.module, &used);
-      if (used != args.module.size()) index = -1;
-    } catch (const std::exception&) {
-      index = -1;
-    }
-    if (index < 0 || index >= static_cast<int>(model.modules.size())) {
-      throw InputError({"", "--module", 0}, fmt::format("must be all or 0..{}, got \"{}\"",
-                                                        model.modules.size() - 1, args.module));
-    }
-    indices.push_back(index);
-  }
+  const std::vector<int> indices = parseModuleArgument(args.module, model.modules.size());
   std::error_code ec;
   std::filesystem::create_directories(args.out, ec);
   if (ec) throw InputError({args.out, "", 0}, "cannot create the output folder: " + ec.message());

@@ -17,6 +17,7 @@
 #include "common/input_error.h"
 #include "common/progress_bar.h"
 #include "daemon/cli/commands.h"
+#include "daemon/cli/module_argument.h"
 #include "scripts/scene_argument.h"
 #include "tracer/physical_scene.h"
 #include "tracer/scene_source.h"
@@ -39,30 +40,9 @@ struct RenderArgs {
   int samplesPerPixel = 1;        // --spp N
 };
 
-std::vector<int> moduleIndices(const std::string& text, size_t count) {
-  std::vector<int> indices;
-  if (text == "all") {
-    for (size_t i = 0; i < count; ++i) indices.push_back(static_cast<int>(i));
-    return indices;
-  }
-  int index = -1;
-  try {
-    size_t used = 0;
-    index = std::stoi(text, &used);
-    if (used != text.size()) index = -1;
-  } catch (const std::exception&) {
-    index = -1;
-  }
-  if (index < 0 || index >= static_cast<int>(count)) {
-    throw InputError({"", "--module", 0},
-                     fmt::format("must be all or 0..{}, got \"{}\"", count - 1, text));
-  }
-  return {index};
-}
-
 void runRender(const RenderArgs& args) {
   const DisplayModel model = resolveDisplay(args.display);
-  const std::vector<int> indices = moduleIndices(args.module, model.modules.size());
+  const std::vector<int> indices = parseModuleArgument(args.module, model.modules.size());
   RenderOptions options;
   if (!args.traversal.empty() && !parseTraversal(args.traversal.c_str(), &options.traversal)) {
     throw InputError({"", "--traversal", 0}, "must be single, packet16 or stream");

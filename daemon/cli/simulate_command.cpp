@@ -26,7 +26,6 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
-#include <regex>
 
 #include "calibration/camera/observations_json.h"
 #include "calibration/display/display_model_json.h"
@@ -35,6 +34,7 @@
 #include "calibration/simulation/simulated_session.h"
 #include "calibration/simulation/synthetic_observations.h"
 #include "common/input_error.h"
+#include "common/width_height.h"
 #include "daemon/cli/commands.h"
 
 namespace parallax::cli {
@@ -56,12 +56,7 @@ struct SimulateArgs {
 
 // A camera of the given size with the default's field of view (fx = 2100 at 1920 px wide).
 CameraIntrinsics cameraOfSize(const std::string& resolution) {
-  std::smatch m;
-  static const std::regex kPattern(R"((\d{2,5})x(\d{2,5}))");
-  if (!std::regex_match(resolution, m, kPattern)) {
-    throw InputError({"", "--camera-resolution", 0}, "expected WIDTHxHEIGHT such as 1280x720");
-  }
-  const int width = std::stoi(m[1]), height = std::stoi(m[2]);
+  const auto [width, height] = parseWidthHeight(resolution, "--camera-resolution");
   if (width < 64 || height < 64 || width > 8192 || height > 8192) {
     throw InputError({"", "--camera-resolution", 0}, "sides must be 64..8192");
   }

@@ -11,10 +11,10 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
-#include <regex>
 
 #include "calibration/display/display_presets.h"
 #include "common/input_error.h"
+#include "common/width_height.h"
 #include "daemon/cli/commands.h"
 #include "scripts/scene_argument.h"
 #include "tracer/observer_view.h"
@@ -57,14 +57,9 @@ std::vector<Frame> readModuleFrames(const DisplayModel& model, const std::string
 void runView(const ViewArgs& args) {
   const DisplayModel model = resolveDisplay(args.display);
   ObserverViewOptions options;
-  static const std::regex kSize(R"((\d{1,5})x(\d{1,5}))");
-  std::smatch match;
-  if (!std::regex_match(args.size, match, kSize)) {
-    throw InputError({"", "--size", 0},
-                     fmt::format("expected WIDTHxHEIGHT, got \"{}\"", args.size));
-  }
-  options.width = std::stoi(match[1]);
-  options.height = std::stoi(match[2]);
+  const WidthHeight size = parseWidthHeight(args.size, "--size");
+  options.width = size.width;
+  options.height = size.height;
   options.validate();
   const Eigen::Vector3d viewer(args.x, args.y.value_or(model.observer.y),
                                args.z.value_or(model.observer.z));

@@ -254,22 +254,6 @@ class LibusbBackend : public UsbBackend {
 
 }  // namespace
 
-std::string_view usbResultName(UsbResult result) {
-  switch (result) {
-    case UsbResult::kOk:
-      return "ok";
-    case UsbResult::kTimeout:
-      return "timeout";
-    case UsbResult::kStall:
-      return "stall";
-    case UsbResult::kNoDevice:
-      return "no device";
-    case UsbResult::kError:
-      return "I/O error";
-  }
-  return "unknown";
-}
-
 std::unique_ptr<UsbBackend> makeLibusbBackend() { return std::make_unique<LibusbBackend>(); }
 
 }  // namespace parallax::hw

@@ -72,22 +72,6 @@ Registry& registry() {
 
 }  // namespace
 
-std::string_view transportStatusName(TransportStatus status) {
-  switch (status) {
-    case TransportStatus::kOk:
-      return "ok";
-    case TransportStatus::kTimeout:
-      return "timeout";
-    case TransportStatus::kDisconnected:
-      return "disconnected";
-    case TransportStatus::kProtocolError:
-      return "protocol error";
-    case TransportStatus::kUnavailable:
-      return "unavailable";
-  }
-  return "unknown";
-}
-
 void registerLinkTransport(const std::string& name, LinkTransportFactory factory) {
   Registry& r = registry();
   std::lock_guard lock(r.mutex);
@@ -112,14 +96,6 @@ std::unique_ptr<LinkTransport> createLinkTransport(const std::string& spec) {
     factory = it->second;
   }
   return factory(endpoint);
-}
-
-std::vector<std::string> linkTransportNames() {
-  Registry& r = registry();
-  std::lock_guard lock(r.mutex);
-  std::vector<std::string> names;
-  for (const auto& [n, f] : r.factories) names.push_back(n);
-  return names;
 }
 
 }  // namespace parallax::hw

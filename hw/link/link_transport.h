@@ -25,7 +25,6 @@ enum class TransportStatus {
   kProtocolError,  // the peer sent bytes that are not our protocol (see lastProtocolError)
   kUnavailable,    // cannot open at all (no socket, no USB devices)
 };
-std::string_view transportStatusName(TransportStatus status);
 
 struct ReceivedPacket {
   PacketHeader header;
@@ -56,6 +55,5 @@ using LinkTransportFactory =
 void registerLinkTransport(const std::string& name, LinkTransportFactory factory);
 // "simhw:/path/to.sock" or "usb:" + options; throws InputError for an unknown backend name.
 std::unique_ptr<LinkTransport> createLinkTransport(const std::string& spec);
-std::vector<std::string> linkTransportNames();
 
 }  // namespace parallax::hw

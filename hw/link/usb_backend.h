@@ -18,7 +18,6 @@ enum class UsbResult {
   kNoDevice,  // LIBUSB_TRANSFER_NO_DEVICE / LIBUSB_ERROR_NO_DEVICE: unplugged
   kError,     // anything else (overflow, I/O error, cancelled)
 };
-std::string_view usbResultName(UsbResult result);
 
 struct UsbDeviceId {
   std::string serial;

@@ -17,12 +17,12 @@
 #include <filesystem>
 #include <memory>
 #include <optional>
-#include <regex>
 
 #include "calibration/display/display_model_json.h"
 #include "calibration/display/display_presets.h"
 #include "calibration/simulation/camera_truth.h"
 #include "common/input_error.h"
+#include "common/width_height.h"
 #include "hw/simulator/calibration_physics.h"
 #include "hw/simulator/fault_spec.h"
 #include "hw/simulator/simhw_server.h"
@@ -75,13 +75,9 @@ int run(const Args& args) {
   }
   if (args.modules > 0) options.modules = args.modules;
   if (!args.resolution.empty()) {
-    std::smatch m;
-    static const std::regex kPattern(R"((\d{1,5})x(\d{1,5}))");
-    if (!std::regex_match(args.resolution, m, kPattern)) {
-      throw InputError({"", "--resolution", 0}, "expected WIDTHxHEIGHT such as 1024x768");
-    }
-    options.width = std::stoi(m[1]);
-    options.height = std::stoi(m[2]);
+    const WidthHeight size = parseWidthHeight(args.resolution, "--resolution");
+    options.width = size.width;
+    options.height = size.height;
   }
   if (truth) {
     if (args.modules > 0 || !args.resolution.empty()) {

@@ -190,5 +190,38 @@ TEST(SupersampledRender, OneSampleIsThePlainFrameAndMoreBlendTheEdges) {
   EXPECT_THROW(options.validate(), InputError);
 }
 
+// A daemon renders every frame into the same buffer: anti-aliased frames too. The frame it is
+// given holds the previous frame (here garbage of the right size, then a frame of another
+// size); what comes out is the anti-aliased frame, nothing of what was there before.
+TEST(SupersampledRender, IntoAReusedFrameIsTheNewFrame) {
+  const DisplayModel display = smallDisplay(3, 120, 90);
+  Scene scene;
+  const int material = scene.addMaterial(Material::makeEmissive(Rgb(0.5f, 0.5f, 0.5f)));
+  scene.addMesh(flatTriangle({-0.6, -0.3, 0.0}, {0.5, -0.35, 0.05}, {0.1, 0.4, -0.05}, material));
+  scene.worldBox = display.displayableBox;
+  const PhysicalScene physical(scene, display.displayableBox);
+  const RayTextures textures = generateRayTextures(display, 1);
+  RenderOptions options;
+  options.samplesPerPixel = 4;
+  const Frame expected = renderFrame(physical, display, 1, textures, options);
+
+  Frame reused(textures.width(), textures.height());
+  for (Rgb& p : reused.pixels) p = Rgb(7.0f, -3.0f, 0.25f);
+  RenderCounters counters;
+  renderFrameInto(physical, display, 1, textures, options, &reused, &counters);
+  EXPECT_EQ(reused.pixels, expected.pixels);
+  EXPECT_EQ(counters.pixels, 4L * textures.width() * textures.height());
+
+  Frame resized(7, 5);
+  renderFrameInto(physical, display, 1, textures, options, &resized);
+  EXPECT_EQ(resized.width, textures.width());
+  EXPECT_EQ(resized.pixels, expected.pixels);
+
+  // One sample through the same entry point: the plain frame.
+  options.samplesPerPixel = 1;
+  renderFrameInto(physical, display, 1, textures, options, &reused);
+  EXPECT_EQ(reused.pixels, renderFrame(physical, textures, options).pixels);
+}
+
 }  // namespace
 }  // namespace parallax

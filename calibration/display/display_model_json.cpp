@@ -11,6 +11,7 @@
 #include "calibration/display/json_fields.h"
 #include "calibration/display/json_file.h"
 #include "common/atomic_file.h"
+#include "common/content_checksum.h"
 #include "common/input_error.h"
 
 namespace parallax {
@@ -139,8 +140,29 @@ DisplayModel displayModelFromJson(const json& j) {
   return model;
 }
 
+namespace {
+
+// The checksum covers the document without its own field, in compact canonical form: keys
+// sorted, doubles shortest-round-trip, so parsing the file and dumping it again gives back
+// exactly the bytes that were hashed when it was saved.
+std::string checksumOfDocument(json document) {
+  document.erase(kDisplayChecksumField);
+  return contentChecksum(document.dump());
+}
+
+}  // namespace
+
 DisplayModel loadDisplayModel(const std::string& path) {
-  const json j = readJsonFile(path);
+  json j = readJsonFile(path, kMaxDisplayFileBytes);
+  if (j.is_object() && j.contains(kDisplayChecksumField)) {
+    const json& stored = j[kDisplayChecksumField];
+    if (!stored.is_string() || stored.get<std::string>() != checksumOfDocument(j)) {
+      throw InputError({path, kDisplayChecksumField, 0},
+                       "does not match the content: the file is damaged or was edited (remove "
+                       "the checksum field to accept a hand edit)");
+    }
+    j.erase(kDisplayChecksumField);
+  }
   try {
     return displayModelFromJson(j);
   } catch (const InputError& e) {
@@ -149,7 +171,9 @@ DisplayModel loadDisplayModel(const std::string& path) {
 }
 
 void saveDisplayModel(const DisplayModel& model, const std::string& path) {
-  writeFileAtomically(path, displayModelToJson(model).dump(2) + "\n");
+  json document = displayModelToJson(model);
+  document[kDisplayChecksumField] = checksumOfDocument(document);
+  writeFileAtomically(path, document.dump(2) + "\n");
 }
 
 }  // namespace parallax

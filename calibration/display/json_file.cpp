@@ -1,21 +1,16 @@
 #include "calibration/display/json_file.h"
 
 #include <algorithm>
-#include <fstream>
-#include <sstream>
 
 #include "common/input_error.h"
+#include "common/regular_file.h"
 
 namespace parallax {
 
 using nlohmann::json;
 
-json readJsonFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError({path, "", 0}, "cannot open the file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  const std::string text = buffer.str();
+json readJsonFile(const std::string& path, size_t maxBytes) {
+  const std::string text = readRegularFile(path, maxBytes);
   try {
     return json::parse(text);
   } catch (const json::parse_error& e) {

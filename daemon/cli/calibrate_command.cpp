@@ -18,12 +18,14 @@
 // beside it, or --camera-truth) to the checkerboard calibration's; the fit never sees them.
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <atomic>
 #include <csignal>
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <set>
 
 #include "calibration/camera/observations_json.h"
 #include "calibration/capture/calibration_captures.h"
@@ -37,6 +39,7 @@
 #include "common/input_error.h"
 #include "common/progress_bar.h"
 #include "daemon/cli/commands.h"
+#include "daemon/parallaxd/calibration_store.h"
 #include "hw/camera/calibration_capture.h"
 #include "hw/camera/camera.h"
 #include "hw/link/link_client.h"
@@ -87,6 +90,30 @@ struct CalibrateArgs {
   int threads = 2;
 };
 
+// Captures of another display must not be fitted to this nominal (a 4-module session against
+// a 6-module nominal would leave two modules never seen and install nonsense): the modules the
+// session shows must be exactly the nominal's, named with both counts.
+void requireModulesOfNominal(const std::set<int>& shown, const DisplayModel& nominal,
+                             const std::string& file, const char* field) {
+  const int expected = static_cast<int>(nominal.modules.size());
+  const bool all = static_cast<int>(shown.size()) == expected && !shown.empty() &&
+                   *shown.begin() == 0 && *shown.rbegin() == expected - 1;
+  if (all) return;
+  std::vector<int> missing;
+  for (int m = 0; m < expected; ++m)
+    if (!shown.count(m)) missing.push_back(m);
+  throw InputError(
+      {file, field, 0},
+      fmt::format("the captures show {} modules ({}) but the nominal display \"{}\" has {}{}: "
+                  "captures of a different display?",
+                  shown.size(),
+                  shown.empty() ? std::string("none")
+                                : fmt::format("{}..{}", *shown.begin(), *shown.rbegin()),
+                  nominal.name, expected,
+                  missing.empty() ? std::string()
+                                  : fmt::format(" (never shown: {})", fmt::join(missing, ", "))));
+}
+
 // The observations of the session and the file to blame for bad data in them.
 CalibrationObservations sessionObservations(const CalibrateArgs& args, const DisplayModel& nominal,
                                             const CameraIntrinsics* cameraTruth,
@@ -99,10 +126,18 @@ CalibrationObservations sessionObservations(const CalibrateArgs& args, const Dis
         fs::exists(args.captures + "/decoded.json")) {
       *source = args.captures + "/decoded.json";
       std::cout << "decoded correspondences from " << *source << " (no pictures)\n";
-      return loadObservations(args.captures);
+      CalibrationObservations observations = loadObservations(args.captures);
+      std::set<int> shown;
+      for (const Correspondence& c : observations.correspondences) shown.insert(c.module);
+      requireModulesOfNominal(shown, nominal, *source, "correspondences");
+      return observations;
     }
     *source = args.captures + "/patterns.json";
     CalibrationCaptures captures = loadCaptures(args.captures);
+    std::set<int> shown;
+    for (const StationCaptures& station : captures.stations)
+      shown.insert(station.group.begin(), station.group.end());
+    requireModulesOfNominal(shown, nominal, *source, "stations[].group");
     if (captures.checkerboard) {
       try {
         const CheckerboardCalibration camera = calibrateCapturesCamera(&captures);
@@ -218,13 +253,9 @@ void runCalibrate(const CalibrateArgs& args) {
     throw std::runtime_error(
         fmt::format("the calibration failed its quality checks; {} was left untouched", args.out));
   }
-  std::error_code ec;
-  if (fs::exists(args.out, ec)) {
-    fs::copy_file(args.out, args.out + ".previous", fs::copy_options::overwrite_existing, ec);
-    if (ec)
-      throw InputError({args.out, "", 0}, "cannot keep the previous calibration: " + ec.message());
-  }
-  saveDisplayModel(result.model, args.out);
+  // The daemon's store: the old file becomes .previous only if it verifies, and the new one is
+  // reported installed only once it is on disk.
+  daemon::CalibrationStore(args.out).install(result.model);
   std::cout << fmt::format("calibration installed: {}{}\n", args.out,
                            fs::exists(args.out + ".previous")
                                ? fmt::format(" (previous kept as {}.previous)", args.out)

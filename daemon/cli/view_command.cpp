@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -67,7 +68,15 @@ void runView(const ViewArgs& args) {
   options.validate();
   const Eigen::Vector3d viewer(args.x, args.y.value_or(model.observer.y),
                                args.z.value_or(model.observer.z));
-  if (!viewer.allFinite() || !(viewer.z() > 0.0)) {
+  // Each coordinate blamed on its own option, with the daemon's range (display_model.h).
+  const char* options3[3] = {"--x", "--y", "--z"};
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isfinite(viewer[i]) || std::abs(viewer[i]) > kMaxDisplayExtentM) {
+      throw InputError({"", options3[i], 0}, fmt::format("must be a number within ±{} m, got {}",
+                                                         kMaxDisplayExtentM, viewer[i]));
+    }
+  }
+  if (!(viewer.z() > 0.0)) {
     throw InputError({"", "--z", 0}, "the viewer must stand in front of the screen (z > 0)");
   }
   const std::vector<Frame> frames = readModuleFrames(model, args.frames);

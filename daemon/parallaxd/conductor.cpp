@@ -67,11 +67,14 @@ void Conductor::startUp() {
   // configured to), else the nominal model with the reason in `status`.
   bool haveCalibration = false;
   try {
-    if (std::optional<DisplayModel> installed = store_.loadFor(nominal_)) {
-      calibration_ = std::move(*installed);
-      calibrationSource_ = store_.path();
+    if (std::optional<StoredCalibration> installed = store_.loadFor(nominal_)) {
+      calibration_ = std::move(installed->model);
+      calibrationSource_ = installed->source;
       haveCalibration = true;
-      spdlog::info("calibration: {}", store_.path());
+      spdlog::info("calibration: {}", installed->source);
+      if (!installed->refused.empty())
+        state_.fail("loading the calibration", installed->refused + "; using " + installed->source,
+                    DaemonState::kStarting);
     }
   } catch (const InputError& e) {
     state_.fail("loading the calibration", e.what(), DaemonState::kStarting);

@@ -61,7 +61,12 @@ Conductor::StageResult Conductor::calibrate(std::optional<int> onlyModule) {
     // Textures first: if they cannot be made, the old calibration stays installed.
     const StageResult textures = regenerate(run.model);
     if (textures.done()) {
-      store_.install(run.model);
+      try {
+        store_.install(run.model);  // returns only once the calibration is on disk
+      } catch (const std::exception&) {
+        regenerate(calibration_);  // not kept, so not shown: back to the installed one
+        throw;
+      }
       calibration_ = run.model;
       calibrationSource_ = store_.path();
       // The fit's report beside the calibration it describes, for the installer.

@@ -10,6 +10,7 @@
 #include <cstring>
 
 #include "common/input_error.h"
+#include "common/private_folder.h"
 
 namespace parallax::daemon {
 
@@ -20,6 +21,8 @@ std::string exchangeControlLine(const std::string& socketPath, const std::string
   if (socketPath.size() >= sizeof addr.sun_path)
     throw InputError({"", "socket", 0}, "path too long");
   std::memcpy(addr.sun_path, socketPath.c_str(), socketPath.size() + 1);
+  // Never talk to a socket another user could have put there (common/private_folder.h).
+  checkSocketToConnect(socketPath);
   const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   if (fd < 0) throw std::runtime_error(std::string("socket: ") + std::strerror(errno));
   if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {

@@ -17,7 +17,8 @@ class ControlUnreachable : public std::runtime_error {
 
 // Sends `line` (a newline is added) and returns the reply's first line. Throws
 // ControlUnreachable when nothing listens, std::runtime_error when the daemon closes the
-// connection or does not answer within the timeout, InputError for a path too long.
+// connection or does not answer within the timeout or when the socket or its folder belongs to
+// another user (checkSocketToConnect), InputError for a path too long.
 std::string exchangeControlLine(const std::string& socketPath, const std::string& line,
                                 double timeoutSeconds);
 

@@ -15,6 +15,7 @@
 
 #include <CLI/CLI.hpp>
 #include <atomic>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -22,9 +23,11 @@
 #include <thread>
 
 #include "common/input_error.h"
+#include "common/private_folder.h"
 #include "daemon/parallaxd/conductor.h"
 #include "daemon/parallaxd/control_server.h"
 #include "daemon/parallaxd/daemon_config.h"
+#include "daemon/parallaxd/instance_lock.h"
 #include "daemon/parallaxd/simhw_child.h"
 #include "daemon/parallaxd/systemd_notify.h"
 
@@ -32,19 +35,62 @@ namespace {
 
 using namespace parallax::daemon;
 
-// One life of the pipeline: simulator (when configured), conductor, control socket and the
-// signal thread, from one config. Returns the config to build it again from when a SIGHUP
-// reload changed what cannot change under a running loop (display, hardware, socket, ...).
+// Signals are taken by one thread with sigwait, never by handlers: every other thread
+// inherits the mask, so no library call is interrupted at a random point. The thread exists
+// from the first line of run(), before any file is read, so SIGTERM and SIGINT are answered
+// at every moment of a start-up too (each start-up step checks stopRequested()).
+class SignalWatcher {
+ public:
+  explicit SignalWatcher(const sigset_t& signals)
+      : signals_(signals), thread_([this] { watch(); }) {}
+  ~SignalWatcher() {
+    done_ = true;
+    thread_.join();
+  }
+  bool stopRequested() const { return stop_.load(); }
+  // True once per SIGHUP received.
+  bool takeReload() { return reload_.exchange(false); }
+
+ private:
+  void watch() {
+    const timespec tick{0, 100'000'000};
+    while (!done_.load()) {
+      siginfo_t info{};
+      const int s = ::sigtimedwait(&signals_, &info, &tick);
+      if (s == SIGTERM || s == SIGINT) {
+        spdlog::info("{}: stopping", s == SIGTERM ? "SIGTERM" : "SIGINT");
+        stop_ = true;
+      } else if (s == SIGHUP) {
+        reload_ = true;
+      }
+    }
+  }
+
+  sigset_t signals_;
+  std::atomic<bool> stop_{false}, reload_{false}, done_{false};
+  std::thread thread_;
+};
+
+// One life of the pipeline: simulator (when configured), conductor, control socket and a
+// supervising thread, from one config. Returns the config to build it again from when a
+// SIGHUP reload changed what cannot change under a running loop (display, hardware, socket,
+// ...).
 std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& configPath,
-                                        const sigset_t& signals, SystemdNotifier& notifier) {
+                                        SignalWatcher& signals, SystemdNotifier& notifier) {
+  // The runtime folder is checked (ours, 0700, no symlink) and locked before anything in it
+  // is touched: a second daemon stops here, with the first one's sockets intact.
+  const std::string folder =
+      std::filesystem::absolute(config.controlSocketPath()).parent_path().string();
+  parallax::makePrivateFolder(folder);
+  const InstanceLock lock(folder);
+  // Only a socket of ours may be replaced; anything else at the path is refused, never deleted.
+  parallax::socketPathInUse(config.controlSocketPath());
+
   const parallax::DisplayModel nominal = nominalDisplayOf(config.display);
   std::string linkSpec = linkSpecOf(config.hardware, static_cast<int>(nominal.modules.size()));
   std::unique_ptr<SimhwChild> simulator;
   std::string simulatorCamera;
   if (linkSpec.empty()) {
-    const std::string folder =
-        std::filesystem::path(config.controlSocketPath()).parent_path().string();
-    std::filesystem::create_directories(folder);
     simulator = std::make_unique<SimhwChild>(nominal, config.hardware, folder + "/simhw.sock",
                                              config.cacheDirPath());
     linkSpec = simulator->linkSpec();
@@ -52,6 +98,7 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
     // Kept apart from the config, so a reload that names no camera still has it.
     simulatorCamera = simulator->cameraMetadataPath();
   }
+  if (signals.stopRequested()) return std::nullopt;
 
   std::atomic<bool> stop{false};
   ConductorOptions options;
@@ -68,15 +115,11 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
       config.controlSocketPath(),
       [&conductor](const nlohmann::json& r) { return conductor.handle(r); });
 
-  std::thread signalThread([&] {
-    const timespec tick{0, 200'000'000};
+  std::thread supervisor([&] {
     while (!stop.load()) {
-      siginfo_t info{};
-      const int s = ::sigtimedwait(&signals, &info, &tick);
-      if (s == SIGTERM || s == SIGINT) {
-        spdlog::info("{}: stopping", s == SIGTERM ? "SIGTERM" : "SIGINT");
-        stop = true;
-      } else if (s == SIGHUP) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      if (signals.stopRequested()) stop = true;
+      if (signals.takeReload()) {
         if (configPath.empty()) {
           spdlog::info("SIGHUP: no config file to reload");
         } else {
@@ -91,30 +134,33 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
   conductor.run(stop);
   if (!conductor.restartWith()) notifier.stopping();
   stop = true;
-  signalThread.join();
+  supervisor.join();
   control.reset();  // removes the socket
   if (simulator) simulator->stop();
+  if (signals.stopRequested()) return std::nullopt;
   return conductor.restartWith();
 }
 
 int run(const std::string& configPath) {
+  // Before anything else (config and display files are read next): see SignalWatcher.
+  sigset_t signals;
+  sigemptyset(&signals);
+  for (int s : {SIGTERM, SIGINT, SIGHUP}) sigaddset(&signals, s);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  ::signal(SIGPIPE, SIG_IGN);
+  // A file-size limit (or a full quota) must fail the write with EFBIG, which the store
+  // reports, not kill the daemon.
+  ::signal(SIGXFSZ, SIG_IGN);
+  SignalWatcher watcher(signals);
+
   DaemonConfig config = configPath.empty() ? DaemonConfig{} : loadDaemonConfig(configPath);
   config.validate();
   spdlog::set_level(spdlog::level::from_str(config.logLevel));
 
-  // Signals are taken by one thread with sigwait, never by handlers: every other thread
-  // inherits this mask, so no library call is interrupted at a random point. (Between two
-  // lives of the pipeline they stay pending for the next signal thread.)
-  sigset_t signals;
-  sigemptyset(&signals);
-  for (int s : {SIGTERM, SIGINT, SIGHUP, SIGCHLD}) sigaddset(&signals, s);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-  ::signal(SIGPIPE, SIG_IGN);
-
   SystemdNotifier notifier;
   std::optional<DaemonConfig> next = config;
-  while (next) {
-    next = runPipeline(*next, configPath, signals, notifier);
+  while (next && !watcher.stopRequested()) {
+    next = runPipeline(*next, configPath, watcher, notifier);
     if (next) {
       notifier.notify("RELOADING=1");
       spdlog::set_level(spdlog::level::from_str(next->logLevel));
@@ -140,6 +186,9 @@ int main(int argc, char** argv) {
   } catch (const parallax::InputError& e) {
     std::fprintf(stderr, "parallaxd: %s\n", e.what());
     return 2;
+  } catch (const AlreadyRunning& e) {
+    std::fprintf(stderr, "parallaxd: %s\n", e.what());
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "parallaxd: error: %s\n", e.what());
     return 1;

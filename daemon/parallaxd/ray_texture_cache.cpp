@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <cstddef>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -14,14 +15,18 @@
 namespace parallax::daemon {
 namespace {
 
-constexpr char kMagic[8] = {'P', 'X', 'R', 'A', 'Y', 'S', '0', '1'};
+constexpr char kMagic[8] = {'P', 'X', 'R', 'A', 'Y', 'S', '0', '2'};
 
+// The header repeats what the file must be for (size, frame) and carries the checksum of the
+// ray bytes behind it, so a file damaged inside its data (header intact) is caught too.
 struct FileHeader {
   char magic[8];
   int32_t width, height;
-  float observerY, observerZ, curvature, reserved;
+  float observerY, observerZ, curvature;
+  uint32_t reserved;
+  uint64_t raysChecksum;  // hw::contentHash64 of the ray bytes
 };
-static_assert(sizeof(FileHeader) == 32);
+static_assert(sizeof(FileHeader) == 40);
 
 FileHeader headerFor(int width, int height, const RayFrame& frame) {
   FileHeader h{};
@@ -34,22 +39,36 @@ FileHeader headerFor(int width, int height, const RayFrame& frame) {
   return h;
 }
 
-// False when the file is missing, short or made for another size or frame.
-bool readTextures(const std::string& path, const FileHeader& expected, RayTextures* out) {
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) return false;
-  FileHeader h{};
-  bool ok = std::fread(&h, sizeof h, 1, f) == 1 && std::memcmp(&h, &expected, sizeof h) == 0;
-  if (ok) {
-    std::span<CompactRay> rays = out->rays();
-    ok = std::fread(rays.data(), sizeof(CompactRay), rays.size(), f) == rays.size() &&
-         std::fgetc(f) == EOF;
-  }
-  std::fclose(f);
-  return ok;
+uint64_t raysChecksum(const RayTextures& textures) {
+  const std::span<const CompactRay> rays = textures.rays();
+  return hw::contentHash64(rays.data(), rays.size_bytes());
 }
 
-void writeTextures(const std::string& path, const FileHeader& header, const RayTextures& textures) {
+enum class CacheRead { kLoaded, kMissing, kStale, kCorrupt };
+
+// kMissing: no file; kStale: made for another size, frame or format (expected after a
+// change, regenerated quietly); kCorrupt: the right header but short, long or failing its
+// checksum (damage on disk: regenerated and logged).
+CacheRead readTextures(const std::string& path, const FileHeader& expected, RayTextures* out) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) return CacheRead::kMissing;
+  FileHeader h{};
+  CacheRead result = CacheRead::kStale;
+  if (std::fread(&h, sizeof h, 1, f) == 1 &&
+      std::memcmp(&h, &expected, offsetof(FileHeader, raysChecksum)) == 0) {
+    std::span<CompactRay> rays = out->rays();
+    const bool complete =
+        std::fread(rays.data(), sizeof(CompactRay), rays.size(), f) == rays.size() &&
+        std::fgetc(f) == EOF;
+    result =
+        complete && raysChecksum(*out) == h.raysChecksum ? CacheRead::kLoaded : CacheRead::kCorrupt;
+  }
+  std::fclose(f);
+  return result;
+}
+
+void writeTextures(const std::string& path, FileHeader header, const RayTextures& textures) {
+  header.raysChecksum = raysChecksum(textures);
   std::string bytes(sizeof header + textures.rays().size_bytes(), '\0');
   std::memcpy(bytes.data(), &header, sizeof header);
   std::memcpy(bytes.data() + sizeof header, textures.rays().data(), textures.rays().size_bytes());
@@ -89,9 +108,15 @@ std::vector<RayTextures> RayTextureCache::texturesFor(
     const FileHeader header = headerFor(m.width, m.height, frame);
     const std::string path = fmt::format("{}/module_{:03d}.rays", folder, i);
     RayTextures textures(m.width, m.height, frame);
-    if (readTextures(path, header, &textures)) {
+    const CacheRead read = readTextures(path, header, &textures);
+    if (read == CacheRead::kLoaded) {
       ++local.loaded;
     } else {
+      if (read == CacheRead::kCorrupt) {
+        spdlog::warn("ray-texture cache: {} is damaged (checksum or size): discarded, regenerating",
+                     path);
+        ++local.discarded;
+      }
       generateRayTexturesInto(model, i, textures.rays());
       ++local.generated;
       if (canStore) {

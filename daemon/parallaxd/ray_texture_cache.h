@@ -4,8 +4,9 @@
 // seen before — a restart, a rollback — loads its textures instead of generating them again.
 //
 // Layout: <cache_dir>/raytex/<hash as 16 hex digits>/module_NNN.rays, each the compact form
-// (12 bytes a pixel) behind a small header that repeats the size and the RayFrame, so a file
-// that does not match what the model expects is regenerated, never used.
+// (12 bytes a pixel) behind a small header that repeats the size and the RayFrame and holds a
+// checksum of the rays, so a file that does not match what the model expects, or whose bytes
+// were damaged on disk, is regenerated (a damaged one logged), never used.
 
 #include <cstdint>
 #include <functional>
@@ -25,6 +26,7 @@ std::string hashHex(uint64_t hash);
 struct RayTextureCacheStats {
   int loaded = 0;     // modules read from the cache
   int generated = 0;  // modules computed (and then stored)
+  int discarded = 0;  // cached files found damaged (checksum, size): regenerated, never used
 };
 
 class RayTextureCache {

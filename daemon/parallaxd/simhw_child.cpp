@@ -25,6 +25,7 @@
 #include "calibration/simulation/camera_truth.h"
 #include "calibration/simulation/ground_truth.h"
 #include "calibration/simulation/simulated_session.h"
+#include "common/private_folder.h"
 
 extern char** environ;
 
@@ -116,8 +117,9 @@ void SimhwChild::start() {
   std::vector<char*> argv;
   for (std::string& a : arguments_) argv.push_back(a.data());
   argv.push_back(nullptr);
-  std::error_code ec;
-  std::filesystem::remove(socketPath_, ec);
+  // A stale socket of ours is replaced; anything else at the path (another user's socket, a
+  // symlink) is refused, never deleted.
+  if (socketPathInUse(socketPath_)) ::unlink(socketPath_.c_str());
   // parallaxd blocks SIGTERM & co. for its sigwait thread and ignores SIGPIPE; the child must
   // start with neither, or it could not be stopped with SIGTERM.
   posix_spawnattr_t attributes;
@@ -126,6 +128,7 @@ void SimhwChild::start() {
   sigemptyset(&none);
   sigemptyset(&defaults);
   sigaddset(&defaults, SIGPIPE);
+  sigaddset(&defaults, SIGXFSZ);
   posix_spawnattr_setsigmask(&attributes, &none);
   posix_spawnattr_setsigdefault(&attributes, &defaults);
   posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);

@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "common/private_folder.h"
 #include "hw/link/socket_transport.h"
 
 namespace parallax::hw {
@@ -159,9 +160,15 @@ ConnectionEnd SimhwServer::listenAndServe(const std::string& path, const std::at
   std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
   const int listener = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   if (listener < 0) throw std::runtime_error(fmt::format("socket(): {}", std::strerror(errno)));
-  ::unlink(path.c_str());  // a stale socket file from a previous (crashed) run
-  if (::bind(listener, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0 ||
-      ::listen(listener, 4) != 0) {
+  // A stale socket of ours from a previous (crashed) run is replaced; anything else at the
+  // path is refused. The socket is 0600 from the moment it exists.
+  try {
+    if (socketPathInUse(path)) ::unlink(path.c_str());
+  } catch (...) {
+    ::close(listener);
+    throw;
+  }
+  if (bindPrivately(listener, path) != 0 || ::listen(listener, 4) != 0) {
     const std::string reason = std::strerror(errno);
     ::close(listener);
     throw std::runtime_error(fmt::format("cannot listen on {}: {}", path, reason));

@@ -1,6 +1,7 @@
 #include "calibration/display/display_model_json.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -122,7 +123,29 @@ INSTANTIATE_TEST_SUITE_P(
         BadInput{"duplicate_id", [](json& j) { j["modules"][2]["id"] = 0; }, "modules[2].id",
                  "used twice"},
         BadInput{"empty_box", [](json& j) { j["displayable_box"]["max"][2] = -1.0; },
-                 "displayable_box", "max must exceed min"}),
+                 "displayable_box", "max must exceed min"},
+        // Finite but absurd (issue 18, defect 16): the physical ranges of display_model.h.
+        BadInput{"absurd_screen_height", [](json& j) { j["screen"]["height"] = 1e300; },
+                 "screen.height", "outside the physical range"},
+        BadInput{"absurd_module_x", [](json& j) { j["modules"][1]["position"][0] = 1e308; },
+                 "modules[1].position[0]", "outside the physical range"},
+        BadInput{"absurd_distortion", [](json& j) { j["modules"][0]["distortion"][0] = 1e10; },
+                 "modules[0].distortion[0]", "outside the physical range"},
+        BadInput{"absurd_focal", [](json& j) { j["modules"][2]["focal_px"][1] = 1e12; },
+                 "modules[2].focal_px[1]", "outside the physical range"},
+        BadInput{"absurd_principal_point",
+                 [](json& j) { j["modules"][0]["principal_px"][0] = -1e9; },
+                 "modules[0].principal_px[0]", "module widths from the centre"},
+        BadInput{"absurd_observer", [](json& j) { j["observer"]["z"] = 1e6; }, "observer.z",
+                 "outside the physical range"},
+        BadInput{"absurd_box", [](json& j) { j["displayable_box"]["min"][0] = -1e200; },
+                 "displayable_box.min[0]", "outside the physical range"},
+        BadInput{"absurd_curvature",
+                 [](json& j) {
+                   j["screen"]["width"] = 1e-6;
+                   j["screen"]["curvature"] = 1e5;
+                 },
+                 "screen.curvature", "outside the physical range"}),
     [](const ::testing::TestParamInfo<BadInput>& p) { return p.param.name; });
 
 TEST(DisplayModelJson, SyntaxErrorsNameTheFileAndLine) {
@@ -194,6 +217,42 @@ TEST(DisplayPresets, DefaultAndDemoAreWhatTheDesignSays) {
       }
     }
   }
+}
+
+// A display file must be a regular file of sensible size (issue 18, defects 9 and 18): a
+// folder, a FIFO (which would block the reader for ever) or /dev/zero (which never ends) is
+// refused before reading, naming the file and what it is.
+TEST(DisplayModelJson, OnlyRegularFilesAreRead) {
+  const std::filesystem::path folder = temporaryPath("kinds");
+  std::filesystem::remove_all(folder);
+  std::filesystem::create_directories(folder / "folder.json");
+  const std::string fifo = (folder / "fifo.json").string();
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::pair<std::string, std::string> cases[] = {
+      {(folder / "folder.json").string(), "a folder"}, {fifo, "a FIFO"}, {"/dev/zero", "a device"}};
+  for (const auto& [path, kind] : cases) {
+    try {
+      loadDisplayModel(path);
+      ADD_FAILURE() << path << " loaded";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.location().file, path);
+      EXPECT_NE(std::string(e.what()).find(kind), std::string::npos) << e.what();
+    }
+  }
+  // Larger than any display can be: refused by its size, not parsed.
+  const std::string huge = (folder / "huge.json").string();
+  {
+    std::ofstream out(huge);
+    out.seekp(static_cast<std::streamoff>(kMaxDisplayFileBytes) + 1);
+    out << ' ';
+  }
+  try {
+    loadDisplayModel(huge);
+    ADD_FAILURE() << "a huge file loaded";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("more than"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove_all(folder);
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 
 #include <fmt/format.h>
 
+#include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
@@ -19,6 +20,7 @@
 #include "common/input_error.h"
 #include "daemon/cli/commands.h"
 #include "daemon/parallaxd/control_client.h"
+#include "daemon/parallaxd/control_request.h"
 #include "daemon/parallaxd/daemon_config.h"
 
 namespace parallax::cli {
@@ -46,9 +48,7 @@ const char* positionalKey(const std::string& request) {
 
 nlohmann::json requestFromWords(const std::vector<std::string>& words) {
   if (words.empty())
-    throw InputError({"", "REQUEST", 0},
-                     "name a request: status, stats, load, play, pause, set, frame, view, "
-                     "calibrate, cancel, reload, shutdown, identify, testcard, rollback");
+    throw InputError({"", "REQUEST", 0}, "name a request:\n" + daemon::controlRequestHelp());
   nlohmann::json request = {{"request", words[0]}};
   bool positionalUsed = false;
   for (size_t i = 1; i < words.size(); ++i) {
@@ -69,6 +69,13 @@ nlohmann::json requestFromWords(const std::vector<std::string>& words) {
     } else {
       throw InputError({"", w, 0}, fmt::format("unexpected argument for \"{}\"", words[0]));
     }
+  }
+  // The daemon writes only to absolute paths (its working folder is not the user's): a
+  // relative --path is the caller's, resolved here.
+  if (request.contains("path") && request["path"].is_string()) {
+    const std::string path = request["path"];
+    if (!path.empty())
+      request["path"] = std::filesystem::absolute(path).lexically_normal().string();
   }
   return request;
 }
@@ -99,6 +106,8 @@ void addCtlCommand(CLI::App& app) {
   CLI::App* command =
       app.add_subcommand("ctl", "talk to a running parallaxd (status, load, play, view, ...)");
   command->prefix_command();  // everything after the request is the request's own
+  command->footer("Requests (arguments as --key value, or the first one positional):\n" +
+                  daemon::controlRequestHelp());
   command->add_option("--socket", args->socket,
                       "control socket (default: where parallaxd with no config listens)");
   command->add_option("--json", args->json, "send this JSON request as it is");

@@ -93,13 +93,8 @@ SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardwa
   saveCameraTruth(camera.truth, folder_ + "/camera_truth.json");
   saveCameraMetadata(camera.metadata, cameraMetadataPath());
 
-  arguments_ = {findBinary(),
-                "--socket",
-                socketPath_,
-                "--truth",
-                groundTruthPath(),
-                "--camera",
-                folder_ + "/camera_truth.json"};
+  arguments_ = {findBinary(), "--exit-with-parent", "--socket", socketPath_,
+                "--truth",    groundTruthPath(),    "--camera", folder_ + "/camera_truth.json"};
   for (const std::string& fault : hardware.faults) {
     arguments_.push_back("--fault");
     arguments_.push_back(fault);

@@ -9,6 +9,8 @@
 // (hw/simulator/calibration_physics.h); the modules are then the truth's.
 
 #include <fmt/format.h>
+#include <sys/prctl.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <csignal>
@@ -42,6 +44,7 @@ struct Args {
   std::string dump;
   std::string truth, camera;
   uint32_t maxChunk = 4u << 20;
+  bool exitWithParent = false;
 };
 
 int run(const Args& args) {
@@ -98,6 +101,12 @@ int run(const Args& args) {
   std::signal(SIGINT, onSignal);
   std::signal(SIGTERM, onSignal);
   std::signal(SIGPIPE, SIG_IGN);
+  // Started by parallaxd: stop with it even when it is killed outright (SIGKILL, a crash), so no
+  // simulator is left running that nothing will ever stop.
+  if (args.exitWithParent) {
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (::getppid() == 1) gStop.store(true);  // the parent died before prctl
+  }
   std::fprintf(stderr, "parallax-simhw: %d modules of %dx%d on %s%s\n", hardware.moduleCount(),
                options.width, options.height, args.socket.c_str(),
                truth ? " (camera: calibration physics of the ground truth)" : "");
@@ -147,6 +156,8 @@ int main(int argc, char** argv) {
   app.add_option("--camera", args.camera,
                  "camera truth (camera_truth.json: intrinsics, true station poses, sensor)");
   app.add_option("--max-chunk", args.maxChunk, "largest chunk the modules accept (bytes)");
+  app.add_flag("--exit-with-parent", args.exitWithParent,
+               "stop when the process that started this one ends (parallaxd's own simulator)");
   try {
     app.parse(argc, argv);
     return run(args);

@@ -70,9 +70,11 @@ TEST_F(CalibrationInstall, AnInstallOnAFullDiskIsAnErrorAndTheOldCalibrationKeep
   const DisplayModel nominal = nominalDisplayOf(display);
   const DisplayModel truth = makeGroundTruth(nominal, GroundTruthOptions{});
   CameraRigOptions rig;
-  rig.stations = 3;
+  // A sound rig (five stations, a 640x360 camera): the fit must pass the calibration gate, so
+  // that the only thing that fails is the install.
+  rig.stations = 5;
   rig.spanM = 2.0;
-  rig.intrinsics = CameraIntrinsics::centred(320, 180, 2100.0 * 320.0 / 1920.0);
+  rig.intrinsics = CameraIntrinsics::centred(640, 360, 2100.0 * 640.0 / 1920.0);
   const SimulatedRig camera = makeSimulatedRig(truth, rig, 3);
   const std::string cameraPath = (folder_ / "camera.json").string();
   saveCameraMetadata(camera.metadata, cameraPath);

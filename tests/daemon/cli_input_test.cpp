@@ -11,6 +11,7 @@
 
 #include "calibration/display/display_model_json.h"
 #include "calibration/display/display_presets.h"
+#include "tests/daemon/shell_command.h"
 
 namespace parallax {
 namespace {
@@ -18,13 +19,7 @@ namespace {
 namespace fs = std::filesystem;
 
 std::pair<int, std::string> run(const std::string& command) {
-  std::string out;
-  FILE* p = ::popen((command + " 2>&1").c_str(), "r");
-  char buffer[4096];
-  size_t n = 0;
-  while ((n = std::fread(buffer, 1, sizeof buffer, p)) > 0) out.append(buffer, n);
-  const int status = ::pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+  return testing::runShellCommand(command);
 }
 
 class CliInput : public ::testing::Test {

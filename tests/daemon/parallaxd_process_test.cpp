@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "daemon/parallaxd/control_client.h"
+#include "tests/daemon/shell_command.h"
 #include "tracer/frame.h"
 
 extern char** environ;
@@ -101,13 +102,7 @@ json waitForStats(const std::string& socket, const std::function<bool(const json
 std::pair<int, std::string> ctl(const std::vector<std::string>& args, const std::string& env) {
   std::string command = env + " " + PARALLAX_PATH + " ctl";
   for (const std::string& a : args) command += " '" + a + "'";
-  std::string out;
-  FILE* p = ::popen((command + " 2>&1").c_str(), "r");
-  char buffer[4096];
-  size_t n = 0;
-  while ((n = std::fread(buffer, 1, sizeof buffer, p)) > 0) out.append(buffer, n);
-  const int status = ::pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+  return testing::runShellCommand(command);
 }
 
 class ParallaxdProcess : public ::testing::Test {
@@ -336,7 +331,9 @@ TEST_F(ParallaxdProcess, CalibrateWorksAfterAReload) {
       break;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
-  if (!reply.is_object()) EXPECT_EQ(ask(socket_, {{"request", "cancel"}})["ok"], true);
+  if (!reply.is_object()) {
+    EXPECT_EQ(ask(socket_, {{"request", "cancel"}})["ok"], true);
+  }
   calibrating.join();
   EXPECT_EQ(reply["ok"], false) << reply.dump();
   EXPECT_NE(reply.value("error", "").find("cancelled"), std::string::npos)

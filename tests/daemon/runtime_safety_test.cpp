@@ -24,6 +24,7 @@
 #include <thread>
 
 #include "daemon/parallaxd/control_client.h"
+#include "tests/daemon/shell_command.h"
 
 extern char** environ;
 
@@ -87,13 +88,7 @@ class DaemonProcess {
 
 // `command` through the shell; exit status and output (stdout and stderr).
 std::pair<int, std::string> run(const std::string& command) {
-  std::string out;
-  FILE* p = ::popen((command + " 2>&1").c_str(), "r");
-  char buffer[4096];
-  size_t n = 0;
-  while ((n = std::fread(buffer, 1, sizeof buffer, p)) > 0) out.append(buffer, n);
-  const int status = ::pclose(p);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+  return testing::runShellCommand(command);
 }
 
 mode_t modeOf(const fs::path& path) {

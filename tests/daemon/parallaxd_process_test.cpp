@@ -21,6 +21,7 @@
 #include <thread>
 
 #include "daemon/parallaxd/control_client.h"
+#include "tests/daemon/daemon_process.h"
 #include "tests/daemon/shell_command.h"
 #include "tracer/frame.h"
 
@@ -32,54 +33,23 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-class Daemon {
+// A parallaxd child running `config` (written into `folder`), its log beside it.
+class Daemon : public testing::DaemonProcess {
  public:
   Daemon(const fs::path& folder, const std::string& config, std::vector<std::string> extraEnv = {})
-      : folder_(folder) {
-    std::ofstream(folder / "parallax.toml") << config;
-    std::vector<std::string> env;
-    for (char** e = environ; *e; ++e) env.emplace_back(*e);
-    for (std::string& e : extraEnv) env.push_back(std::move(e));
-    std::vector<char*> envp;
-    for (std::string& e : env) envp.push_back(e.data());
-    envp.push_back(nullptr);
-    const std::string configPath = (folder / "parallax.toml").string();
-    const std::string log = (folder / "parallaxd.log").string();
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    std::vector<char*> argv = {const_cast<char*>(PARALLAXD_PATH), const_cast<char*>("--config"),
-                               const_cast<char*>(configPath.c_str()), nullptr};
-    EXPECT_EQ(posix_spawn(&pid_, PARALLAXD_PATH, &actions, nullptr, argv.data(), envp.data()), 0);
-    posix_spawn_file_actions_destroy(&actions);
-  }
-  ~Daemon() {
-    if (pid_ > 0) {
-      ::kill(pid_, SIGKILL);
-      ::waitpid(pid_, nullptr, 0);
-    }
-  }
-  pid_t pid() const { return pid_; }
-  // Exit status, waiting up to `ms`; -1 if it is still running.
-  int waitExit(int ms) {
-    for (int i = 0; i < ms / 10; ++i) {
-      int status = 0;
-      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        return status;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return -1;
-  }
-  std::string log() const {
-    std::ifstream in(folder_ / "parallaxd.log");
-    return std::string((std::istreambuf_iterator<char>(in)), {});
-  }
+      : testing::DaemonProcess(writeConfig(folder, config), folder / "parallaxd.log",
+                               environmentWith(std::move(extraEnv))) {}
 
  private:
-  fs::path folder_;
-  pid_t pid_ = -1;
+  static fs::path writeConfig(const fs::path& folder, const std::string& config) {
+    std::ofstream(folder / "parallax.toml") << config;
+    return folder / "parallax.toml";
+  }
+  static std::vector<std::string> environmentWith(std::vector<std::string> extraEnv) {
+    std::vector<std::string> env = testing::currentEnvironment();
+    for (std::string& e : extraEnv) env.push_back(std::move(e));
+    return env;
+  }
 };
 
 json ask(const std::string& socket, const json& request) {

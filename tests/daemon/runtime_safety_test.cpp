@@ -24,6 +24,7 @@
 #include <thread>
 
 #include "daemon/parallaxd/control_client.h"
+#include "tests/daemon/daemon_process.h"
 #include "tests/daemon/shell_command.h"
 
 extern char** environ;
@@ -36,54 +37,20 @@ using nlohmann::json;
 
 constexpr uid_t kOtherUser = 65534;  // nobody
 
-// A parallaxd child with its stderr in `log`.
-class DaemonProcess {
+// A parallaxd child without XDG_RUNTIME_DIR, plus `extraEnv`.
+class DaemonProcess : public testing::DaemonProcess {
  public:
   DaemonProcess(const fs::path& config, const fs::path& log, const std::string& extraEnv)
-      : log_(log) {
-    std::vector<std::string> env;
-    for (char** e = environ; *e; ++e)
-      if (std::strncmp(*e, "XDG_RUNTIME_DIR=", 16) != 0) env.emplace_back(*e);
-    env.push_back(extraEnv);
-    std::vector<char*> envp;
-    for (std::string& e : env) envp.push_back(e.data());
-    envp.push_back(nullptr);
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const std::string configPath = config.string();
-    std::vector<char*> argv = {const_cast<char*>(PARALLAXD_PATH), const_cast<char*>("--config"),
-                               const_cast<char*>(configPath.c_str()), nullptr};
-    EXPECT_EQ(posix_spawn(&pid_, PARALLAXD_PATH, &actions, nullptr, argv.data(), envp.data()), 0);
-    posix_spawn_file_actions_destroy(&actions);
-  }
-  ~DaemonProcess() {
-    if (pid_ > 0) {
-      ::kill(pid_, SIGKILL);
-      ::waitpid(pid_, nullptr, 0);
-    }
-  }
-  pid_t pid() const { return pid_; }
-  // Exit status, waiting up to `ms`; -1 while it still runs.
-  int waitExit(int ms) {
-    for (int i = 0; i < ms / 10; ++i) {
-      int status = 0;
-      if (::waitpid(pid_, &status, WNOHANG) == pid_) {
-        pid_ = -1;
-        return status;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return -1;
-  }
-  std::string log() const {
-    std::ifstream in(log_);
-    return std::string((std::istreambuf_iterator<char>(in)), {});
-  }
+      : testing::DaemonProcess(config, log, environmentWith(extraEnv)) {}
 
  private:
-  fs::path log_;
-  pid_t pid_ = -1;
+  static std::vector<std::string> environmentWith(const std::string& extraEnv) {
+    std::vector<std::string> env;
+    for (std::string& e : testing::currentEnvironment())
+      if (e.rfind("XDG_RUNTIME_DIR=", 0) != 0) env.push_back(std::move(e));
+    env.push_back(extraEnv);
+    return env;
+  }
 };
 
 // `command` through the shell; exit status and output (stdout and stderr).

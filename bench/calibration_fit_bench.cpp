@@ -6,6 +6,7 @@
 // residual statistics, covariance and conditioning that follow them.
 //
 //   calibration_fit_bench [default|demo] [--quick] [--experiment] [--pictures N]
+//   calibration_fit_bench --decoder-error SEED [--true-intrinsics]
 // --experiment: only the errors-in-variables comparison (where the correspondences' noise sits:
 // on the camera pixel, as a camera gives it, or on the module pixel; the residual: two-stage
 // camera px, FitOptions' default, or module px only), at two sampling densities.
@@ -13,6 +14,8 @@
 // (checkerboard intrinsics, patterns from five stations over 4 m), decoded and fitted; per seed
 // the gate's verdict, the true worst error against the predicted 3σ worst, and over the sweep
 // the coverage (true worst within 3σ, per module) and the ratio of true to predicted RMS.
+// --decoder-error SEED: one such session, the decoder's stripe centres and correspondences
+// measured against the truth (bias and outliers), and the fit's error against its σ per module.
 
 #include <algorithm>
 #include <chrono>
@@ -23,6 +26,7 @@
 #include <ctime>
 #include <string>
 
+#include "calibration/camera/calibration_geometry.h"
 #include "calibration/capture/calibration_captures.h"
 #include "calibration/capture/checkerboard_calibration.h"
 #include "calibration/display/display_presets.h"
@@ -79,6 +83,139 @@ void print(const std::string& value, const Row& r) {
   std::fflush(stdout);
 }
 
+// One picture-path session on demo: the truth, the camera's truth and what the decoder made of
+// the rendered pictures (intrinsics from simulated checkerboard pictures, or the true ones).
+struct PictureSession {
+  DisplayModel truth;
+  CameraTruth camera;
+  CameraIntrinsics intrinsicsUsed;
+  CalibrationObservations obs;
+};
+
+PictureSession pictureSession(const DisplayModel& nominal, std::uint64_t seed,
+                              bool trueIntrinsics = false) {
+  PictureSession out;
+  GroundTruthOptions gt;
+  gt.seed = seed;
+  out.truth = makeGroundTruth(nominal, gt);
+  CameraRigOptions rig;
+  rig.spanM = 4.0;
+  rig.intrinsics = CameraIntrinsics::centred(640, 360, 700.0, -0.04);
+  const SimulatedRig camera = makeSimulatedRig(out.truth, rig, seed * 7919 + 1);
+  out.camera = camera.truth;
+  CalibrationCaptures captures = renderSession(out.truth, camera.truth, camera.metadata, {});
+  if (!trueIntrinsics) {
+    CheckerboardShotOptions shots;
+    shots.pictures = 12;
+    captures.checkerboard = simulateCheckerboardCaptures(camera.truth, CheckerboardBoard{}, shots);
+    captures.camera.intrinsicsKnown = false;
+    calibrateCapturesCamera(&captures);
+  }
+  out.intrinsicsUsed = captures.camera.intrinsics;
+  CaptureDecoderOptions decoder;
+  decoder.pixelStep = 6;
+  out.obs = decodeCaptures(captures, nominal, decoder);
+  return out;
+}
+
+// The decoder's own error, measured against the truth (true display, camera poses and
+// intrinsics), then the fit's true error against its predicted σ per module: where the picture
+// path's error comes from (issue 17). Outliers (stripes > 1 mm, correspondences > 0.5 px at the
+// truth) are counted apart; the means of the rest are the decoder's biases.
+int decoderError(std::uint64_t seed, bool trueIntrinsics) {
+  const DisplayModel nominal = resolveDisplay("demo");
+  const PictureSession session = pictureSession(nominal, seed, trueIntrinsics);
+  const CalibrationObservations& obs = session.obs;
+  const CameraIntrinsics& ti = session.camera.intrinsics;
+  const double k = session.truth.screen.curvature;
+  const auto screenPoint = [&](int camera, const Eigen::Vector2d& px, Eigen::Vector3d* s) {
+    const auto block = packCamera(session.camera.poses[static_cast<size_t>(camera)]);
+    const Eigen::Vector2d n = ti.normalized(px);
+    return screenPointOfCameraRay(k, block.data(), n.x(), n.y(), s);
+  };
+  std::printf(
+      "# decoder error at the truth: demo seed %llu, %s intrinsics (f %.2f, k1 %.4f; "
+      "true f %.2f, k1 %.4f)\n",
+      static_cast<unsigned long long>(seed), trueIntrinsics ? "true" : "checkerboard",
+      session.intrinsicsUsed.fx, session.intrinsicsUsed.k1, ti.fx, ti.k1);
+  const size_t stations = obs.stations.size(), modules = nominal.modules.size();
+  std::vector<double> sum(stations, 0.0), sumSq(stations, 0.0);
+  std::vector<int> count(stations, 0), outliers(stations, 0);
+  for (const StripeCentre& st : obs.stripes) {
+    Eigen::Vector3d sp;
+    if (!screenPoint(st.camera, st.cameraPx, &sp)) continue;
+    const double r =
+        1e3 * stripeMismatch<double>(session.truth.screen.transfer, k, sp,
+                                     session.truth.modules[static_cast<size_t>(st.module)].position,
+                                     session.camera.poses[static_cast<size_t>(st.camera)].centre);
+    const auto c = static_cast<size_t>(st.camera);
+    if (std::abs(r) > 1.0) {
+      ++outliers[c];
+      continue;
+    }
+    sum[c] += r;
+    sumSq[c] += r * r;
+    ++count[c];
+  }
+  for (size_t c = 0; c < stations; ++c) {
+    std::printf("stripes, station %zu: %d within 1 mm: mean %+.3f mm, RMS %.3f mm; %d beyond\n", c,
+                count[c], count[c] ? sum[c] / count[c] : 0.0,
+                count[c] ? std::sqrt(sumSq[c] / count[c]) : 0.0, outliers[c]);
+  }
+  double cSum = 0.0, cSq = 0.0;
+  int cCount = 0, cOut = 0;
+  for (const Correspondence& c : obs.correspondences) {
+    Eigen::Vector3d sp;
+    const OpticalModule& tm = session.truth.modules[static_cast<size_t>(c.module)];
+    const auto mb = packModule(tm);
+    double uv[2];
+    if (!screenPoint(c.camera, c.cameraPx, &sp) ||
+        !projectIntoModule(mb.data(), tm.width, tm.mirror ? -1.0 : 1.0, sp, uv))
+      continue;
+    const double du = c.modulePx.x() - uv[0], dv = c.modulePx.y() - uv[1];
+    if (std::hypot(du, dv) > 0.5) {
+      ++cOut;
+      continue;
+    }
+    cSum += du + dv;
+    cSq += du * du + dv * dv;
+    ++cCount;
+  }
+  std::printf("correspondences: %d within 0.5 px: mean %+.4f px, RMS %.3f px per axis; %d beyond\n",
+              cCount, cCount ? cSum / (2 * cCount) : 0.0,
+              cCount ? std::sqrt(cSq / (2 * cCount)) : 0.0, cOut);
+
+  FitOptions fit;
+  fit.threads = 2;
+  const FitResult result = fitDisplay(nominal, obs, fit);
+  const std::vector<RayErrorStats> rays = compareRays(session.truth, result.model);
+  std::printf("fit: k %.5f (true %.5f, σ %.5f); σ correspondences %.3f px, stripes %.3f mm\n",
+              result.model.screen.curvature, k, result.curvatureStdDev,
+              result.correspondenceSigmaPx, result.stripeSigmaMm);
+  for (const CameraFit& cf : result.cameras) {
+    const CameraPose& t = session.camera.poses[static_cast<size_t>(cf.camera)];
+    const Eigen::Vector3d d = (cf.pose.centre - t.centre) * 1e3;
+    std::printf("camera %d: centre %+.2f %+.2f %+.2f mm (σ %.2f %.2f %.2f), rotation %.4f°\n",
+                cf.camera, d.x(), d.y(), d.z(), cf.stdDev[3], cf.stdDev[4], cf.stdDev[5],
+                cf.pose.physicalFromCamera.angularDistance(t.physicalFromCamera) * 180.0 / M_PI);
+  }
+  std::printf(
+      "| module | Δx, Δy, Δz mm (σ) | Δfx px (σ) | true RMS px / observer mm | predicted |\n"
+      "|---|---|---|---|---|\n");
+  for (const ModuleGate& g : result.gate.modules) {
+    const auto m = static_cast<size_t>(g.module);
+    const OpticalModule &t = session.truth.modules[m], &f = result.model.modules[m];
+    const Eigen::Vector3d d = (f.position - t.position) * 1e3;
+    const auto& sd = result.modules[m].stdDev;
+    std::printf(
+        "| %zu | %+.2f (%.2f), %+.2f (%.2f), %+.2f (%.2f) | %+.2f (%.2f) | %.3f / %.2f | "
+        "%.3f / %.2f |\n",
+        m, d.x(), sd[3], d.y(), sd[4], d.z(), sd[5], f.fx - t.fx, sd[6], rays[m].rmsPx,
+        rays[m].rmsObserverMm, g.predicted.rmsPx, g.predicted.rmsObserverMm);
+  }
+  return 0;
+}
+
 // The picture path on `seeds` seeds of demo (issue 17's benchmark half of the sweep).
 int pictureSweep(int seeds) {
   const DisplayModel nominal = resolveDisplay("demo");
@@ -90,22 +227,9 @@ int pictureSweep(int seeds) {
   double tPx = 0, pPx = 0, tMm = 0, pMm = 0;
   for (int i = 0; i < seeds; ++i) {
     const std::uint64_t seed = 3000 + static_cast<std::uint64_t>(i);
-    GroundTruthOptions gt;
-    gt.seed = seed;
-    const DisplayModel truth = makeGroundTruth(nominal, gt);
-    CameraRigOptions rig;
-    rig.spanM = 4.0;
-    rig.intrinsics = CameraIntrinsics::centred(640, 360, 700.0, -0.04);
-    const SimulatedRig camera = makeSimulatedRig(truth, rig, seed * 7919 + 1);
-    CalibrationCaptures captures = renderSession(truth, camera.truth, camera.metadata, {});
-    CheckerboardShotOptions shots;
-    shots.pictures = 12;
-    captures.checkerboard = simulateCheckerboardCaptures(camera.truth, CheckerboardBoard{}, shots);
-    captures.camera.intrinsicsKnown = false;
-    calibrateCapturesCamera(&captures);
-    CaptureDecoderOptions decoder;
-    decoder.pixelStep = 6;
-    const CalibrationObservations obs = decodeCaptures(captures, nominal, decoder);
+    const PictureSession session = pictureSession(nominal, seed);
+    const DisplayModel& truth = session.truth;
+    const CalibrationObservations& obs = session.obs;
     FitOptions fit;
     fit.threads = 2;
     const FitResult result = fitDisplay(nominal, obs, fit);
@@ -165,6 +289,9 @@ int main(int argc, char** argv) {
       quick = true;
     else if (std::strcmp(argv[i], "--experiment") == 0)
       experiment = true;
+    else if (std::strcmp(argv[i], "--decoder-error") == 0 && i + 1 < argc)
+      return decoderError(static_cast<std::uint64_t>(std::atoll(argv[++i])),
+                          i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0);
     else if (std::strcmp(argv[i], "--pictures") == 0 && i + 1 < argc)
       return pictureSweep(std::max(1, std::atoi(argv[++i])));
     else

@@ -132,6 +132,8 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
   captures.validate(nominal);
   CaptureDecoderOptions decoder = options;
   decoder.patterns = captures.patterns;
+  // The pictures were 8-bit: the top code (255) is where the sensor clipped.
+  decoder.saturatedLinear = std::pow(254.5 / 255.0, captures.camera.responseGamma);
   CalibrationObservations obs = observationsFrame(captures.camera);
   // Fiducials first (from each station's first black reference picture): the pose they give
   // is what the decoder predicts the stripes from.

@@ -1,5 +1,6 @@
 #include "calibration/capture/capture_decoder.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "calibration/camera/calibration_geometry.h"
@@ -16,6 +17,8 @@ void CaptureDecoderOptions::validate() const {
   }
   if (pixelStep < 1 || pixelStep > 64) throw InputError({"", "pixel_step", 0}, "must be 1..64");
   if (minStripePixels < 1) throw InputError({"", "min_stripe_pixels", 0}, "must be >= 1");
+  if (!(saturatedLinear > 0.0 && saturatedLinear <= 1.0))
+    throw InputError({"", "saturated_linear", 0}, "must be in (0, 1]");
 }
 
 void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<cv::Mat>& rowFrames,
@@ -54,6 +57,7 @@ void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<c
       if (!screenPointOfCameraRay(nominal.screen.curvature, camera.data(), n.x(), n.y(), &s))
         continue;
       StripeRowSample sample{x + 0.5, contrast, -1, {}};
+      sample.clipped = columnFrames[0].at<float>(y, x) >= options.saturatedLinear;
       double best = 1e9;
       for (size_t g = 0; g < group.size(); ++g) {
         const double angle =
@@ -72,6 +76,11 @@ void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<c
       std::vector<float> ic, ir;
       for (const cv::Mat& f : columnFrames) ic.push_back(f.at<float>(y, x));
       for (const cv::Mat& f : rowFrames) ir.push_back(f.at<float>(y, x));
+      const auto clipped = [&](const std::vector<float>& frames) {
+        return std::any_of(frames.end() - options.patterns.phaseSteps, frames.end(),
+                           [&](float value) { return value >= options.saturatedLinear; });
+      };
+      if (clipped(ic) || clipped(ir)) continue;
       const auto u = decodePixel(ic, mw, options.patterns);
       const auto v = decodePixel(ir, mh, options.patterns);
       if (!u || !v) continue;

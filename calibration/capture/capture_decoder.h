@@ -28,6 +28,12 @@ struct CaptureDecoderOptions {
   int pixelStep = 2;                  // decode every n-th camera pixel in x and y (and
                                       // find stripe centres on every n-th row)
   int minStripePixels = 3;            // per row, for a stripe centre
+  // Linear picture values at or above this were clipped by the sensor (decodeCaptures sets it
+  // from the camera's response: the top 8-bit code). A clipped pixel says only "at least this
+  // bright": it is left out of the stripe-peak fits (a flattened lobe top pulls the peak toward
+  // its longer unclipped flank) and out of the correspondences when a phase frame clipped (the
+  // phase of a clipped sinusoid is biased).
+  double saturatedLinear = 1.0;
 
   void validate() const;
 };

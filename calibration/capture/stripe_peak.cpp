@@ -26,7 +26,7 @@ struct Lobe {
 // on into a neighbour's pixels: that is a valley between two lobes, whose overlap the rounds
 // remove.
 std::optional<Lobe> fitLobe(const std::vector<double>& angle, const std::vector<double>& contrast,
-                            bool frontIsValley, bool backIsValley,
+                            const std::vector<bool>& clipped, bool frontIsValley, bool backIsValley,
                             const StripePeakOptions& options) {
   const size_t n = angle.size();
   if (n < 3) return std::nullopt;
@@ -46,7 +46,7 @@ std::optional<Lobe> fitLobe(const std::vector<double>& angle, const std::vector<
   int used = 0;
   double tMin = 0.0, tMax = 0.0;
   for (size_t i = 0; i < n; ++i) {
-    if (!(contrast[i] >= options.fitFraction * peak)) continue;
+    if (!(contrast[i] >= options.fitFraction * peak) || clipped[i]) continue;
     const double t = (angle[i] - angle[top]) / spread;
     if (!std::isfinite(t)) return std::nullopt;
     const Eigen::Vector3d row(1.0, t, t * t);
@@ -107,11 +107,13 @@ std::vector<std::optional<double>> stripePeaksInRow(const std::vector<StripeRowS
   }
   std::vector<std::optional<double>> peaks(modules);
   std::vector<double> x, angle, contrast;
+  std::vector<bool> clipped;
   for (int round = 0; round <= options.rounds; ++round) {
     for (size_t m = 0; m < modules; ++m) {
       x.clear();
       angle.clear();
       contrast.clear();
+      clipped.clear();
       for (size_t i : owned[m]) {
         double own = row[i].contrast;
         for (size_t other = 0; other < modules; ++other) {
@@ -120,11 +122,12 @@ std::vector<std::optional<double>> stripePeaksInRow(const std::vector<StripeRowS
         x.push_back(row[i].x);
         angle.push_back(row[i].angles[m]);
         contrast.push_back(own);
+        clipped.push_back(row[i].clipped);
       }
       const bool frontIsValley = !owned[m].empty() && bordersNeighbour(row, owned[m].front(), -1);
       const bool backIsValley = !owned[m].empty() && bordersNeighbour(row, owned[m].back(), +1);
       // In place (Gauss–Seidel): the next module already sees this one's refined lobe.
-      lobes[m] = fitLobe(angle, contrast, frontIsValley, backIsValley, options);
+      lobes[m] = fitLobe(angle, contrast, clipped, frontIsValley, backIsValley, options);
       if (round == options.rounds && lobes[m]) peaks[m] = cameraXAtAngle(x, angle, lobes[m]->mean);
     }
   }

@@ -13,6 +13,9 @@ namespace parallax::fit {
 namespace {
 
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+// Ceres' quaternion tangent δ turns by 2|δ| (Plus multiplies by [cos|δ|, sin|δ| δ/|δ|]): a
+// rotation's σ in degrees is twice its tangent's.
+constexpr double kTangentToRotationDeg = 2.0 * kRadToDeg;
 
 }  // namespace
 
@@ -56,7 +59,7 @@ void diagnoseUncertainty(const FitInputs& in, FitState& state, const NoiseLevels
     for (int p = 0; p < kModuleTangentSize; ++p) {
       double sd = d.moduleStdDev[j][p];
       if (p < 3)
-        sd *= kRadToDeg;
+        sd *= kTangentToRotationDeg;
       else if (p < 6)
         sd *= 1e3;
       else if (p < 10)
@@ -92,7 +95,7 @@ void diagnoseUncertainty(const FitInputs& in, FitState& state, const NoiseLevels
   for (size_t c = 0; c < state.cameras.size(); ++c) {
     for (int p = 0; p < kCameraTangentSize; ++p) {
       double sd = d.sharedStdDev[static_cast<long>(c) * kCameraTangentSize + p];
-      sd *= p < 3 ? kRadToDeg : 1e3;
+      sd *= p < 3 ? kTangentToRotationDeg : 1e3;
       result->cameras[c].stdDev[static_cast<size_t>(p)] = sd;
     }
   }

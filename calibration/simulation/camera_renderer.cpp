@@ -90,21 +90,25 @@ StationView viewFromStation(const DisplayModel& truth, const CameraIntrinsics& i
   StationView view;
   view.width = intrinsics.width;
   view.height = intrinsics.height;
-  view.pixels.resize(static_cast<size_t>(view.width) * static_cast<size_t>(view.height));
   std::vector<ModuleOptics> optics;
   for (const OpticalModule& m : truth.modules) optics.emplace_back(m);
   // FWHM = diffusion width ⇒ σ = FWHM / (2 √(2 ln 2)).
   const double sigma = radians(truth.screen.diffusionDeg) / 2.354820045;
   const auto camera = packCamera(pose);
+  // Rows in parallel, each into its own list; joined in row order below.
+  std::vector<std::vector<LobeContribution>> rowContributions(static_cast<size_t>(view.height));
+  std::vector<std::vector<uint32_t>> rowCounts(static_cast<size_t>(view.height));
   tbb::parallel_for(0, view.height, [&](int y) {
+    auto& out = rowContributions[static_cast<size_t>(y)];
+    auto& counts = rowCounts[static_cast<size_t>(y)];
+    counts.assign(static_cast<size_t>(view.width), 0);
     for (int x = 0; x < view.width; ++x) {
-      auto& out = view.pixels[static_cast<size_t>(y) * static_cast<size_t>(view.width) +
-                              static_cast<size_t>(x)];
       const Eigen::Vector2d n = intrinsics.normalized({x + 0.5, y + 0.5});
       Vec3<double> s;
       if (!screenPointOfCameraRay(truth.screen.curvature, camera.data(), n.x(), n.y(), &s))
         continue;
       if (!truth.screen.contains(s.x(), s.y())) continue;
+      const size_t begin = out.size();
       for (size_t m = 0; m < truth.modules.size(); ++m) {
         const double angle = stripeAngle(truth.screen, s, truth.modules[m].position, pose.centre);
         const double weight = std::exp(-0.5 * (angle / sigma) * (angle / sigma));
@@ -113,16 +117,23 @@ StationView viewFromStation(const DisplayModel& truth, const CameraIntrinsics& i
         if (!optics[m].project(s - truth.modules[m].position, &uv)) continue;
         const OpticalModule& mod = truth.modules[m];
         if (uv.x() < 0.0 || uv.y() < 0.0 || uv.x() > mod.width || uv.y() > mod.height) continue;
-        LobeContribution c{static_cast<int>(m), static_cast<float>(uv.x()),
-                           static_cast<float>(uv.y()), static_cast<float>(weight)};
-        // Keep the strongest few, sorted.
-        for (int k = 0; k < kMaxContributions; ++k) {
-          if (c.weight > out[static_cast<size_t>(k)].weight)
-            std::swap(c, out[static_cast<size_t>(k)]);
-        }
+        out.push_back({static_cast<int>(m), static_cast<float>(uv.x()), static_cast<float>(uv.y()),
+                       static_cast<float>(weight)});
       }
+      std::sort(
+          out.begin() + static_cast<std::ptrdiff_t>(begin), out.end(),
+          [](const LobeContribution& a, const LobeContribution& b) { return a.weight > b.weight; });
+      counts[static_cast<size_t>(x)] = static_cast<uint32_t>(out.size() - begin);
     }
   });
+  view.first.reserve(static_cast<size_t>(view.width) * static_cast<size_t>(view.height) + 1);
+  view.first.push_back(0);
+  for (int y = 0; y < view.height; ++y) {
+    for (uint32_t count : rowCounts[static_cast<size_t>(y)])
+      view.first.push_back(view.first.back() + count);
+    const auto& row = rowContributions[static_cast<size_t>(y)];
+    view.contributions.insert(view.contributions.end(), row.begin(), row.end());
+  }
   view.markers = renderMarkers(truth.screen, intrinsics, pose, options);
   return view;
 }
@@ -135,7 +146,6 @@ cv::Mat renderFrame(const StationView& view, const std::vector<cv::Mat>& moduleI
     for (int x = 0; x < view.width; ++x) {
       float value = static_cast<float>(options.ambient);
       for (const LobeContribution& c : view.at(x, y)) {
-        if (c.module < 0) break;
         const cv::Mat& image = moduleImages[static_cast<size_t>(c.module)];
         if (image.empty()) continue;
         value += c.weight * sampleBilinear(image, c.u, c.v);

@@ -17,7 +17,9 @@
 // for every frame of a station), so rendering a frame is a weighted lookup.
 
 #include <array>
+#include <cstdint>
 #include <opencv2/core.hpp>
+#include <span>
 #include <vector>
 
 #include "calibration/camera/calibration_camera.h"
@@ -39,20 +41,23 @@ struct CameraRenderOptions {
 };
 
 struct LobeContribution {
-  int module = -1;           // −1: none
+  int module = -1;
   float u = 0.0f, v = 0.0f;  // module pixel position (centres at +0.5)
   float weight = 0.0f;
 };
 
-constexpr int kMaxContributions = 4;
-
+// Every module whose lobe reaches a pixel above minLobeWeight, however many: keeping only the
+// strongest few once dropped a lit module's light wherever dark neighbours were stronger,
+// which cut one flank of the lit modules' stripes and biased their peaks (±0.4 mm at demo's
+// oblique stations).
 struct StationView {
   int width = 0, height = 0;
-  std::vector<std::array<LobeContribution, kMaxContributions>>
-      pixels;       // row-major, strongest first
+  std::vector<uint32_t> first;  // per pixel (row-major), plus one: its range in `contributions`
+  std::vector<LobeContribution> contributions;  // per pixel, strongest first
   cv::Mat markers;  // CV_32F: the fiducial markers' light, added to every frame
-  const std::array<LobeContribution, kMaxContributions>& at(int x, int y) const {
-    return pixels[static_cast<size_t>(y) * static_cast<size_t>(width) + static_cast<size_t>(x)];
+  std::span<const LobeContribution> at(int x, int y) const {
+    const size_t i = static_cast<size_t>(y) * static_cast<size_t>(width) + static_cast<size_t>(x);
+    return {contributions.data() + first[i], first[i + 1] - first[i]};
   }
 };
 

@@ -5,7 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <optional>
 #include <vector>
 
 namespace parallax {
@@ -65,6 +67,27 @@ TEST(StripePeak, AnIsolatedLobeSeenObliquelyPeaksWhereItsAngleIsZeroNotAtItsCent
   EXPECT_NEAR(*peaks[0], 300.25, 0.02);
   // The centroid is what the decoder used before: pixels off on this bend.
   EXPECT_GT(std::abs(centroid(row, 0) - 300.25), 0.5);
+}
+
+// A sensor that clips the lobes' tops flattens them; those pixels are a lower bound only. With
+// neighbours overlapping, the clipped run is lopsided, and left in the fits it pulls the peaks
+// (and the neighbour subtraction) off; marked clipped, the flanks alone give the peaks.
+TEST(StripePeak, ClippedPixelsAtTheLobesTopsAreLeftOutOfTheirFits) {
+  SyntheticRow truth;
+  truth.peakX = {200.0, 228.0, 262.0};
+  std::vector<StripeRowSample> row = truth.samples();
+  constexpr double kClip = 0.85;
+  for (StripeRowSample& s : row) s.contrast = std::min(s.contrast, kClip);
+  const auto worstError = [&](const std::vector<std::optional<double>>& peaks) {
+    double worst = 0.0;
+    for (size_t m = 0; m < peaks.size(); ++m)
+      worst = std::max(worst, peaks[m] ? std::abs(*peaks[m] - truth.peakX[m]) : 1e9);
+    return worst;
+  };
+  const double unmarked = worstError(stripePeaksInRow(row, 3));
+  for (StripeRowSample& s : row) s.clipped = s.contrast >= kClip;
+  EXPECT_LT(worstError(stripePeaksInRow(row, 3)), 0.05);
+  EXPECT_GT(unmarked, 0.1);  // what the decoder did before
 }
 
 TEST(StripePeak, OverlappingNeighboursAreTakenOutOfEachOthersFlanks) {

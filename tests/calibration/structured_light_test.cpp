@@ -8,7 +8,10 @@
 
 #include <algorithm>
 
+#include "calibration/camera/calibration_geometry.h"
+#include "calibration/display/conventions.h"
 #include "calibration/display/display_presets.h"
+#include "calibration/display/optical_module.h"
 #include "calibration/simulation/camera_renderer.h"
 #include "calibration/simulation/ground_truth.h"
 
@@ -41,6 +44,61 @@ TEST(StructuredLight, LowContrastIsNotDecoded) {
   StructuredLightOptions options;
   std::vector<float> flat(2 + grayBitCount(64, options.periodPx) + options.phaseSteps, 0.3f);
   EXPECT_FALSE(decodePixel(flat, 64, options).has_value());
+}
+
+// The simulated camera sees every module whose lobe reaches a pixel, however many there are:
+// with a white image on one module of three, a pixel's light is the sum of those modules'
+// lobe weights, even where dark modules between them are stronger. (It once kept only the
+// four strongest lobes of all modules, which cut the lit modules' stripes on one flank.)
+TEST(StructuredLight, TheSimulatedCameraSeesEveryLitModulesLobe) {
+  const DisplayModel truth = makeGroundTruth(resolveDisplay("demo"), {});
+  const CameraIntrinsics intrinsics = CameraIntrinsics::centred(320, 180, 350.0, -0.05);
+  CameraPose pose;
+  pose.centre = {-1.6, 0.0, 2.0};  // an oblique station, where the stripes crowd
+  pose.physicalFromCamera = aimCameraAt(pose.centre, Eigen::Vector3d::Zero());
+  CameraRenderOptions render;
+  render.ambient = 0.0;
+  render.blurSigmaPx = 0.0;
+  render.noiseSigma = 0.0;
+  render.gamma = 1.0;
+  render.fiducialRadiusM = 0.0;
+  const StationView view = viewFromStation(truth, intrinsics, pose, render);
+  std::vector<cv::Mat> images(truth.modules.size());
+  for (size_t m = 1; m < truth.modules.size(); m += 3) {
+    images[m] = cv::Mat(truth.modules[m].height, truth.modules[m].width, CV_32F, cv::Scalar(0.25f));
+  }
+  SeededRandom random(1);
+  const cv::Mat frame = renderFrame(view, images, render, random);
+  const double sigma = radians(truth.screen.diffusionDeg) / 2.354820045;
+  const auto camera = packCamera(pose);
+  int compared = 0;
+  for (int y = 10; y < view.height; y += 40) {
+    for (int x = 0; x < view.width; ++x) {
+      const Eigen::Vector2d n = intrinsics.normalized({x + 0.5, y + 0.5});
+      Vec3<double> s;
+      if (!screenPointOfCameraRay(truth.screen.curvature, camera.data(), n.x(), n.y(), &s) ||
+          !truth.screen.contains(s.x(), s.y()))
+        continue;
+      double expected = 0.0;
+      for (size_t m = 1; m < truth.modules.size(); m += 3) {
+        const double a = stripeAngle(truth.screen, s, truth.modules[m].position, pose.centre);
+        const double weight = std::exp(-0.5 * (a / sigma) * (a / sigma));
+        if (weight < render.minLobeWeight) continue;
+        Eigen::Vector2d uv;
+        if (!ModuleOptics(truth.modules[m]).project(s - truth.modules[m].position, &uv) ||
+            uv.x() < 1.0 || uv.y() < 1.0 || uv.x() > truth.modules[m].width - 1 ||
+            uv.y() > truth.modules[m].height - 1) {
+          expected = -1.0;  // near a module image's edge: sampling blends in its outside
+          break;
+        }
+        expected += 0.25 * weight;
+      }
+      if (expected < 0.0) continue;
+      EXPECT_NEAR(frame.at<float>(y, x), std::min(expected, 1.0), 1e-4) << x << "," << y;
+      ++compared;
+    }
+  }
+  EXPECT_GT(compared, 200);
 }
 
 TEST(StructuredLight, ThroughTheSimulatedCameraDecodesWhereTheLightComesFrom) {

@@ -28,6 +28,7 @@
 #include "daemon/parallaxd/control_request.h"
 #include "daemon/parallaxd/daemon_config.h"
 #include "daemon/parallaxd/daemon_state.h"
+#include "daemon/parallaxd/frame_loss_report.h"
 #include "daemon/parallaxd/loop_stats.h"
 #include "daemon/parallaxd/ray_texture_cache.h"
 #include "hw/link/image.h"
@@ -53,6 +54,11 @@ struct ConductorOptions {
   // or without error: the daemon is serving), and on every loop turn (the watchdog).
   std::function<void()> onReady;
   std::function<void()> onHeartbeat;
+  // Called from the conductor thread around a reload of the config file (SIGHUP or `reload`):
+  // onReloading before it is read, onReloaded once it is applied in place or refused (not when
+  // it builds the pipeline again: the next pipeline's onReady follows).
+  std::function<void()> onReloading;
+  std::function<void()> onReloaded;
 };
 
 // What `status` says about the link: kStalled when it is connected but frames fail (not
@@ -149,6 +155,9 @@ class Conductor {
   void publish();
 
   void drainJobs(Clock::time_point until);
+  // Reads and applies the config file between onReloading and onReloaded; throws when it
+  // does not load (the old config stays).
+  void reloadFromFile(const std::string& path);
   void applyConfig(const DaemonConfig& config);
   DaemonState showingState() const;  // playing or paused, whichever we were in
 
@@ -184,6 +193,7 @@ class Conductor {
   bool needsPush_ = false;
 
   LoopStats stats_;
+  FrameLossReport lossReport_;
   RenderCounters lastCounters_;
 
   std::mutex jobsMutex_;

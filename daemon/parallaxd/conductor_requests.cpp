@@ -1,4 +1,5 @@
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <cmath>
 #include <filesystem>
@@ -252,8 +253,14 @@ Reply Conductor::answerView(const RequestArgs& args) {
 }
 
 Reply Conductor::answerReload(const RequestArgs&) {
-  if (!options_.config.sourceFile.empty())
-    applyConfig(loadDaemonConfig(options_.config.sourceFile));
+  if (!options_.config.sourceFile.empty()) {
+    try {
+      reloadFromFile(options_.config.sourceFile);
+    } catch (const std::exception& e) {
+      spdlog::error("reloading the config failed (the old one stays): {}", e.what());
+      throw;
+    }
+  }
   if (script_ && script_->reloadIfChanged() == ScriptedScene::Reload::kFailed) {
     sceneError_ = script_->lastError();
     return refused("scene reload failed, the previous version keeps playing: " + sceneError_);

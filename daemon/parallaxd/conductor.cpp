@@ -22,6 +22,7 @@ Conductor::Conductor(ConductorOptions options)
       store_(options_.config.calibrationFilePath()),
       cache_(options_.config.cacheDirPath()) {
   options_.render.validate();
+  checkEveryRequestHasAHandler();
   publish();
 }
 
@@ -196,7 +197,7 @@ void Conductor::drainJobs(Clock::time_point until) {
     } else if (job) {
       nlohmann::json reply;
       try {
-        reply = (this->*job->spec->handler)(job->args);
+        reply = (this->*job->handler)(job->args);
       } catch (const std::exception& e) {
         reply = {{"ok", false}, {"error", e.what()}};
       }

@@ -15,6 +15,7 @@
 #include <deque>
 #include <functional>
 #include <future>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -93,10 +94,16 @@ class Conductor {
   const std::optional<DaemonConfig>& restartWith() const { return restartWith_; }
   StateSnapshot state() const { return state_.snapshot(); }
 
+  // True when the conductor has a handler for the request of this name. Every request of the
+  // table has one (checked when a conductor is made: InternalError otherwise).
+  static bool handles(std::string_view request);
+  static void checkEveryRequestHasAHandler();
+
  private:
-  friend const std::vector<RequestSpec>& controlRequests();
+  using Handler = nlohmann::json (Conductor::*)(const RequestArgs&);
+  static const std::map<std::string_view, Handler>& handlers();
   struct Job {
-    const RequestSpec* spec;
+    Handler handler;
     RequestArgs args;
     std::promise<nlohmann::json> reply;
   };

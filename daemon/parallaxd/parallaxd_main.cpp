@@ -23,6 +23,7 @@
 
 #include "common/input_error.h"
 #include "common/private_folder.h"
+#include "daemon/cli/command_line.h"
 #include "daemon/parallaxd/conductor.h"
 #include "daemon/parallaxd/control_server.h"
 #include "daemon/parallaxd/daemon_config.h"
@@ -178,15 +179,21 @@ int run(const std::string& configPath) {
 
 int main(int argc, char** argv) {
   parallax::daemon::setUpDaemonLogging("parallaxd");
-  CLI::App app{"parallaxd: calibrates the display, traces the scene, pushes frames to the modules"};
+  CLI::App app{"parallaxd: calibrates the display, traces the scene, pushes frames to the modules",
+               "parallaxd"};
+  app.footer("Exit codes: 0 stopped cleanly, 1 runtime failure, 2 bad config or usage error.");
+  parallax::cli::addVersionFlag(app);
   std::string config;
   app.add_option("--config", config,
                  "parallax.toml (default: built-in demo display on a simulator)");
   try {
     app.parse(argc, argv);
     return run(config);
+  } catch (const CLI::Success& e) {
+    return app.exit(e);  // --help, --version
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    app.exit(e);
+    return parallax::cli::kExitUsage;
   } catch (const parallax::InputError& e) {
     parallax::daemon::logFatal(std::string("parallaxd: ") + e.what());
     return 2;

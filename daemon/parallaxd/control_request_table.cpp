@@ -1,3 +1,4 @@
+#include "calibration/display/display_model.h"  // kMaxDisplayExtentM (header only)
 #include "daemon/parallaxd/control_request.h"
 
 // The control socket's requests, each declared once: name, arguments, help, where it is served.
@@ -42,7 +43,8 @@ const std::vector<RequestSpec>& controlRequests() {
        "write what a module shows as a PNG",
        kQueued},
       {"view",
-       {{"x", K::kNumber, true, -100, 100, "the viewer's x on the observer line (m)"},
+       {{"x", K::kNumber, true, -kMaxDisplayExtentM, kMaxDisplayExtentM,
+         "the viewer's x on the observer line (m)"},
         {"width", K::kInteger, false, 1, kMaxViewSide, "view pixels across"},
         {"height", K::kInteger, false, 1, kMaxViewSide, "view pixels down"},
         {"path", K::kPath, false, 0, 0, "PNG to write (default: in the cache folder)"}},

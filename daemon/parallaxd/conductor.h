@@ -121,6 +121,8 @@ class Conductor {
   void turn();
   void renderAndPush();
   void push(const std::vector<std::shared_ptr<const hw::Image>>& images);
+  void countFailedModuleFrame(int module,
+                              const std::vector<std::shared_ptr<const hw::Image>>& images);
   void keepLinkAlive();
   void showOverlay(const std::string& kind, std::optional<int> module);
   void finishInFlight();
@@ -181,6 +183,14 @@ class Conductor {
   // What the modules show (8-bit sRGB); views decode it. No float copy is kept (680 MB on
   // `default`).
   std::vector<std::shared_ptr<const hw::Image>> currentImages_;
+  // Per module, the last frame the link failed to deliver (render count and image), so a frame
+  // re-sent until it gets through is counted as failed once.
+  struct FailedFrame {
+    uint64_t displayFrame = 0;
+    const hw::Image* image = nullptr;
+    bool operator==(const FailedFrame&) const = default;
+  };
+  std::vector<FailedFrame> lastFailedFrame_;
   bool needsPush_ = false;
 
   LoopStats stats_;

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 
+#include "calibration/display/display_model.h"
 #include "common/input_error.h"
 #include "daemon/parallaxd/conductor.h"  // IWYU pragma: associated
 #include "daemon/parallaxd/module_renderer.h"
@@ -78,7 +79,8 @@ const std::vector<RequestSpec>& controlRequests() {
        kQueued,
        &C::answerFrame},
       {"view",
-       {{"x", K::kNumber, true, -100, 100, "the viewer's x on the observer line (m)"},
+       {{"x", K::kNumber, true, -kMaxDisplayExtentM, kMaxDisplayExtentM,
+         "the viewer's x on the observer line (m)"},
         {"width", K::kInteger, false, 1, kMaxViewSide, "view pixels across"},
         {"height", K::kInteger, false, 1, kMaxViewSide, "view pixels down"},
         {"path", K::kPath, false, 0, 0, "PNG to write (default: in the cache folder)"}},

@@ -39,6 +39,10 @@ struct HardwareConfig {
   std::string dump;                 // our own simulator: where it saves what the modules show
   int vid = 0, pid = 0;             // usb
   std::map<std::string, int> serialToModule;  // usb
+  // Where the config wrote each serial's mapping, so errors found once the display's module
+  // count is known still name the file and line.
+  std::string file;
+  std::map<std::string, int> serialLine;
   bool operator==(const HardwareConfig&) const = default;
 };
 

@@ -425,5 +425,25 @@ TEST_F(ConductorTest, StatusSaysWhenTheLinkIsDown) {
   EXPECT_EQ(status["link"]["error"], "") << status.dump();
 }
 
+// A frame the link cannot deliver is re-sent on every turn until it gets through; `stats`
+// counts it as one failed module frame, and the re-sends apart (issue 18, item 18).
+TEST_F(ConductorTest, AFailedFrameIsCountedOnceHoweverOftenItIsResent) {
+  link_.reconnectAttempts = 1;
+  link_.linkDownRetryMs = 50;  // many failing re-sends while the modules are away
+  startConductor();
+  waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });
+  sim_->stop();
+  // A visible edit while the modules are away: one new frame, which the link cannot deliver.
+  std::string edited = kScene;
+  edited.replace(edited.find("{0.1, 0.1, 0.2}"), 15, "{0.3, 0.1, 0.2}");
+  writeScript(edited);
+  json s = waitFor([](const json& st) { return st["failed_resends"].get<int>() >= 3 * kModules; });
+  EXPECT_EQ(s["display_frames"], 2) << s.dump();
+  EXPECT_EQ(s["module_frames_failed"], kModules) << s.dump();
+  sim_->start();
+  s = waitFor([](const json& st) { return st["module_frames_sent"] == 2 * kModules; });
+  EXPECT_EQ(s["module_frames_failed"], kModules) << s.dump();
+}
+
 }  // namespace
 }  // namespace parallax::daemon

@@ -75,6 +75,11 @@ TEST_F(CliConventions, UsageErrorsExit2RuntimeFailuresExit1) {
     EXPECT_EQ(code, 1) << "parallax " << args << ": " << out;
     EXPECT_NE(out.find("parallax"), std::string::npos) << out;
   }
+  // The whole tool takes `ctl` too, its request words its own (no daemon: a runtime failure).
+  const auto [toolsCode, toolsOut] = run(std::string(PARALLAX_TOOLS_PATH) + " ctl --socket " +
+                                         (folder_ / "nobody.sock").string() + " status");
+  EXPECT_EQ(toolsCode, 1) << toolsOut;
+  EXPECT_NE(toolsOut.find("no daemon at"), std::string::npos) << toolsOut;
   // Help is not an error.
   EXPECT_EQ(run(parallax + " --help").first, 0);
   EXPECT_EQ(run(parallax + " ctl --help").first, 0);

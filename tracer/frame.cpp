@@ -12,7 +12,9 @@
 #include <limits>
 #include <stdexcept>
 
+#include "common/image_completeness.h"
 #include "common/input_error.h"
+#include "common/regular_file.h"
 
 namespace parallax {
 
@@ -171,7 +173,13 @@ std::string moduleFrameStem(const std::string& directory, int moduleIndex) {
   return (std::filesystem::path(directory) / name).string();
 }
 
+// Larger than any frame we write (16-bit 8K RGBA is 256 MiB raw); the cap keeps a hostile path
+// such as a huge file from being read whole.
+constexpr size_t kMaxFrameFileBytes = size_t{512} << 20;
+
 Frame readFrame(const std::string& path) {
+  // Checked whole first: a truncated file is one clear line instead of libpng's own noise.
+  requireCompleteImage(path, readRegularFile(path, kMaxFrameFileBytes));
   auto input = OIIO::ImageInput::open(path);
   if (!input) throw InputError({path, "", 0}, "cannot read the image: " + OIIO::geterror());
   const OIIO::ImageSpec& spec = input->spec();

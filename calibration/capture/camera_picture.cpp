@@ -5,14 +5,22 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "common/image_completeness.h"
 #include "common/input_error.h"
+#include "common/regular_file.h"
 
 namespace parallax {
 
 cv::Mat readCameraPicture(const std::string& path, int width, int height) {
-  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
-  if (image.empty())
-    throw InputError({path, "", 0}, "cannot read the picture (missing or not an image)");
+  // Read once, checked whole before decoding (a truncated file is one clear line, not libpng's
+  // noise), and capped: a camera picture is never larger than a raw 16-bit RGB frame.
+  const size_t maxBytes = static_cast<size_t>(width) * static_cast<size_t>(height) * 6 + (1 << 20);
+  const std::string bytes = readRegularFile(path, maxBytes);
+  requireCompleteImage(path, bytes);
+  cv::Mat image = cv::imdecode(
+      cv::Mat(1, static_cast<int>(bytes.size()), CV_8U, const_cast<char*>(bytes.data())),
+      cv::IMREAD_UNCHANGED);
+  if (image.empty()) throw InputError({path, "", 0}, "cannot read the picture (not an image)");
   if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3)) {
     throw InputError({path, "", 0},
                      "must be an 8-bit grey or colour picture, as the camera recorded it");

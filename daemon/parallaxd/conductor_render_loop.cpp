@@ -110,7 +110,7 @@ void Conductor::push(const std::vector<std::shared_ptr<const hw::Image>>& images
         ++stats_.moduleFramesUnchanged;
         break;
       case hw::FrameStatus::kFailed:
-        ++stats_.moduleFramesFailed;
+        countFailedModuleFrame(o.module, images);
         needsPush_ = true;  // try again on the next turn (the link may be back by then)
         break;
       default:
@@ -129,6 +129,22 @@ void Conductor::push(const std::vector<std::shared_ptr<const hw::Image>>& images
     // module that restarted may have lost frames delivered before; send them all again.
     linkSessions_ = link_->sessions();
     needsPush_ = true;
+  }
+}
+
+void Conductor::countFailedModuleFrame(
+    int module, const std::vector<std::shared_ptr<const hw::Image>>& images) {
+  // A failed frame is re-sent on every turn until the link takes it: count the frame once, and
+  // each further failure of the same frame as a failed resend.
+  if (module < 0 || static_cast<size_t>(module) >= images.size()) return;
+  if (lastFailedFrame_.size() != images.size()) lastFailedFrame_.assign(images.size(), {});
+  const FailedFrame frame{stats_.displayFrames, images[static_cast<size_t>(module)].get()};
+  FailedFrame& last = lastFailedFrame_[static_cast<size_t>(module)];
+  if (last == frame) {
+    ++stats_.failedResends;
+  } else {
+    last = frame;
+    ++stats_.moduleFramesFailed;
   }
 }
 
@@ -185,11 +201,13 @@ void Conductor::finishInFlight() {
 }
 
 void Conductor::noteLinkHealth(LinkHealth health, const std::string& problem) {
-  if (health != linkHealth_ || problem != linkError_) {
+  // Transitions only: a link that stays stalled is counted in the minute's frame-loss line.
+  if (health != linkHealth_) {
     if (health == LinkHealth::kUp) {
-      spdlog::info("link: up again");
+      spdlog::info("link: up (was {})", linkHealthName(linkHealth_));
     } else {
-      spdlog::warn("link: {}: {}", linkHealthName(health), problem);
+      spdlog::warn("link: {} (was {}): {}", linkHealthName(health), linkHealthName(linkHealth_),
+                   problem);
     }
   }
   linkHealth_ = health;

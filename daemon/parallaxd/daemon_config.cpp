@@ -12,6 +12,7 @@
 
 #include "calibration/display/display_model_json.h"
 #include "calibration/display/display_presets.h"
+#include "common/regular_file.h"
 #include "hw/camera/camera_name.h"
 
 namespace parallax::daemon {
@@ -142,8 +143,17 @@ void readHardware(TableReader& r, HardwareConfig* h) {
       if (!node.is_integer() || node.as_integer()->get() < 0 || node.as_integer()->get() > 1023) {
         r.fail(node, fmt::format("modules.\"{}\"", key.str()), "must be a module index in 0..1023");
       }
-      h->serialToModule[std::string(key.str())] = static_cast<int>(node.as_integer()->get());
+      const int module = static_cast<int>(node.as_integer()->get());
+      for (const auto& [serial, other] : h->serialToModule) {
+        if (other == module) {
+          r.fail(node, fmt::format("modules.\"{}\"", key.str()),
+                 fmt::format("module {} is already the device with serial \"{}\"", module, serial));
+        }
+      }
+      h->serialToModule[std::string(key.str())] = module;
+      h->serialLine[std::string(key.str())] = static_cast<int>(node.source().begin.line);
     }
+    h->file = r.file();
   }
   const char* usbOnly[] = {"vid", "pid", "modules"};
   const char* simOnly[] = {"socket", "seed", "faults", "dump"};
@@ -285,22 +295,8 @@ DaemonConfig parseDaemonConfig(const std::string& text, const std::string& name)
 }
 
 DaemonConfig loadDaemonConfig(const std::string& path) {
-  std::string text;
-  {
-    std::FILE* f = std::fopen(path.c_str(), "rb");
-    if (!f) throw InputError({path, "", 0}, "cannot open the config file");
-    char buffer[4096];
-    size_t n = 0;
-    while ((n = std::fread(buffer, 1, sizeof buffer, f)) > 0) {
-      text.append(buffer, n);
-      if (text.size() > (1u << 20)) {
-        std::fclose(f);
-        throw InputError({path, "", 0}, "larger than 1 MiB: not a parallaxd config");
-      }
-    }
-    std::fclose(f);
-  }
-  return parseDaemonConfig(text, path);
+  // Only a regular file: a FIFO would block the daemon (and a reload) for ever.
+  return parseDaemonConfig(readRegularFile(path, size_t{1} << 20), path);
 }
 
 namespace {
@@ -397,33 +393,33 @@ std::string linkSpecOf(const HardwareConfig& hardware, int modules) {
   if (hardware.kind == "sim") return hardware.socket.empty() ? "" : "simhw:" + hardware.socket;
   std::string spec = fmt::format("usb:{:04x}:{:04x}", hardware.vid, hardware.pid);
   if (hardware.serialToModule.empty()) return spec;  // every matching device, in bus order
+  const auto where = [&](const std::string& serial) -> InputLocation {
+    const auto line = hardware.serialLine.find(serial);
+    return {hardware.file, fmt::format("hardware.modules.\"{}\"", serial),
+            line == hardware.serialLine.end() ? 0 : line->second};
+  };
   std::vector<std::string> serials(static_cast<size_t>(modules));
   for (const auto& [serial, module] : hardware.serialToModule) {
     if (module >= modules) {
-      throw InputError({"", "hardware.modules." + serial, 0},
-                       fmt::format("module {} does not exist (0..{})", module, modules - 1));
+      throw InputError(where(serial), fmt::format("module {} does not exist: the display has {} "
+                                                  "(0..{})",
+                                                  module, modules, modules - 1));
     }
     if (!serials[static_cast<size_t>(module)].empty()) {
-      throw InputError(
-          {"", "hardware.modules." + serial, 0},
-          fmt::format("module {} is also {}", module, serials[static_cast<size_t>(module)]));
+      throw InputError(where(serial),
+                       fmt::format("module {} is already the device with serial \"{}\"", module,
+                                   serials[static_cast<size_t>(module)]));
     }
     serials[static_cast<size_t>(module)] = serial;
   }
   for (int m = 0; m < modules; ++m) {
     if (serials[static_cast<size_t>(m)].empty()) {
-      throw InputError({"", "hardware.modules", 0}, fmt::format("no serial for module {}", m));
+      throw InputError({hardware.file, "hardware.modules", 0},
+                       fmt::format("no device serial is mapped to module {}", m));
     }
     spec += (m == 0 ? ":" : ",") + serials[static_cast<size_t>(m)];
   }
   return spec;
-}
-
-std::string defaultControlSocketPath() {
-  if (const char* runtime = std::getenv("XDG_RUNTIME_DIR"); runtime && *runtime) {
-    return std::string(runtime) + "/parallax/parallaxd.sock";
-  }
-  return fmt::format("/tmp/parallax-{}/parallaxd.sock", ::getuid());
 }
 
 std::string defaultCacheDir() {

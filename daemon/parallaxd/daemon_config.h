@@ -25,6 +25,7 @@
 
 #include "calibration/display/display_model.h"
 #include "common/input_error.h"
+#include "daemon/parallaxd/control_socket_path.h"
 
 namespace parallax::daemon {
 
@@ -44,6 +45,10 @@ struct HardwareConfig {
   std::string dump;                 // our own simulator: where it saves what the modules show
   int vid = 0, pid = 0;             // usb
   std::map<std::string, int> serialToModule;  // usb
+  // Where the config wrote each serial's mapping, so errors found once the display's module
+  // count is known still name the file and line.
+  std::string file;
+  std::map<std::string, int> serialLine;
   bool operator==(const HardwareConfig&) const = default;
 };
 
@@ -117,9 +122,6 @@ DaemonConfig loadDaemonConfig(const std::string& path);
 // The same from text (tests; `name` stands for the file in errors).
 DaemonConfig parseDaemonConfig(const std::string& text, const std::string& name);
 
-// Where `parallaxd` with no config listens and `parallax ctl` looks with no argument:
-// $XDG_RUNTIME_DIR/parallax/parallaxd.sock, else /tmp/parallax-$UID/parallaxd.sock.
-std::string defaultControlSocketPath();
 // $XDG_CACHE_HOME/parallax, else $HOME/.cache/parallax, else /tmp/parallax-$UID/cache.
 std::string defaultCacheDir();
 

@@ -22,6 +22,7 @@ nlohmann::json LoopStats::toJson() const {
           {"module_frames_sent", moduleFramesSent},
           {"module_frames_unchanged_not_sent", moduleFramesUnchanged},
           {"module_frames_failed", moduleFramesFailed},
+          {"failed_resends", failedResends},
           {"dropped_frames", droppedFrames},
           {"resends_after_reconnect", resendsAfterReconnect},
           {"render_failures", renderFailures},

@@ -20,10 +20,13 @@ struct LoopStats {
   uint64_t displayFrames = 0;          // display frames rendered (all modules)
   uint64_t moduleFramesSent = 0;       // module frames that went over the link and were shown
   uint64_t moduleFramesUnchanged = 0;  // not re-sent: the module already shows these bytes
-  uint64_t moduleFramesFailed = 0;     // the link reported them failed (retried next frame)
-  uint64_t droppedFrames = 0;          // animation periods that passed without a frame
-  uint64_t resendsAfterReconnect = 0;  // pushes of the current frames to a reconnected link
-  uint64_t renderFailures = 0;         // frames not shown because rendering threw
+  // Module frames (each rendered frame of each module once) the link failed to deliver; a frame
+  // that fails again when it is re-sent is not counted twice.
+  uint64_t moduleFramesFailed = 0;
+  uint64_t failedResends = 0;  // re-sends of an already failed module frame that failed again
+  uint64_t droppedFrames = 0;  // animation periods that passed without a frame
+  uint64_t resendsAfterReconnect = 0;         // pushes of the current frames to a reconnected link
+  uint64_t renderFailures = 0;                // frames not shown because rendering threw
   StageTiming render, encode, push, latency;  // latency: frame due → last module acknowledged
   nlohmann::json toJson() const;
   // One line, for the log (what `--explain` prints for `parallax render`).

@@ -85,5 +85,27 @@ TEST_F(CliInput, CalibrateRefusesCapturesOfADifferentDisplay) {
   }
 }
 
+// A truncated camera picture stops `parallax calibrate` with one line naming the picture and
+// where it ends, and nothing from the image library (issue 18, item 18).
+TEST_F(CliInput, ATruncatedPictureIsOneLineNamingIt) {
+  const std::string parallax = PARALLAX_PATH;
+  const fs::path pictures = folder_ / "pictures";
+  auto [code, out] =
+      run(parallax + " simulate --display " + displayFile(4) + " --seed 5 --stations 2 " +
+          "--boards 0 --camera-resolution 320x180 --out " + pictures.string());
+  ASSERT_EQ(code, 0) << out;
+  const fs::path victim = pictures / "set001_c02.png";
+  ASSERT_TRUE(fs::exists(victim));
+  fs::resize_file(victim, fs::file_size(victim) * 2 / 3);
+  // stdout (the progress) is dropped: what is left is what the tool printed on stderr.
+  std::tie(code, out) = run("(" + parallax + " calibrate --captures " + pictures.string() +
+                            " --out " + (folder_ / "calibration.json").string() + " >/dev/null)");
+  EXPECT_NE(code, 0);
+  EXPECT_EQ(std::count(out.begin(), out.end(), '\n'), 1) << out;
+  EXPECT_NE(out.find(victim.string() + ": the PNG is truncated"), std::string::npos) << out;
+  EXPECT_EQ(out.find("libpng"), std::string::npos) << out;
+  EXPECT_FALSE(fs::exists(folder_ / "calibration.json"));
+}
+
 }  // namespace
 }  // namespace parallax

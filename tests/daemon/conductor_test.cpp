@@ -356,9 +356,11 @@ TEST_F(ConductorTest, RequestsAreCheckedAgainstTheTable) {
   for (const RequestSpec& spec : controlRequests()) {
     EXPECT_NE(unknown.find(std::string(spec.name)), std::string::npos) << spec.name;
     EXPECT_NE(help.find("  " + std::string(spec.name)), std::string::npos) << spec.name;
-    EXPECT_NE(spec.handler, nullptr) << spec.name;
+    EXPECT_TRUE(Conductor::handles(spec.name)) << spec.name;
   }
   EXPECT_EQ(controlRequests().size(), 15u);
+  EXPECT_FALSE(Conductor::handles("dance"));
+  EXPECT_NO_THROW(Conductor::checkEveryRequestHasAHandler());
 }
 
 // `frame` and `view` write where a client says, but never through a symlink, never into a
@@ -423,6 +425,26 @@ TEST_F(ConductorTest, StatusSaysWhenTheLinkIsDown) {
   }
   EXPECT_EQ(status["link"]["up"], true) << status.dump();
   EXPECT_EQ(status["link"]["error"], "") << status.dump();
+}
+
+// A frame the link cannot deliver is re-sent on every turn until it gets through; `stats`
+// counts it as one failed module frame, and the re-sends apart (issue 18, item 18).
+TEST_F(ConductorTest, AFailedFrameIsCountedOnceHoweverOftenItIsResent) {
+  link_.reconnectAttempts = 1;
+  link_.linkDownRetryMs = 50;  // many failing re-sends while the modules are away
+  startConductor();
+  waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });
+  sim_->stop();
+  // A visible edit while the modules are away: one new frame, which the link cannot deliver.
+  std::string edited = kScene;
+  edited.replace(edited.find("{0.1, 0.1, 0.2}"), 15, "{0.3, 0.1, 0.2}");
+  writeScript(edited);
+  json s = waitFor([](const json& st) { return st["failed_resends"].get<int>() >= 3 * kModules; });
+  EXPECT_EQ(s["display_frames"], 2) << s.dump();
+  EXPECT_EQ(s["module_frames_failed"], kModules) << s.dump();
+  sim_->start();
+  s = waitFor([](const json& st) { return st["module_frames_sent"] == 2 * kModules; });
+  EXPECT_EQ(s["module_frames_failed"], kModules) << s.dump();
 }
 
 }  // namespace

@@ -4,6 +4,8 @@
 #include "daemon/parallaxd/daemon_config.h"
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 namespace parallax::daemon {
 namespace {
@@ -90,6 +92,8 @@ TEST(DaemonConfig, ErrorsNameTheKeyAndTheLine) {
        "scene.parameters.depth", 4},
       {"[calibration]\nauto = 1\n", "calibration.auto", 2},
       {"title = \"x\"\n", "title", 1},
+      {"[hardware]\nkind = \"usb\"\nvid = 1\npid = 2\n[hardware.modules]\nA = 0\nB = 1\nC = 0\n",
+       "hardware.modules.\"C\"", 8},  // two devices mapped to one module
   };
   for (const Case& c : cases) {
     const InputError e = errorOf(c.text);
@@ -102,6 +106,20 @@ TEST(DaemonConfig, ErrorsNameTheKeyAndTheLine) {
 TEST(DaemonConfig, SyntaxErrorsNameTheLine) {
   const InputError e = errorOf("[scene]\nfps = 30\nscript = \"cornell\n");
   EXPECT_EQ(e.location().line, 3) << e.what();
+}
+
+TEST(DaemonConfig, SerialMapErrorsFoundAgainstTheDisplayNameTheFileAndLine) {
+  const DaemonConfig c = parseDaemonConfig(
+      "[hardware]\nkind = \"usb\"\nvid = 1\npid = 2\n[hardware.modules]\nA = 0\nB = 5\n",
+      "parallax.toml");
+  try {
+    linkSpecOf(c.hardware, 2);
+    FAIL() << "module 5 of a 2-module display was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.location().file, "parallax.toml");
+    EXPECT_EQ(e.location().line, 7) << e.what();
+    EXPECT_NE(std::string(e.what()).find("\"B\""), std::string::npos) << e.what();
+  }
 }
 
 TEST(DaemonConfig, SerialMapMustCoverEveryModuleOnce) {
@@ -124,6 +142,22 @@ TEST(DaemonConfig, MissingFileIsNamed) {
   } catch (const InputError& e) {
     EXPECT_EQ(e.location().file, "/nonexistent/parallax.toml");
   }
+}
+
+// A config that is a FIFO would block the daemon's start or a reload for ever: refused at once.
+TEST(DaemonConfig, OnlyARegularFileIsReadAsTheConfig) {
+  const std::string fifo = ::testing::TempDir() + "parallax_config_fifo.toml";
+  ::unlink(fifo.c_str());
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  for (const std::string& path : {fifo, ::testing::TempDir(), std::string("/dev/zero")}) {
+    try {
+      loadDaemonConfig(path);
+      ADD_FAILURE() << path << " was read as a config";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.location().file, path) << e.what();
+    }
+  }
+  ::unlink(fifo.c_str());
 }
 
 // A reload restarts the daemon for every change it cannot apply in place, found by comparing

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <fstream>
 
 #include "calibration/display/display_presets.h"
 #include "common/input_error.h"
@@ -150,6 +151,39 @@ TEST(FrameFiles, PngRoundTripKeepsEveryByteAndBadFilesAreNamed) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("no_such_frame.png"), std::string::npos);
   }
+}
+
+// A truncated or damaged PNG is refused with one error naming the file and what is wrong, before
+// libpng sees it (libpng would print its own lines on stderr beside ours).
+TEST(FrameFiles, TruncatedOrDamagedPngsAreRefusedNamingTheByte) {
+  Frame frame(64, 32);
+  for (size_t i = 0; i < frame.pixels.size(); ++i)
+    frame.pixels[i] = Rgb(static_cast<float>(i % 5) / 4.0f, 0.5f, 0.1f);
+  const std::string path = ::testing::TempDir() + "frame_damaged.png";
+  writePng(frame, path);
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const auto refusal = [&](const std::string& content) -> std::string {
+    std::ofstream(path, std::ios::binary | std::ios::trunc) << content;
+    try {
+      readFrame(path);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  for (size_t keep : {bytes.size() / 2, size_t{40}, bytes.size() - 1}) {
+    const std::string why = refusal(bytes.substr(0, keep));
+    EXPECT_NE(why.find("frame_damaged.png"), std::string::npos) << why;
+    EXPECT_NE(why.find("truncated"), std::string::npos) << keep << ": " << why;
+  }
+  std::string flipped = bytes;
+  flipped[bytes.size() / 2] ^= 0x10;  // inside the pixel data: its chunk's CRC no longer matches
+  EXPECT_NE(refusal(flipped).find("fails its CRC"), std::string::npos);
+  EXPECT_EQ(refusal(bytes), "accepted");
 }
 
 }  // namespace

@@ -22,6 +22,7 @@ Conductor::Conductor(ConductorOptions options)
       store_(options_.config.calibrationFilePath()),
       cache_(options_.config.cacheDirPath()) {
   options_.render.validate();
+  checkEveryRequestHasAHandler();
   publish();
 }
 
@@ -41,6 +42,8 @@ void Conductor::run(const std::atomic<bool>& stop) {
     drainJobs(Clock::now() + timeToNextTurn());
     if (stopAsked()) break;
     turn();
+    if (const std::optional<std::string> line = lossReport_.take(stats_, Clock::now()))
+      spdlog::warn("{}", *line);
     publish();
   }
   state_.enter(DaemonState::kStopping);
@@ -92,14 +95,15 @@ void Conductor::startUp() {
   publish();
 }
 
-CalibrationConfig Conductor::calibrationConfig() const {
-  CalibrationConfig c = options_.config.calibration;
-  if (c.camera.empty()) c.camera = options_.simulatorCamera;
-  return c;
+CalibrationSettings Conductor::calibrationSettings() const {
+  CalibrationSettings settings = settingsOf(options_.config.calibration);
+  if (settings.cameraMetadata.empty()) settings.cameraMetadata = options_.simulatorCamera;
+  return settings;
 }
 
 bool Conductor::connectLink(int timeoutMs) {
   lastLinkTry_ = Clock::now();
+  const std::string errorBefore = linkError_;
   const auto deadline = Clock::now() + std::chrono::milliseconds(timeoutMs);
   do {
     try {
@@ -109,7 +113,7 @@ bool Conductor::connectLink(int timeoutMs) {
       lastLinkActivity_ = Clock::now();
       linkError_.clear();
       const auto& modules = link_->modules();
-      spdlog::info("link: {} with {} modules", link_->transportName(), modules.size());
+      spdlog::info("link: up: {} with {} modules", link_->transportName(), modules.size());
       if (modules.size() != nominal_.modules.size()) {
         linkError_ = fmt::format("the link has {} modules but the display has {}", modules.size(),
                                  nominal_.modules.size());
@@ -125,21 +129,24 @@ bool Conductor::connectLink(int timeoutMs) {
         }
       }
       if (!linkError_.empty()) {
-        state_.fail("connecting", linkError_, DaemonState::kError);
+        state_.fail(kConnecting, linkError_, DaemonState::kError);
         link_.reset();
         linkHealth_ = LinkHealth::kDown;
         return false;
       }
       linkHealth_ = LinkHealth::kUp;
       needsPush_ = !currentImages_.empty();
+      state_.succeeded(kConnecting);
       return true;
     } catch (const std::exception& e) {
       linkError_ = e.what();
     }
     if (Clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   } while (Clock::now() < deadline);
+  // Logged when it goes down or fails differently, not at every retry (every 2 s).
+  if (linkHealth_ != LinkHealth::kDown || linkError_ != errorBefore)
+    spdlog::warn("link: down: {} (retrying every 2 s)", linkError_);
   linkHealth_ = LinkHealth::kDown;
-  spdlog::warn("link: {} (will retry)", linkError_);
   return false;
 }
 
@@ -182,16 +189,16 @@ void Conductor::drainJobs(Clock::time_point until) {
     }
     if (configPath) {
       try {
-        applyConfig(loadDaemonConfig(*configPath));
+        reloadFromFile(*configPath);
       } catch (const std::exception& e) {
-        state_.fail("reloading the config (the old one stays)", e.what(), state_.state());
+        state_.fail(kReloadingConfig, e.what(), state_.state());
       }
     } else if (config) {
       applyConfig(*config);
     } else if (job) {
       nlohmann::json reply;
       try {
-        reply = (this->*job->spec->handler)(job->args);
+        reply = (this->*job->handler)(job->args);
       } catch (const std::exception& e) {
         reply = {{"ok", false}, {"error", e.what()}};
       }
@@ -204,6 +211,21 @@ void Conductor::drainJobs(Clock::time_point until) {
   }
 }
 
+void Conductor::reloadFromFile(const std::string& path) {
+  spdlog::info("config: reloading {}", path);
+  if (options_.onReloading) options_.onReloading();
+  const auto reloaded = [this] {
+    if (!restartWith_ && options_.onReloaded) options_.onReloaded();
+  };
+  try {
+    applyConfig(loadDaemonConfig(path));
+  } catch (...) {
+    reloaded();
+    throw;
+  }
+  reloaded();
+}
+
 void Conductor::applyConfig(const DaemonConfig& config) {
   const std::vector<std::string> needRestart = sectionsNeedingRestart(options_.config, config);
   if (!needRestart.empty()) {
@@ -213,7 +235,7 @@ void Conductor::applyConfig(const DaemonConfig& config) {
       const DisplayModel display = nominalDisplayOf(config.display);
       linkSpecOf(config.hardware, static_cast<int>(display.modules.size()));
     } catch (const std::exception& e) {
-      state_.fail("reloading the config (the old one stays)", e.what(), state_.state());
+      state_.fail(kReloadingConfig, e.what(), state_.state());
       return;
     }
     spdlog::info("config: [{}] changed: building the daemon again", fmt::join(needRestart, "], ["));
@@ -225,6 +247,7 @@ void Conductor::applyConfig(const DaemonConfig& config) {
   options_.config = withInPlaceChanges(options_.config, config);
   spdlog::set_level(spdlog::level::from_str(options_.config.logLevel));
   spdlog::info("config reloaded");
+  state_.succeeded(kReloadingConfig);
   // A scene that does not load is reported in status; the old one plays on.
   if (sceneChanged) loadScene(config.scene.script, config.scene.parameters);
 }

@@ -3,7 +3,7 @@
 
 #include "common/atomic_file.h"
 #include "common/input_error.h"
-#include "daemon/parallaxd/calibration_stage.h"
+#include "daemon/parallaxd/calibration_pipeline.h"
 #include "daemon/parallaxd/conductor.h"  // IWYU pragma: associated
 #include "hw/camera/calibration_capture.h"
 #include "scripts/scene_argument.h"
@@ -40,6 +40,17 @@ DaemonState Conductor::restingState() const {
   return startingUp_ ? DaemonState::kStarting : DaemonState::kError;
 }
 
+PipelineProgress Conductor::calibrationProgress() {
+  PipelineProgress progress;
+  progress.stage = [this](const std::string& stage) {
+    state_.setStage(stage);
+    if (options_.onHeartbeat) options_.onHeartbeat();
+    publish();
+  };
+  progress.note = [](const std::string& line) { spdlog::info("{}", line); };
+  return progress;
+}
+
 Conductor::StageResult Conductor::calibrate(std::optional<int> onlyModule) {
   const DaemonState back = restingState();
   // Reset before the state says "calibrating", which is when a `cancel` is accepted.
@@ -51,13 +62,8 @@ Conductor::StageResult Conductor::calibrate(std::optional<int> onlyModule) {
   try {
     if (!link_) throw std::runtime_error("no link to the modules: " + linkError_);
     const CalibrationRun run = calibrateThroughLink(
-        *link_, nominal_, onlyModule ? calibration_ : nominal_, calibrationConfig(), onlyModule,
-        [this](const std::string& stage) {
-          state_.setStage(stage);
-          if (options_.onHeartbeat) options_.onHeartbeat();
-          publish();
-        },
-        [this] { return cancel_.load() || stopAsked(); });
+        *link_, nominal_, onlyModule ? calibration_ : nominal_, calibrationSettings(), onlyModule,
+        calibrationProgress(), [this] { return cancel_.load() || stopAsked(); });
     // Textures first: if they cannot be made, the old calibration stays installed.
     const StageResult textures = regenerate(run.model);
     if (textures.done()) {
@@ -74,6 +80,7 @@ Conductor::StageResult Conductor::calibrate(std::optional<int> onlyModule) {
       spdlog::info("calibration installed: {} (report: {}.report.txt)\n{}", store_.path(),
                    store_.path(), run.summary);
       result.summary = run.summary;
+      state_.succeeded(kCalibrating);
     } else {
       result = textures;
     }
@@ -90,7 +97,9 @@ Conductor::StageResult Conductor::calibrate(std::optional<int> onlyModule) {
   } catch (const std::exception& e) {
     result.outcome = StageResult::Outcome::kFailed;
     result.error = e.what();
-    state_.fail("calibrating", e.what(), back);
+    state_.fail(kCalibrating, e.what(), back);
+    spdlog::warn("calibration refused, not installed; the installed one stays: {}",
+                 calibrationSource_);
   }
   needsPush_ = !currentImages_.empty();  // the patterns may have replaced our frames
   return result;
@@ -111,12 +120,13 @@ Conductor::StageResult Conductor::regenerate(const DisplayModel& model) {
     cacheStats_ = stats;
     texturesHash_ = displayContentHash(model);
     ++texturesVersion_;
+    state_.succeeded(kRegenerating);
     spdlog::info("ray textures {}: {} from the cache, {} generated", hashHex(texturesHash_),
                  stats.loaded, stats.generated);
     state_.enter(back);
     return {};
   } catch (const std::exception& e) {
-    state_.fail("regenerating the ray textures", e.what(), back);
+    state_.fail(kRegenerating, e.what(), back);
     return {StageResult::Outcome::kFailed, e.what(), {}};
   }
 }
@@ -139,11 +149,12 @@ Conductor::StageResult Conductor::loadScene(const std::string& argument,
     overlay_.clear();
     nextFrameDue_ = Clock::now();
     spdlog::info("scene: {} ({})", argument, script_->script().animated() ? "animated" : "static");
+    state_.succeeded(kLoadingScene);
     state_.enter(paused_ ? DaemonState::kPaused : DaemonState::kPlaying);
     return {};
   } catch (const std::exception& e) {
     // In last_error; scene_error stays about the scene that plays.
-    state_.fail("loading the scene", e.what(), back);
+    state_.fail(kLoadingScene, e.what(), back);
     return {StageResult::Outcome::kFailed, e.what(), {}};
   }
 }

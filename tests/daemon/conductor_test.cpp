@@ -70,7 +70,7 @@ class ConductorTest : public ::testing::Test {
     o.config.scene.script = script_;
     o.config.cacheDir = (folder_ / "cache").string();
     o.config.calibration.autoCalibrate = false;
-    o.config.calibration.camera = camera_;
+    o.config.calibration.cameraMetadata = camera_;
     o.linkSpec = sim_->spec();
     o.link = link_;
     o.keepAliveMs = 100;
@@ -219,6 +219,19 @@ TEST_F(ConductorTest, BadScenesAndReloadsKeepTheOldSceneUp) {
   EXPECT_EQ(ask({{"request", "status"}})["state"], "playing");
 }
 
+// `status` says what is wrong now: a scene that failed to load is in last_error until a scene
+// loads (issue 20: an old error stayed after a later success).
+TEST_F(ConductorTest, AnErrorLeavesStatusOnceItsStageWorksAgain) {
+  startConductor();
+  waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });
+  EXPECT_EQ(ask({{"request", "load"}, {"scene", (folder_ / "missing.lua").string()}})["ok"], false);
+  EXPECT_EQ(ask({{"request", "status"}})["last_error"]["stage"], "loading the scene");
+  EXPECT_EQ(ask({{"request", "load"}, {"scene", script_}})["ok"], true);
+  const json status = ask({{"request", "status"}});
+  EXPECT_FALSE(status.contains("last_error")) << status.dump();
+  EXPECT_EQ(status["state"], "playing");
+}
+
 TEST_F(ConductorTest, InstallerPatternsPauseAndViews) {
   startConductor();
   waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });
@@ -356,9 +369,11 @@ TEST_F(ConductorTest, RequestsAreCheckedAgainstTheTable) {
   for (const RequestSpec& spec : controlRequests()) {
     EXPECT_NE(unknown.find(std::string(spec.name)), std::string::npos) << spec.name;
     EXPECT_NE(help.find("  " + std::string(spec.name)), std::string::npos) << spec.name;
-    EXPECT_NE(spec.handler, nullptr) << spec.name;
+    EXPECT_TRUE(Conductor::handles(spec.name)) << spec.name;
   }
   EXPECT_EQ(controlRequests().size(), 15u);
+  EXPECT_FALSE(Conductor::handles("dance"));
+  EXPECT_NO_THROW(Conductor::checkEveryRequestHasAHandler());
 }
 
 // `frame` and `view` write where a client says, but never through a symlink, never into a

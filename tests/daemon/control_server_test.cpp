@@ -75,9 +75,14 @@ class Client {
 };
 
 // A handler that answers like the daemon's: echoes the request name, fails on "boom".
+std::atomic<int> slowRequestsStarted{0};
+
 nlohmann::json echo(const nlohmann::json& r) {
   if (r["request"] == "boom") throw std::runtime_error("boom failed");
-  if (r["request"] == "slow") std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  if (r["request"] == "slow") {
+    ++slowRequestsStarted;
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
   return {{"ok", true}, {"echo", r["request"]}};
 }
 
@@ -215,9 +220,14 @@ TEST(ControlServer, IdleAndHalfLineConnectionsDoNotLockOthersOut) {
   }
   // A client inside a request keeps its place while newcomers push idle ones out.
   Client slow(path);
+  const int started = slowRequestsStarted;
   slow.send("{\"request\": \"slow\"}\n");
   nlohmann::json slowReply;
   std::thread reader([&] { slowReply = slow.reply(); });
+  // Only once the server is inside the request (on a loaded machine it may not have read the
+  // line yet, and an idle connection may rightly be pushed out).
+  for (int i = 0; i < 500 && slowRequestsStarted == started; ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
   for (int i = 0; i < 80; ++i) {
     ours.push_back(std::make_unique<Client>(path));
     ours.back()->send("{");

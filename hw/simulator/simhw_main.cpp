@@ -27,6 +27,7 @@
 #include "common/version.h"
 #include "common/width_height.h"
 #include "hw/simulator/calibration_physics.h"
+#include "hw/simulator/camera_feed.h"
 #include "hw/simulator/fault_spec.h"
 #include "hw/simulator/simhw_server.h"
 #include "hw/simulator/simulated_hardware.h"
@@ -44,6 +45,8 @@ struct Args {
   std::vector<std::string> faults;
   std::string dump;
   std::string truth, camera;
+  std::string cameraFeed, cameraFeedStation;
+  bool cameraFeedAutoExposure = false;
   uint32_t maxChunk = 4u << 20;
   bool exitWithParent = false;
 };
@@ -89,7 +92,23 @@ int run(const Args& args) {
     }
     physics = std::make_unique<hw::CalibrationPhysics>(*truth, loadCameraTruth(args.camera));
   }
+  if (!args.cameraFeed.empty() && !truth) {
+    throw InputError({"", "--camera-feed", 0}, "needs the calibration physics (--truth, --camera)");
+  }
   hw::SimulatedHardware hardware(options, std::move(physics));
+  std::unique_ptr<hw::CameraFeed> feed;
+  if (!args.cameraFeed.empty()) {
+    feed = std::make_unique<hw::CameraFeed>(
+        hw::CameraFeedOptions{args.cameraFeed, args.cameraFeedStation, args.cameraFeedAutoExposure},
+        std::make_unique<hw::CalibrationPhysics>(*truth, loadCameraTruth(args.camera)));
+    const auto showFeed = [&hardware, &feed] {
+      std::vector<hw::Image> frames;
+      for (int i = 0; i < hardware.moduleCount(); ++i) frames.push_back(hardware.shownFrame(i));
+      feed->shown(std::move(frames));
+    };
+    hardware.setOnShown(showFeed);
+    showFeed();  // a camera gives pictures before anything is shown: the dark screen
+  }
   for (const std::string& text : args.faults) {
     const hw::FaultSpec spec = hw::parseFaultSpec(text);
     if (spec.module >= hardware.moduleCount()) {
@@ -163,6 +182,13 @@ int main(int argc, char** argv) {
                  "ground-truth display for the camera's calibration physics (with --camera)");
   app.add_option("--camera", args.camera,
                  "camera truth (camera_truth.json: intrinsics, true station poses, sensor)");
+  app.add_option("--camera-feed", args.cameraFeed,
+                 "with --truth/--camera: also write the camera's picture of what the modules show "
+                 "to this PNG whenever it changes (a streaming camera's source)");
+  app.add_option("--camera-feed-station", args.cameraFeedStation,
+                 "the file naming the feed camera's station (default: station 0)");
+  app.add_flag("--camera-feed-auto-exposure", args.cameraFeedAutoExposure,
+               "the feed camera's exposure follows the scene, lagging a picture");
   app.add_option("--max-chunk", args.maxChunk, "largest chunk the modules accept (bytes)");
   app.add_flag("--exit-with-parent", args.exitWithParent,
                "stop when the process that started this one ends (parallaxd's own simulator)");

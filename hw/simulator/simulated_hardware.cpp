@@ -360,6 +360,7 @@ void SimulatedHardware::frameEnd(Module& m, const PacketHeader& header,
     std::swap(m.shown.pixels, u.buffer);
     m.shownHash = u.begin.contentHash;
     ++m.counters.framesShown;
+    if (onShown_) onShown_();
   } else {
     ++m.counters.framesRejected;
   }

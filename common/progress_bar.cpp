@@ -1,15 +1,31 @@
 #include "common/progress_bar.h"
 
+#include <fmt/format.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 
 namespace parallax {
+namespace {
+
+std::atomic<bool> quiet{false};
+
+}  // namespace
+
+void ProgressBar::setQuiet(bool on) { quiet = on; }
+
+std::string ProgressBar::timeLeft(double fraction, double seconds) {
+  if (seconds < 1.0 || fraction <= 0.0 || fraction >= 1.0) return "";
+  const auto left = static_cast<long>(std::lround(seconds * (1.0 - fraction) / fraction));
+  if (left >= 60) return fmt::format("~{}m{:02}s left", left / 60, left % 60);
+  return fmt::format("~{}s left", left);
+}
 
 ProgressBar::ProgressBar(std::string label, std::int64_t total, bool enabled)
     : label_(std::move(label)),
       total_(total > 0 ? total : 1),
-      enabled_(enabled),
+      enabled_(enabled && !quiet.load()),
       interactive_(isatty(STDERR_FILENO) != 0),
       start_(std::chrono::steady_clock::now()) {}
 
@@ -50,13 +66,17 @@ void ProgressBar::draw(std::int64_t done, bool final) {
     const int filled = static_cast<int>(fraction * kWidth);
     std::string bar(static_cast<size_t>(filled), '#');
     bar.resize(kWidth, '.');
-    std::fprintf(stderr, "\r%s [%s] %5.1f%% %6.1fs%s", label_.c_str(), bar.c_str(),
-                 100.0 * fraction, seconds, final ? "\n" : "");
+    const std::string left = final ? "" : timeLeft(fraction, seconds);
+    // Padded: a shorter line must cover the longer one it redraws.
+    std::fprintf(stderr, "\r%s [%s] %5.1f%% %6.1fs %-16s%s", label_.c_str(), bar.c_str(),
+                 100.0 * fraction, seconds, left.c_str(), final ? "\n" : "");
   } else {
     const int decile = static_cast<int>(fraction * 10);
     if (decile == lastDecile_) return;  // a line per 10%, the last one included
     lastDecile_ = decile;
-    std::fprintf(stderr, "%s: %3d%% (%.1fs)\n", label_.c_str(), decile * 10, seconds);
+    const std::string left = timeLeft(fraction, seconds);
+    std::fprintf(stderr, "%s: %3d%% (%.1fs%s%s)\n", label_.c_str(), decile * 10, seconds,
+                 left.empty() ? "" : ", ", left.c_str());
   }
   std::fflush(stderr);
 }

@@ -1,7 +1,9 @@
 #pragma once
 // A progress bar on stderr for anything that runs longer than a second. Thread-safe: workers
 // call advance() from any thread. On a terminal it redraws one line; elsewhere (CI logs, the
-// journal) it prints a line at every 10%, so logs stay short.
+// journal) it prints a line at every 10%, so logs stay short. Once a second has passed it says
+// how long is left at the rate so far ("~12s left"). `--quiet` turns every bar off
+// (setQuiet).
 
 #include <atomic>
 #include <chrono>
@@ -20,6 +22,11 @@ class ProgressBar {
 
   void advance(std::int64_t steps = 1);
   void finish();
+
+  // Process-wide: no bar draws anything while quiet (the command-line tools' --quiet).
+  static void setQuiet(bool quiet);
+  // "~12s left", "~3m05s left", or "" before a second has passed or at 0% and 100%.
+  static std::string timeLeft(double fraction, double seconds);
 
  private:
   void end(std::int64_t done);  // the final line, once: finish() or the destructor

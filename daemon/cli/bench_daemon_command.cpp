@@ -4,8 +4,10 @@
 // own `stats` over the control socket — per display frame: render, encode, push and end-to-end
 // latency, the frame rate reached against the target, dropped frames — plus the CPU time and
 // peak memory of parallaxd and of the simulator from /proc. Then one frame of the static
-// cornell.lua. Figures only; nothing passes or fails on time.
+// cornell.lua, and `parallax ctl status` end to end (100 runs). Figures only; nothing passes or
+// fails on time.
 
+#include <fcntl.h>
 #include <fmt/format.h>
 #include <signal.h>
 #include <spawn.h>
@@ -14,6 +16,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <filesystem>
@@ -113,6 +116,55 @@ nlohmann::json waitFor(const std::string& socket,
   throw std::runtime_error(fmt::format("timed out waiting for {}", what));
 }
 
+// Median and 95th percentile of `ms`, "median 3.1 ms, p95 4.0 ms".
+std::string medianAndP95(std::vector<double> ms) {
+  std::sort(ms.begin(), ms.end());
+  const auto at = [&](double q) {
+    return ms[static_cast<size_t>(q * static_cast<double>(ms.size() - 1))];
+  };
+  return fmt::format("median {:.1f} ms, p95 {:.1f} ms", at(0.5), at(0.95));
+}
+
+// Wall time of `program ctl --socket S status` from spawn to exit, stdout discarded.
+double timeCtlStatus(const std::string& program, const std::string& socket) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
+  std::vector<char*> argv = {const_cast<char*>(program.c_str()), const_cast<char*>("ctl"),
+                             const_cast<char*>("--socket"),      const_cast<char*>(socket.c_str()),
+                             const_cast<char*>("status"),        nullptr};
+  const auto t0 = Clock::now();
+  pid_t pid = -1;
+  const int spawned = ::posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawned != 0) throw std::runtime_error("cannot start " + program);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    throw std::runtime_error(program + " ctl status failed");
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// `parallax ctl status` as a user runs it (the light front: process start to exit), the same
+// through the whole tool (parallax-tools, for comparison) and the socket exchange alone.
+void benchCtlRoundTrip(const std::string& socket) {
+  constexpr int kRuns = 100;
+  const std::string front = siblingBinary("parallax");
+  const std::string tools = siblingBinary("parallax-tools");
+  std::vector<double> frontMs, toolsMs, socketMs;
+  for (int i = 0; i < kRuns; ++i) frontMs.push_back(timeCtlStatus(front, socket));
+  for (int i = 0; i < kRuns / 10; ++i) toolsMs.push_back(timeCtlStatus(tools, socket));
+  for (int i = 0; i < kRuns; ++i) {
+    const auto t0 = Clock::now();
+    request(socket, {{"request", "status"}});
+    socketMs.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  }
+  std::cout << fmt::format(
+      "  `parallax ctl status` end to end ({} runs): {}; through parallax-tools ({} runs): {}; "
+      "the socket exchange alone: {}\n",
+      kRuns, medianAndP95(frontMs), kRuns / 10, medianAndP95(toolsMs), medianAndP95(socketMs));
+}
+
 void benchOne(const std::string& display, const BenchDaemonArgs& args) {
   const fs::path work =
       fs::temp_directory_path() / fmt::format("parallax-bench-daemon-{}", ::getpid());
@@ -196,6 +248,7 @@ void benchOne(const std::string& display, const BenchDaemonArgs& args) {
         after["timings"]["encode"]["last_ms"].get<double>(),
         after["timings"]["push"]["last_ms"].get<double>(),
         after["timings"]["end_to_end"]["last_ms"].get<double>());
+    benchCtlRoundTrip(socket);
   } catch (...) {
     ::kill(pid, SIGTERM);
     ::waitpid(pid, nullptr, 0);

@@ -1,7 +1,8 @@
 // parallax ctl [--socket PATH] REQUEST [ARGS]
-// The control client of parallaxd: turns the words into one JSON request line, sends it over
-// the daemon's Unix socket and prints the reply (exit 1 when the reply says ok: false).
-// Without --socket it finds the daemon that `parallaxd` with no config started
+// The control client of parallaxd (linked into the light `parallax` front, parallax_main.cpp):
+// turns the words into one JSON request line, sends it over the daemon's Unix socket and prints the
+// reply (exit 1 when the reply says ok: false). Without --socket it finds the daemon that
+// `parallaxd` with no config started
 // ($XDG_RUNTIME_DIR/parallax/parallaxd.sock, else /tmp/parallax-$UID/parallaxd.sock).
 //
 //   parallax ctl status | stats | play | pause | reload | shutdown | testcard | rollback | cancel
@@ -18,10 +19,11 @@
 #include <stdexcept>
 
 #include "common/input_error.h"
+#include "daemon/cli/command_line.h"
 #include "daemon/cli/commands.h"
 #include "daemon/parallaxd/control_client.h"
 #include "daemon/parallaxd/control_request.h"
-#include "daemon/parallaxd/daemon_config.h"
+#include "daemon/parallaxd/control_socket_path.h"
 
 namespace parallax::cli {
 namespace {
@@ -95,8 +97,13 @@ int runCtl(const CtlArgs& args, const std::vector<std::string>& words) {
     std::cout << line << "\n";
     return 1;
   }
-  std::cout << reply.dump(2) << "\n";
-  return reply.value("ok", false) ? 0 : 1;
+  const bool ok = reply.value("ok", false);
+  if (!quiet()) {
+    std::cout << reply.dump(2) << "\n";
+  } else if (!ok) {
+    std::cerr << "parallax ctl: " << reply.value("error", reply.dump()) << "\n";
+  }
+  return ok ? 0 : 1;
 }
 
 }  // namespace
@@ -112,6 +119,7 @@ void addCtlCommand(CLI::App& app) {
                       "control socket (default: where parallaxd with no config listens)");
   command->add_option("--json", args->json, "send this JSON request as it is");
   command->add_option("--timeout", args->timeoutSeconds, "seconds to wait for the reply");
+  addQuietFlag(*command);  // print nothing on success: the exit code says it
   command->callback([args, command] {
     const int code = runCtl(*args, command->remaining());
     if (code != 0) throw CLI::RuntimeError(code);

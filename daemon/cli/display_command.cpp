@@ -11,13 +11,14 @@
 #include "calibration/display/display_presets.h"
 #include "common/input_error.h"
 #include "common/width_height.h"
+#include "daemon/cli/command_line.h"
 #include "daemon/cli/commands.h"
 
 namespace parallax::cli {
 namespace {
 
 struct DisplayArgs {
-  std::string preset = "default";
+  std::string preset = "demo";  // every command's default display (README)
   int modules = 0;
   std::string resolution;
   double curvature = 0.0;
@@ -49,6 +50,7 @@ void runDisplay(const DisplayArgs& args, const CLI::App& command) {
     return;
   }
   saveDisplayModel(model, args.out);
+  if (quiet()) return;
   std::cerr << fmt::format(
       "wrote {}: {} modules of {}x{}, screen {} x {} m, k = {} 1/m, "
       "{} transfer, diffusion {:.3g} deg\n",
@@ -64,7 +66,7 @@ void addDisplayCommand(CLI::App& app) {
   CLI::App* command = app.add_subcommand("display", "write a nominal display model (JSON)");
   command
       ->add_option("--preset", args->preset,
-                   "built-in layout: default (72x1024x768) or demo (16x512x384)")
+                   "built-in layout: demo (16x512x384, the default) or default (72x1024x768)")
       ->check(CLI::IsMember({"default", "demo"}));
   command->add_option("--modules", args->modules, "number of modules");
   command->add_option("--resolution", args->resolution, "module resolution WIDTHxHEIGHT");

@@ -31,7 +31,7 @@ struct RenderArgs {
   std::string display = "demo";
   std::string scene;
   std::string module = "all";
-  std::string out = ".";
+  std::string out = "parallax-render";  // never the current folder itself (README)
   std::string traversal;
   bool explain = false;
   bool floatOutput = false;
@@ -121,7 +121,7 @@ void addRenderCommand(CLI::App& app) {
   command->add_option("--set", args->sets, "scene script parameter name=value (repeatable)");
   command->add_option("--time", args->time, "animation time in seconds (scene scripts)");
   command->add_option("--module", args->module, "module index, or all");
-  command->add_option("--out", args->out, "output folder");
+  command->add_option("--out", args->out, "output folder (default: parallax-render/)");
   command->add_option("--traversal", args->traversal, "Embree traversal: single, packet16, stream");
   command->add_option("--spp", args->samplesPerPixel,
                       "anti-aliasing: sub-pixel rays a pixel, a square (1, 4, 9, ...)");

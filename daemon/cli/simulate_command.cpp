@@ -36,6 +36,7 @@
 #include "common/input_error.h"
 #include "common/width_height.h"
 #include "daemon/cli/commands.h"
+#include "daemon/cli/stage_log.h"
 
 namespace parallax::cli {
 namespace {
@@ -130,14 +131,21 @@ void runSimulate(const SimulateArgs& args, const CLI::App& command) {
                      where);
     return;
   }
+  // The pictures take a minute or more on demo: say which step runs (no step reports progress).
+  StageLog stages("simulate", args.boards > 0 ? 3 : 2);
+  stages.begin(fmt::format("the pattern pictures of {} modules from {} station{}",
+                           truth.modules.size(), args.stations, args.stations == 1 ? "" : "s"));
   CalibrationCaptures captures = renderSession(truth, camera.truth, camera.metadata, {});
   if (args.boards > 0) {
+    stages.begin(fmt::format("{} checkerboard pictures", args.boards));
     CheckerboardShotOptions shots;
     shots.pictures = args.boards;
     captures.checkerboard = simulateCheckerboardCaptures(camera.truth, CheckerboardBoard{}, shots);
     captures.camera.intrinsicsKnown = false;  // a real installation learns them from the board
   }
+  stages.begin("writing the pictures");
   saveCaptures(captures, args.out);
+  stages.end();
   size_t pictures = 0;
   for (const StationCaptures& s : captures.stations)
     pictures += s.columnFrames.size() + s.rowFrames.size();

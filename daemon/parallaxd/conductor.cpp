@@ -22,6 +22,7 @@ Conductor::Conductor(ConductorOptions options)
       store_(options_.config.calibrationFilePath()),
       cache_(options_.config.cacheDirPath()) {
   options_.render.validate();
+  checkEveryRequestHasAHandler();
   publish();
 }
 
@@ -41,6 +42,8 @@ void Conductor::run(const std::atomic<bool>& stop) {
     drainJobs(Clock::now() + timeToNextTurn());
     if (stopAsked()) break;
     turn();
+    if (const std::optional<std::string> line = lossReport_.take(stats_, Clock::now()))
+      spdlog::warn("{}", *line);
     publish();
   }
   state_.enter(DaemonState::kStopping);
@@ -100,6 +103,7 @@ CalibrationConfig Conductor::calibrationConfig() const {
 
 bool Conductor::connectLink(int timeoutMs) {
   lastLinkTry_ = Clock::now();
+  const std::string errorBefore = linkError_;
   const auto deadline = Clock::now() + std::chrono::milliseconds(timeoutMs);
   do {
     try {
@@ -109,7 +113,7 @@ bool Conductor::connectLink(int timeoutMs) {
       lastLinkActivity_ = Clock::now();
       linkError_.clear();
       const auto& modules = link_->modules();
-      spdlog::info("link: {} with {} modules", link_->transportName(), modules.size());
+      spdlog::info("link: up: {} with {} modules", link_->transportName(), modules.size());
       if (modules.size() != nominal_.modules.size()) {
         linkError_ = fmt::format("the link has {} modules but the display has {}", modules.size(),
                                  nominal_.modules.size());
@@ -138,8 +142,10 @@ bool Conductor::connectLink(int timeoutMs) {
     }
     if (Clock::now() < deadline) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   } while (Clock::now() < deadline);
+  // Logged when it goes down or fails differently, not at every retry (every 2 s).
+  if (linkHealth_ != LinkHealth::kDown || linkError_ != errorBefore)
+    spdlog::warn("link: down: {} (retrying every 2 s)", linkError_);
   linkHealth_ = LinkHealth::kDown;
-  spdlog::warn("link: {} (will retry)", linkError_);
   return false;
 }
 
@@ -182,7 +188,7 @@ void Conductor::drainJobs(Clock::time_point until) {
     }
     if (configPath) {
       try {
-        applyConfig(loadDaemonConfig(*configPath));
+        reloadFromFile(*configPath);
       } catch (const std::exception& e) {
         state_.fail("reloading the config (the old one stays)", e.what(), state_.state());
       }
@@ -191,7 +197,7 @@ void Conductor::drainJobs(Clock::time_point until) {
     } else if (job) {
       nlohmann::json reply;
       try {
-        reply = (this->*job->spec->handler)(job->args);
+        reply = (this->*job->handler)(job->args);
       } catch (const std::exception& e) {
         reply = {{"ok", false}, {"error", e.what()}};
       }
@@ -202,6 +208,21 @@ void Conductor::drainJobs(Clock::time_point until) {
     }
     if (stopAsked() || Clock::now() >= until) return;
   }
+}
+
+void Conductor::reloadFromFile(const std::string& path) {
+  spdlog::info("config: reloading {}", path);
+  if (options_.onReloading) options_.onReloading();
+  const auto reloaded = [this] {
+    if (!restartWith_ && options_.onReloaded) options_.onReloaded();
+  };
+  try {
+    applyConfig(loadDaemonConfig(path));
+  } catch (...) {
+    reloaded();
+    throw;
+  }
+  reloaded();
 }
 
 void Conductor::applyConfig(const DaemonConfig& config) {

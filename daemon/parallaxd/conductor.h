@@ -15,6 +15,7 @@
 #include <deque>
 #include <functional>
 #include <future>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -28,6 +29,7 @@
 #include "daemon/parallaxd/control_request.h"
 #include "daemon/parallaxd/daemon_config.h"
 #include "daemon/parallaxd/daemon_state.h"
+#include "daemon/parallaxd/frame_loss_report.h"
 #include "daemon/parallaxd/loop_stats.h"
 #include "daemon/parallaxd/ray_texture_cache.h"
 #include "hw/link/image.h"
@@ -53,6 +55,11 @@ struct ConductorOptions {
   // or without error: the daemon is serving), and on every loop turn (the watchdog).
   std::function<void()> onReady;
   std::function<void()> onHeartbeat;
+  // Called from the conductor thread around a reload of the config file (SIGHUP or `reload`):
+  // onReloading before it is read, onReloaded once it is applied in place or refused (not when
+  // it builds the pipeline again: the next pipeline's onReady follows).
+  std::function<void()> onReloading;
+  std::function<void()> onReloaded;
 };
 
 // What `status` says about the link: kStalled when it is connected but frames fail (not
@@ -87,10 +94,16 @@ class Conductor {
   const std::optional<DaemonConfig>& restartWith() const { return restartWith_; }
   StateSnapshot state() const { return state_.snapshot(); }
 
+  // True when the conductor has a handler for the request of this name. Every request of the
+  // table has one (checked when a conductor is made: InternalError otherwise).
+  static bool handles(std::string_view request);
+  static void checkEveryRequestHasAHandler();
+
  private:
-  friend const std::vector<RequestSpec>& controlRequests();
+  using Handler = nlohmann::json (Conductor::*)(const RequestArgs&);
+  static const std::map<std::string_view, Handler>& handlers();
   struct Job {
-    const RequestSpec* spec;
+    Handler handler;
     RequestArgs args;
     std::promise<nlohmann::json> reply;
   };
@@ -151,6 +164,9 @@ class Conductor {
   void publish();
 
   void drainJobs(Clock::time_point until);
+  // Reads and applies the config file between onReloading and onReloaded; throws when it
+  // does not load (the old config stays).
+  void reloadFromFile(const std::string& path);
   void applyConfig(const DaemonConfig& config);
   DaemonState showingState() const;  // playing or paused, whichever we were in
 
@@ -194,6 +210,7 @@ class Conductor {
   bool needsPush_ = false;
 
   LoopStats stats_;
+  FrameLossReport lossReport_;
   RenderCounters lastCounters_;
 
   std::mutex jobsMutex_;

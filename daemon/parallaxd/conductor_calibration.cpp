@@ -91,6 +91,8 @@ Conductor::StageResult Conductor::calibrate(std::optional<int> onlyModule) {
     result.outcome = StageResult::Outcome::kFailed;
     result.error = e.what();
     state_.fail("calibrating", e.what(), back);
+    spdlog::warn("calibration refused, not installed; the installed one stays: {}",
+                 calibrationSource_);
   }
   needsPush_ = !currentImages_.empty();  // the patterns may have replaced our frames
   return result;

@@ -201,11 +201,13 @@ void Conductor::finishInFlight() {
 }
 
 void Conductor::noteLinkHealth(LinkHealth health, const std::string& problem) {
-  if (health != linkHealth_ || problem != linkError_) {
+  // Transitions only: a link that stays stalled is counted in the minute's frame-loss line.
+  if (health != linkHealth_) {
     if (health == LinkHealth::kUp) {
-      spdlog::info("link: up again");
+      spdlog::info("link: up (was {})", linkHealthName(linkHealth_));
     } else {
-      spdlog::warn("link: {}: {}", linkHealthName(health), problem);
+      spdlog::warn("link: {} (was {}): {}", linkHealthName(health), linkHealthName(linkHealth_),
+                   problem);
     }
   }
   linkHealth_ = health;

@@ -1,17 +1,19 @@
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <cmath>
 #include <filesystem>
+#include <map>
 
-#include "calibration/display/display_model.h"
+#include "common/check.h"
 #include "common/input_error.h"
 #include "daemon/parallaxd/conductor.h"  // IWYU pragma: associated
 #include "daemon/parallaxd/module_renderer.h"
 #include "daemon/parallaxd/output_file.h"
 #include "tracer/observer_view.h"
 
-// The control socket's requests: the table every request is declared in once, the entry
-// that checks a request against it, and one handler per request.
+// The control socket's requests on the daemon's side: the entry that checks a request against
+// the table (control_request_table.cpp) and one handler per request.
 
 namespace parallax::daemon {
 namespace {
@@ -27,80 +29,38 @@ Reply refused(const std::string& why) { return {{"ok", false}, {"error", why}}; 
 
 }  // namespace
 
-const std::vector<RequestSpec>& controlRequests() {
+const std::map<std::string_view, Conductor::Handler>& Conductor::handlers() {
   using C = Conductor;
-  using K = ArgKind;
-  constexpr Served kAtOnce = Served::kAtOnce;
-  constexpr Served kQueued = Served::kOnConductorThread;
-  // The scene's parameters are bounded as in the config ([scene.parameters]).
-  constexpr double kParameterLimit = 1e9;
-  // A view is made in memory at once: a bound a client cannot turn into gigabytes.
-  constexpr double kMaxViewSide = 8192;
-  static const std::vector<RequestSpec> table = {
-      {"status",
-       {},
-       "state, stage, calibration, link health, scene, last error",
-       kAtOnce,
-       &C::answerStatus},
-      {"stats",
-       {},
-       "frame counts and timings of the render loop and the link",
-       kAtOnce,
-       &C::answerStats},
-      {"calibrate",
-       {{"module", K::kModule, false, 0, 0, "refit this module only, the others held"}},
-       "calibrate through the link and install the fit (minutes)",
-       kQueued,
-       &C::answerCalibrate},
-      {"cancel",
-       {},
-       "stop a running calibration; the installed one stays",
-       kAtOnce,
-       &C::answerCancel},
-      {"rollback", {}, "install the previous calibration again", kQueued, &C::answerRollback},
-      {"load",
-       {{"scene", K::kString, true, 0, 0, "library name (cornell, ...) or .lua file"},
-        {"parameters", K::kNumberMap, false, 0, 0, "the scene's parameters by name"}},
-       "load a scene script",
-       kQueued,
-       &C::answerLoad},
-      {"play", {}, "play the scene (ends identify and testcard)", kQueued, &C::answerPlay},
-      {"pause", {}, "hold the frame the modules show", kQueued, &C::answerPause},
-      {"set",
-       {{"name", K::kString, true, 0, 0, "a parameter the scene declares"},
-        {"value", K::kNumber, true, -kParameterLimit, kParameterLimit, "its new value"}},
-       "set a scene parameter",
-       kQueued,
-       &C::answerSet},
-      {"frame",
-       {{"module", K::kModule, true, 0, 0, "the module"},
-        {"path", K::kPath, false, 0, 0, "PNG to write (default: in the cache folder)"}},
-       "write what a module shows as a PNG",
-       kQueued,
-       &C::answerFrame},
-      {"view",
-       {{"x", K::kNumber, true, -kMaxDisplayExtentM, kMaxDisplayExtentM,
-         "the viewer's x on the observer line (m)"},
-        {"width", K::kInteger, false, 1, kMaxViewSide, "view pixels across"},
-        {"height", K::kInteger, false, 1, kMaxViewSide, "view pixels down"},
-        {"path", K::kPath, false, 0, 0, "PNG to write (default: in the cache folder)"}},
-       "write what a viewer on the observer line sees",
-       kQueued,
-       &C::answerView},
-      {"reload", {}, "read the config file and the scene script again", kQueued, &C::answerReload},
-      {"identify",
-       {{"module", K::kModule, false, 0, 0, "only this module"}},
-       "show each module's number (`play` returns to the scene)",
-       kQueued,
-       &C::answerIdentify},
-      {"testcard", {}, "show the test card on every module", kQueued, &C::answerTestcard},
-      {"shutdown",
-       {},
-       "stop the daemon (a running calibration is cancelled)",
-       kAtOnce,
-       &C::answerShutdown},
+  // One handler a request of the table (control_request_table.cpp), by its name; the
+  // constructor checks that both name the same requests.
+  static const std::map<std::string_view, Handler> byName = {
+      {"status", &C::answerStatus},
+      {"stats", &C::answerStats},
+      {"calibrate", &C::answerCalibrate},
+      {"cancel", &C::answerCancel},
+      {"rollback", &C::answerRollback},
+      {"load", &C::answerLoad},
+      {"play", &C::answerPlay},
+      {"pause", &C::answerPause},
+      {"set", &C::answerSet},
+      {"frame", &C::answerFrame},
+      {"view", &C::answerView},
+      {"reload", &C::answerReload},
+      {"identify", &C::answerIdentify},
+      {"testcard", &C::answerTestcard},
+      {"shutdown", &C::answerShutdown},
   };
-  return table;
+  return byName;
+}
+
+bool Conductor::handles(std::string_view request) { return handlers().contains(request); }
+
+void Conductor::checkEveryRequestHasAHandler() {
+  for (const RequestSpec& spec : controlRequests()) {
+    if (!handles(spec.name))
+      throw InternalError(fmt::format("check failed: request \"{}\" has no handler", spec.name));
+  }
+  PARALLAX_CHECK_OP(handlers().size(), ==, controlRequests().size());  // no handler left over
 }
 
 Reply Conductor::handle(const Reply& request) {
@@ -112,8 +72,9 @@ Reply Conductor::handle(const Reply& request) {
     if (spec == nullptr) throw InputError({"", "request", 0}, unknownRequestMessage(name));
     RequestArgs args = parseRequestArgs(*spec, request, static_cast<int>(nominal_.modules.size()));
     // Answered at once: from the published snapshot, or a flag the conductor thread polls.
-    if (spec->served == Served::kAtOnce) return (this->*spec->handler)(args);
-    job = std::make_shared<Job>(Job{spec, std::move(args), {}});
+    const Handler handler = handlers().at(spec->name);
+    if (spec->served == Served::kAtOnce) return (this->*handler)(args);
+    job = std::make_shared<Job>(Job{handler, std::move(args), {}});
   } catch (const std::exception& e) {
     return refused(e.what());
   }
@@ -254,8 +215,14 @@ Reply Conductor::answerView(const RequestArgs& args) {
 }
 
 Reply Conductor::answerReload(const RequestArgs&) {
-  if (!options_.config.sourceFile.empty())
-    applyConfig(loadDaemonConfig(options_.config.sourceFile));
+  if (!options_.config.sourceFile.empty()) {
+    try {
+      reloadFromFile(options_.config.sourceFile);
+    } catch (const std::exception& e) {
+      spdlog::error("reloading the config failed (the old one stays): {}", e.what());
+      throw;
+    }
+  }
   if (script_ && script_->reloadIfChanged() == ScriptedScene::Reload::kFailed) {
     sceneError_ = script_->lastError();
     return refused("scene reload failed, the previous version keeps playing: " + sceneError_);

@@ -1,6 +1,6 @@
 #pragma once
-// The control socket's requests, declared once (conductor_requests.cpp): name, arguments with
-// their types and ranges, the conductor's handler, and one help line. Dispatch, the "unknown
+// The control socket's requests, declared once (control_request_table.cpp): name, arguments
+// with their types and ranges, where each is served, and one help line. Dispatch, the "unknown
 // request" error and the help listing (`parallax ctl --help`) are generated from that table.
 //
 // Requests are untrusted input: every key must be one the request declares (a typo is refused,
@@ -16,8 +16,6 @@
 #include <vector>
 
 namespace parallax::daemon {
-
-class Conductor;
 
 enum class ArgKind {
   kModule,     // an integer module index, 0..(the display's modules - 1)
@@ -62,10 +60,10 @@ struct RequestSpec {
   std::vector<ArgSpec> args;
   std::string_view help;
   Served served = Served::kOnConductorThread;
-  nlohmann::json (Conductor::*handler)(const RequestArgs&) = nullptr;
 };
 
-// The table (conductor_requests.cpp), in the order the help lists it.
+// The table (control_request_table.cpp), in the order the help lists it. The conductor's
+// handlers are found by name (conductor_requests.cpp), so a client links the table alone.
 const std::vector<RequestSpec>& controlRequests();
 // nullptr when there is no such request.
 const RequestSpec* findControlRequest(std::string_view name);

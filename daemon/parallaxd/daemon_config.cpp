@@ -397,13 +397,6 @@ std::string linkSpecOf(const HardwareConfig& hardware, int modules) {
   return spec;
 }
 
-std::string defaultControlSocketPath() {
-  if (const char* runtime = std::getenv("XDG_RUNTIME_DIR"); runtime && *runtime) {
-    return std::string(runtime) + "/parallax/parallaxd.sock";
-  }
-  return fmt::format("/tmp/parallax-{}/parallaxd.sock", ::getuid());
-}
-
 std::string defaultCacheDir() {
   if (const char* cache = std::getenv("XDG_CACHE_HOME"); cache && *cache)
     return std::string(cache) + "/parallax";

@@ -20,6 +20,7 @@
 
 #include "calibration/display/display_model.h"
 #include "common/input_error.h"
+#include "daemon/parallaxd/control_socket_path.h"
 
 namespace parallax::daemon {
 
@@ -110,9 +111,6 @@ DaemonConfig loadDaemonConfig(const std::string& path);
 // The same from text (tests; `name` stands for the file in errors).
 DaemonConfig parseDaemonConfig(const std::string& text, const std::string& name);
 
-// Where `parallaxd` with no config listens and `parallax ctl` looks with no argument:
-// $XDG_RUNTIME_DIR/parallax/parallaxd.sock, else /tmp/parallax-$UID/parallaxd.sock.
-std::string defaultControlSocketPath();
 // $XDG_CACHE_HOME/parallax, else $HOME/.cache/parallax, else /tmp/parallax-$UID/cache.
 std::string defaultCacheDir();
 

@@ -6,11 +6,10 @@
 // socket at the per-user default path that `parallax ctl` finds with no argument. SIGTERM and
 // SIGINT stop cleanly (frames in flight finished, socket removed, the simulator stopped);
 // SIGHUP reloads the config (what cannot change in place builds the pipeline again). Logs go
-// to stderr (the journal under systemd); with $NOTIFY_SOCKET it speaks sd_notify (READY,
-// WATCHDOG, RELOADING, STOPPING).
+// to stderr (under systemd the journal: syslog priorities, no timestamp of ours); with
+// $NOTIFY_SOCKET it speaks sd_notify (READY, STATUS, WATCHDOG, RELOADING, STOPPING).
 
 #include <signal.h>
-#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -24,10 +23,12 @@
 
 #include "common/input_error.h"
 #include "common/private_folder.h"
+#include "daemon/cli/command_line.h"
 #include "daemon/parallaxd/conductor.h"
 #include "daemon/parallaxd/control_server.h"
 #include "daemon/parallaxd/daemon_config.h"
 #include "daemon/parallaxd/instance_lock.h"
+#include "daemon/parallaxd/journal_log_sink.h"
 #include "daemon/parallaxd/simhw_child.h"
 #include "daemon/parallaxd/systemd_notify.h"
 
@@ -110,6 +111,8 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
     spdlog::info("parallaxd ready");
   };
   options.onHeartbeat = [&notifier] { notifier.watchdog(); };
+  options.onReloading = [&notifier] { notifier.reloading(); };
+  options.onReloaded = [&notifier] { notifier.ready(); };
   Conductor conductor(options);
   auto control = std::make_unique<ControlServer>(
       config.controlSocketPath(),
@@ -121,12 +124,14 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
       if (signals.stopRequested()) stop = true;
       if (signals.takeReload()) {
         if (configPath.empty()) {
-          spdlog::info("SIGHUP: no config file to reload");
+          spdlog::warn("SIGHUP: no config file to reload (started without --config)");
         } else {
           conductor.reloadConfigFrom(configPath);
         }
       }
       if (conductor.shutdownRequested()) stop = true;
+      // Polled: what `systemctl status` shows follows every state that lasts 100 ms.
+      notifier.status(serviceStatusOf(conductor.state()));
       if (simulator && !stop.load()) simulator->superviseOnce();
     }
   });
@@ -162,7 +167,7 @@ int run(const std::string& configPath) {
   while (next && !watcher.stopRequested()) {
     next = runPipeline(*next, configPath, watcher, notifier);
     if (next) {
-      notifier.notify("RELOADING=1");
+      // RELOADING=1 was sent when the reload began; READY=1 follows from the new pipeline.
       spdlog::set_level(spdlog::level::from_str(next->logLevel));
     }
   }
@@ -173,24 +178,30 @@ int run(const std::string& configPath) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  spdlog::set_default_logger(spdlog::stderr_color_mt("parallaxd"));
-  CLI::App app{"parallaxd: calibrates the display, traces the scene, pushes frames to the modules"};
+  parallax::daemon::setUpDaemonLogging("parallaxd");
+  CLI::App app{"parallaxd: calibrates the display, traces the scene, pushes frames to the modules",
+               "parallaxd"};
+  app.footer("Exit codes: 0 stopped cleanly, 1 runtime failure, 2 bad config or usage error.");
+  parallax::cli::addVersionFlag(app);
   std::string config;
   app.add_option("--config", config,
                  "parallax.toml (default: built-in demo display on a simulator)");
   try {
     app.parse(argc, argv);
     return run(config);
+  } catch (const CLI::Success& e) {
+    return app.exit(e);  // --help, --version
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    app.exit(e);
+    return parallax::cli::kExitUsage;
   } catch (const parallax::InputError& e) {
-    std::fprintf(stderr, "parallaxd: %s\n", e.what());
+    parallax::daemon::logFatal(std::string("parallaxd: ") + e.what());
     return 2;
   } catch (const AlreadyRunning& e) {
-    std::fprintf(stderr, "parallaxd: %s\n", e.what());
+    parallax::daemon::logFatal(std::string("parallaxd: ") + e.what());
     return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "parallaxd: error: %s\n", e.what());
+    parallax::daemon::logFatal(std::string("parallaxd: error: ") + e.what());
     return 1;
   }
 }

@@ -1,9 +1,8 @@
 #include "daemon/parallaxd/systemd_notify.h"
 
 #include <spdlog/spdlog.h>
-#include <sys/socket.h>
-#include <sys/un.h>
-#include <unistd.h>
+#include <systemd/sd-daemon.h>
+#include <time.h>
 
 #include <cstdlib>
 #include <cstring>
@@ -11,45 +10,62 @@
 namespace parallax::daemon {
 
 SystemdNotifier::SystemdNotifier() {
-  if (const char* path = std::getenv("NOTIFY_SOCKET");
-      path && *path && std::strlen(path) < sizeof(sockaddr_un{}.sun_path)) {
-    socketPath_ = path;
-  }
-  const char* usec = std::getenv("WATCHDOG_USEC");
-  const char* pid = std::getenv("WATCHDOG_PID");
-  if (usec && (!pid || std::strtoll(pid, nullptr, 10) == ::getpid())) {
-    const long long us = std::strtoll(usec, nullptr, 10);
-    if (us > 0) watchdogInterval_ = std::chrono::microseconds(us);
-  }
+  const char* socket = std::getenv("NOTIFY_SOCKET");
+  enabled_ = socket && *socket;
+  // Only when $WATCHDOG_PID is unset or ours: a child must not feed its parent's watchdog.
+  uint64_t usec = 0;
+  if (sd_watchdog_enabled(0, &usec) > 0 && usec > 0)
+    watchdogInterval_ = std::chrono::microseconds(usec);
   lastWatchdog_ = std::chrono::steady_clock::now();
 }
 
 bool SystemdNotifier::notify(const std::string& state) const {
-  if (socketPath_.empty()) return false;
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  std::memcpy(addr.sun_path, socketPath_.data(), socketPath_.size());
-  if (addr.sun_path[0] == '@') addr.sun_path[0] = '\0';  // abstract namespace
-  const socklen_t length =
-      static_cast<socklen_t>(offsetof(sockaddr_un, sun_path) + socketPath_.size());
-  const int fd = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-  if (fd < 0) return false;
-  const ssize_t sent = ::sendto(fd, state.data(), state.size(), MSG_NOSIGNAL,
-                                reinterpret_cast<const sockaddr*>(&addr), length);
-  ::close(fd);
-  if (sent != static_cast<ssize_t>(state.size())) {
-    spdlog::warn("sd_notify: cannot send \"{}\" to {}", state, socketPath_);
+  if (!enabled_) return false;
+  const int sent = sd_notify(0, state.c_str());
+  if (sent <= 0) {
+    spdlog::warn("sd_notify: cannot send \"{}\": {}", state,
+                 sent < 0 ? std::strerror(-sent) : "no $NOTIFY_SOCKET");
     return false;
   }
   return true;
 }
 
+bool SystemdNotifier::reloading() const {
+  timespec now{};
+  ::clock_gettime(CLOCK_MONOTONIC, &now);
+  const long long usec = static_cast<long long>(now.tv_sec) * 1'000'000 + now.tv_nsec / 1000;
+  return notify("RELOADING=1\nMONOTONIC_USEC=" + std::to_string(usec));
+}
+
+void SystemdNotifier::status(const std::string& text) {
+  if (!enabled_) return;
+  std::lock_guard lock(mutex_);
+  if (text == lastStatus_) return;
+  if (notify("STATUS=" + text)) lastStatus_ = text;
+}
+
 void SystemdNotifier::watchdog() {
-  if (!watchdogInterval_ || socketPath_.empty()) return;
-  const auto now = std::chrono::steady_clock::now();
-  if (now - lastWatchdog_ < *watchdogInterval_ / 2) return;
-  lastWatchdog_ = now;
+  if (!watchdogInterval_ || !enabled_) return;
+  {
+    std::lock_guard lock(mutex_);
+    const auto now = std::chrono::steady_clock::now();
+    if (now - lastWatchdog_ < *watchdogInterval_ / 2) return;
+    lastWatchdog_ = now;
+  }
   notify("WATCHDOG=1");
+}
+
+std::string serviceStatusOf(const StateSnapshot& state) {
+  std::string line(daemonStateName(state.state));
+  if (state.state == DaemonState::kError && !state.lastError.empty()) {
+    line += ": " + (state.lastErrorStage.empty() ? state.lastError
+                                                 : state.lastErrorStage + ": " + state.lastError);
+  } else if (!state.stage.empty()) {
+    line += ": " + state.stage;
+  }
+  for (char& c : line)
+    if (c == '\n' || c == '\r') c = ' ';
+  return line;
 }
 
 }  // namespace parallax::daemon

@@ -27,6 +27,7 @@
 #include "calibration/display/display_presets.h"
 #include "calibration/simulation/camera_truth.h"
 #include "common/input_error.h"
+#include "common/version.h"
 #include "common/width_height.h"
 #include "hw/simulator/calibration_physics.h"
 #include "hw/simulator/fault_spec.h"
@@ -152,7 +153,14 @@ int run(const Args& args) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"parallax-simhw: simulated optical modules and calibration camera"};
+  CLI::App app{"parallax-simhw: simulated optical modules and calibration camera",
+               "parallax-simhw"};
+  app.footer("Exit codes: 0 stopped cleanly, 1 runtime failure, 2 usage error.");
+  const std::string describe = parallax::parallaxGitDescribe();
+  app.set_version_flag("--version",
+                       "parallax-simhw " + parallax::parallaxVersion() +
+                           (describe.empty() ? "" : " (" + describe + ")"),
+                       "print the version and exit");
   Args args;
   app.add_option("--socket", args.socket, "Unix socket path to listen on")->required();
   app.add_option("--display", args.display, "display model (demo, default or a JSON file)");
@@ -172,8 +180,11 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
     return run(args);
+  } catch (const CLI::Success& e) {
+    return app.exit(e);  // --help, --version
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    app.exit(e);
+    return 2;  // a usage error, as every Parallax program (README, "Exit codes")
   } catch (const std::exception& e) {
     std::fprintf(stderr, "parallax-simhw: %s\n", e.what());
     return 1;

@@ -356,9 +356,11 @@ TEST_F(ConductorTest, RequestsAreCheckedAgainstTheTable) {
   for (const RequestSpec& spec : controlRequests()) {
     EXPECT_NE(unknown.find(std::string(spec.name)), std::string::npos) << spec.name;
     EXPECT_NE(help.find("  " + std::string(spec.name)), std::string::npos) << spec.name;
-    EXPECT_NE(spec.handler, nullptr) << spec.name;
+    EXPECT_TRUE(Conductor::handles(spec.name)) << spec.name;
   }
   EXPECT_EQ(controlRequests().size(), 15u);
+  EXPECT_FALSE(Conductor::handles("dance"));
+  EXPECT_NO_THROW(Conductor::checkEveryRequestHasAHandler());
 }
 
 // `frame` and `view` write where a client says, but never through a symlink, never into a

@@ -9,6 +9,7 @@
 #include <signal.h>
 #include <spawn.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -18,6 +19,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <thread>
 
 #include "daemon/parallaxd/control_client.h"
@@ -75,6 +77,46 @@ std::pair<int, std::string> ctl(const std::vector<std::string>& args, const std:
   return testing::runShellCommand(command);
 }
 
+// The systemd side of sd_notify: a datagram socket the daemon is pointed at with $NOTIFY_SOCKET.
+class NotifySocket {
+ public:
+  explicit NotifySocket(const fs::path& path) : path_(path.string()) {
+    fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    sockaddr_un addr{};
+    addr.sun_family = AF_UNIX;
+    std::strncpy(addr.sun_path, path_.c_str(), sizeof addr.sun_path - 1);
+    EXPECT_EQ(::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+    timeval timeout{30, 0};
+    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  }
+  ~NotifySocket() { ::close(fd_); }
+  NotifySocket(const NotifySocket&) = delete;
+  NotifySocket& operator=(const NotifySocket&) = delete;
+
+  std::string env() const { return "NOTIFY_SOCKET=" + path_; }
+  // The next message; "" after 30 s without one.
+  std::string receive() {
+    char message[1024] = {};
+    const ssize_t n = ::recv(fd_, message, sizeof message - 1, 0);
+    return n > 0 ? std::string(message, static_cast<size_t>(n)) : std::string();
+  }
+  // Receives until a message starting with `wanted`; false on a timeout. All are kept in
+  // `received`.
+  bool receiveUntil(const std::string& wanted) {
+    while (true) {
+      std::string m = receive();
+      if (m.empty()) return false;
+      received.push_back(std::move(m));
+      if (received.back().rfind(wanted, 0) == 0) return true;
+    }
+  }
+  std::vector<std::string> received;
+
+ private:
+  std::string path_;
+  int fd_ = -1;
+};
+
 class ParallaxdProcess : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -106,60 +148,32 @@ class ParallaxdProcess : public ::testing::Test {
 };
 
 TEST_F(ParallaxdProcess, TellsSystemdItIsReadyAndStopsCleanlyOnSigterm) {
-  // The systemd side of sd_notify: a datagram socket the daemon is pointed at.
-  const std::string notifyPath = (folder_ / "notify.sock").string();
-  const int notify = ::socket(AF_UNIX, SOCK_DGRAM, 0);
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  std::strncpy(addr.sun_path, notifyPath.c_str(), sizeof addr.sun_path - 1);
-  ASSERT_EQ(::bind(notify, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
-  timeval timeout{30, 0};
-  ::setsockopt(notify, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-
-  Daemon daemon(folder_, config(),
-                {runtimeEnv(), "NOTIFY_SOCKET=" + notifyPath, "WATCHDOG_USEC=2000000"});
-  // READY=1 (a long start-up stage may feed the watchdog before it).
-  char message[256] = {};
-  bool ready = false;
-  for (int i = 0; i < 100 && !ready; ++i) {
-    std::memset(message, 0, sizeof message);
-    ASSERT_GT(::recv(notify, message, sizeof message - 1, 0), 0) << daemon.log();
-    ready = std::string(message) == "READY=1";
-    if (!ready) {
-      EXPECT_STREQ(message, "WATCHDOG=1");
-    }
+  NotifySocket notify(folder_ / "notify.sock");
+  Daemon daemon(folder_, config(), {runtimeEnv(), notify.env(), "WATCHDOG_USEC=2000000"});
+  // READY=1 (a long start-up stage may feed the watchdog and say its status before it).
+  ASSERT_TRUE(notify.receiveUntil("READY=1")) << daemon.log();
+  for (const std::string& m : notify.received) {
+    EXPECT_TRUE(m == "READY=1" || m == "WATCHDOG=1" || m.rfind("STATUS=", 0) == 0) << m;
   }
-  ASSERT_TRUE(ready);
   // `parallax ctl` with no socket argument finds it (same $XDG_RUNTIME_DIR).
   auto [code, out] = ctl({"status"}, runtimeEnv());
   EXPECT_EQ(code, 0) << out;
   EXPECT_NE(out.find("\"state\": \"playing\""), std::string::npos) << out;
   waitForStats(socket_, [](const json& s) { return s["module_frames_sent"] == 4; });
   // The watchdog keeps being fed while it idles (half of WATCHDOG_USEC).
-  bool fed = false;
-  for (int i = 0; i < 5 && !fed; ++i) {
-    std::memset(message, 0, sizeof message);
-    fed =
-        ::recv(notify, message, sizeof message - 1, 0) > 0 && std::string(message) == "WATCHDOG=1";
-  }
-  EXPECT_TRUE(fed);
+  notify.received.clear();
+  EXPECT_TRUE(notify.receiveUntil("WATCHDOG=1"));
+  EXPECT_LE(notify.received.size(), 5u);
 
   ASSERT_EQ(::kill(daemon.pid(), SIGTERM), 0);
   const int status = daemon.waitExit(20000);
   ASSERT_NE(status, -1) << "did not stop on SIGTERM\n" << daemon.log();
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status << "\n" << daemon.log();
   EXPECT_FALSE(fs::exists(socket_));
-  bool stopping = false;
-  for (int i = 0; i < 10 && !stopping; ++i) {
-    std::memset(message, 0, sizeof message);
-    if (::recv(notify, message, sizeof message - 1, MSG_DONTWAIT) <= 0) break;
-    stopping = std::string(message) == "STOPPING=1";
-  }
-  EXPECT_TRUE(stopping);
+  EXPECT_TRUE(notify.receiveUntil("STOPPING=1"));
   // The simulator was stopped, not killed: it wrote what its 4 modules showed.
   for (int m = 0; m < 4; ++m)
     EXPECT_TRUE(fs::exists(moduleFrameStem((folder_ / "shown").string(), m) + ".png")) << m;
-  ::close(notify);
 }
 
 TEST_F(ParallaxdProcess, RefusesABadConfigNamingTheKeyAndLine) {
@@ -326,6 +340,85 @@ TEST_F(ParallaxdProcess, SigtermStopsARunningCalibration) {
   EXPECT_FALSE(fs::exists(folder_ / "calibration.json")) << daemon.log();
   EXPECT_EQ(daemon.log().find("calibration installed"), std::string::npos) << daemon.log();
   EXPECT_FALSE(fs::exists(socket_));
+}
+
+}  // namespace
+}  // namespace parallax::daemon
+
+namespace parallax::daemon {
+namespace {
+
+// Under systemd: STATUS= follows the state (what `systemctl status` shows), a SIGHUP reload is
+// bracketed by RELOADING=1 (with MONOTONIC_USEC) and READY=1, also when the new config is
+// refused, and SIGTERM sends STOPPING=1.
+TEST_F(ParallaxdProcess, TellsSystemdItsStatusReloadsAndStop) {
+  NotifySocket notify(folder_ / "notify.sock");
+  Daemon daemon(folder_, config(), {runtimeEnv(), notify.env()});
+  ASSERT_TRUE(notify.receiveUntil("READY=1")) << daemon.log();
+  ASSERT_TRUE(notify.receiveUntil("STATUS=playing")) << daemon.log();
+  // The status follows the state (polled: a state that lasts is always shown).
+  EXPECT_EQ(ask(socket_, {{"request", "pause"}})["ok"], true);
+  ASSERT_TRUE(notify.receiveUntil("STATUS=paused")) << daemon.log();
+  EXPECT_EQ(ask(socket_, {{"request", "play"}})["ok"], true);
+  ASSERT_TRUE(notify.receiveUntil("STATUS=playing")) << daemon.log();
+
+  notify.received.clear();
+  ASSERT_EQ(::kill(daemon.pid(), SIGHUP), 0);
+  ASSERT_TRUE(notify.receiveUntil("READY=1")) << daemon.log();
+  ASSERT_FALSE(notify.received.empty());
+  const std::string& reloading = notify.received.front();
+  EXPECT_EQ(reloading.rfind("RELOADING=1\nMONOTONIC_USEC=", 0), 0u) << reloading;
+  EXPECT_GT(std::stoll(reloading.substr(reloading.find('=', 12) + 1)), 0) << reloading;
+
+  // A config that does not load: still RELOADING=1 ... READY=1, the old config plays on.
+  std::ofstream(folder_ / "parallax.toml") << "[scene]\nfps = -3\n";
+  notify.received.clear();
+  ASSERT_EQ(::kill(daemon.pid(), SIGHUP), 0);
+  ASSERT_TRUE(notify.receiveUntil("READY=1")) << daemon.log();
+  EXPECT_EQ(notify.received.front().rfind("RELOADING=1", 0), 0u) << notify.received.front();
+  EXPECT_EQ(ask(socket_, {{"request", "status"}})["state"], "playing");
+
+  ASSERT_EQ(::kill(daemon.pid(), SIGTERM), 0);
+  const int status = daemon.waitExit(20000);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << daemon.log();
+  EXPECT_TRUE(notify.receiveUntil("STOPPING=1")) << daemon.log();
+}
+
+// With stderr a journal stream ($JOURNAL_STREAM names its device and inode, as systemd sets
+// it), every line parallaxd logs carries its syslog priority and no timestamp of ours (the
+// journal stamps each record once), so `journalctl -p err` finds the errors.
+TEST_F(ParallaxdProcess, LogsWithJournalPrioritiesWhenStderrIsTheJournal) {
+  // The log file the daemon's stderr is opened on (O_TRUNC keeps its inode).
+  std::ofstream(folder_ / "parallaxd.log").close();
+  struct stat logStat {};
+  ASSERT_EQ(::stat((folder_ / "parallaxd.log").c_str(), &logStat), 0);
+  const std::string journalStream =
+      "JOURNAL_STREAM=" + std::to_string(logStat.st_dev) + ":" + std::to_string(logStat.st_ino);
+  Daemon daemon(folder_, config(), {runtimeEnv(), journalStream});
+  waitForStats(socket_, [](const json& s) { return s["module_frames_sent"] == 4; });
+  // An error: a reload of a config that does not load.
+  std::ofstream(folder_ / "parallax.toml") << "[scene]\nfps = -3\n";
+  EXPECT_EQ(ask(socket_, {{"request", "reload"}})["ok"], false);
+  ASSERT_EQ(::kill(daemon.pid(), SIGTERM), 0);
+  const int status = daemon.waitExit(20000);
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << daemon.log();
+
+  const std::string log = daemon.log();
+  EXPECT_NE(log.find("<6>parallaxd ready\n"), std::string::npos) << log;
+  EXPECT_NE(log.find("<3>reloading the config failed (the old one stays): "), std::string::npos)
+      << log;
+  EXPECT_NE(log.find("scene.fps"), std::string::npos) << log;
+  std::istringstream lines(log);
+  int parallaxdLines = 0;
+  for (std::string line; std::getline(lines, line);) {
+    // The simulator child writes its own lines to the same stream; parallaxd's are the "<N>"
+    // ones.
+    if (line.size() < 3 || line[0] != '<') continue;
+    ++parallaxdLines;
+    EXPECT_TRUE(line[1] >= '2' && line[1] <= '7' && line[2] == '>') << line;
+    EXPECT_EQ(line.find("[20"), std::string::npos) << "a timestamp of ours: " << line;
+  }
+  EXPECT_GT(parallaxdLines, 5) << log;
 }
 
 }  // namespace

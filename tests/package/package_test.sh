@@ -22,7 +22,7 @@ step() { echo "--- $*"; }
 step "cmake --install to another prefix"
 prefix=$work/opt/parallax
 cmake --install "$build" --prefix "$prefix" >/dev/null
-for f in bin/parallax bin/parallaxd bin/parallax-simhw share/parallax/scenes/cornell.lua \
+for f in bin/parallax bin/parallax-tools bin/parallaxd bin/parallax-simhw share/parallax/scenes/cornell.lua \
          share/parallax/API.md etc/parallax/parallax.toml lib/systemd/system/parallaxd.service \
          lib/sysusers.d/parallax.conf lib/udev/rules.d/60-parallax.rules \
          lib/cmake/Parallax/ParallaxConfig.cmake include/parallax/calibration/display/display_model.h; do
@@ -52,7 +52,7 @@ step "the package's files"
 root=$work/root
 dpkg-deb -x "$deb" "$root"
 dpkg-deb -c "$deb" | awk '{print $6}'
-for f in usr/bin/parallax usr/bin/parallaxd usr/bin/parallax-simhw \
+for f in usr/bin/parallax usr/bin/parallax-tools usr/bin/parallaxd usr/bin/parallax-simhw \
          usr/share/parallax/scenes/cornell.lua usr/share/parallax/scenes/lib/paper.lua \
          usr/share/parallax/API.md etc/parallax/parallax.toml \
          lib/systemd/system/parallaxd.service usr/lib/sysusers.d/parallax.conf \
@@ -60,6 +60,12 @@ for f in usr/bin/parallax usr/bin/parallaxd usr/bin/parallax-simhw \
   [ -e "$root/$f" ] || fail "the package lacks /$f"
 done
 dpkg-deb -f "$deb" Depends | grep -q "libc6" || fail "no shared-library dependencies computed"
+# The light front answers --version itself and runs parallax-tools beside it for the rest.
+"$root/usr/bin/parallax" --version | grep -q "^parallax [0-9]" || fail "parallax --version"
+"$root/usr/bin/parallax-tools" --version | grep -q "^parallax [0-9]" || fail "parallax-tools --version"
+"$root/usr/bin/parallaxd" --version | grep -q "^parallaxd [0-9]" || fail "parallaxd --version"
+env -u PARALLAX_SCENE_LIBRARY "$root/usr/bin/parallax" display --preset demo >/dev/null \
+  || fail "the installed parallax does not run the parallax-tools beside it"
 dpkg-deb -I "$deb" conffiles | grep -qx /etc/parallax/parallax.toml || fail "parallax.toml is not a conffile"
 unit=$root/lib/systemd/system/parallaxd.service
 grep -qx "ExecStart=/usr/bin/parallaxd --config /etc/parallax/parallax.toml" "$unit" || fail "ExecStart"

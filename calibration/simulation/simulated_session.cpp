@@ -30,6 +30,9 @@ CalibrationCaptures renderSession(const DisplayModel& truth, const CameraTruth& 
   const auto rowPatterns = quantisedPatternFrames(mw, mh, PatternAxis::kRows, options.patterns);
   const auto groups = moduleGroups(static_cast<int>(truth.modules.size()), options.groupStride);
   SeededRandom random(cameraTruth.seed);
+  const int total = static_cast<int>(cameraTruth.poses.size() * groups.size() *
+                                     (columnPatterns.size() + rowPatterns.size()));
+  int done = 0;
   for (size_t station = 0; station < cameraTruth.poses.size(); ++station) {
     const StationView view = viewFromStation(truth, cameraTruth.intrinsics,
                                              cameraTruth.poses[station], cameraTruth.sensor);
@@ -45,6 +48,7 @@ CalibrationCaptures renderSession(const DisplayModel& truth, const CameraTruth& 
           cv::Mat bytes;
           recorded.convertTo(bytes, CV_8U, 255.0);
           out->push_back(linearFromRecorded8(bytes, camera.responseGamma));
+          if (options.onPicture) options.onPicture(++done, total);
         }
       };
       shoot(columnPatterns, &s.columnFrames);

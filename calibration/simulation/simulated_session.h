@@ -4,6 +4,7 @@
 // same pictures a session over the link records from parallax-simhw, without the link.
 
 #include <cstdint>
+#include <functional>
 
 #include "calibration/capture/calibration_captures.h"
 #include "calibration/capture/checkerboard_captures.h"
@@ -16,6 +17,8 @@ namespace parallax {
 struct SimulatedSessionOptions {
   StructuredLightOptions patterns;
   int groupStride = 3;  // every n-th module shows its patterns at once (moduleGroups)
+  // Called after every picture (done of total): a session of demo takes a minute or more.
+  std::function<void(int done, int total)> onPicture;
 };
 
 // Pictures of every station (truth poses) and group, in linear light after the sensor's

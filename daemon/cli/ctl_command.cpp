@@ -112,7 +112,8 @@ void addCtlCommand(CLI::App& app) {
   auto args = std::make_shared<CtlArgs>();
   CLI::App* command =
       app.add_subcommand("ctl", "talk to a running parallaxd (status, load, play, view, ...)");
-  command->prefix_command();  // everything after the request is the request's own
+  command->prefix_command();    // everything after the request is the request's own
+  command->fallthrough(false);  // ... even under an app whose options fall through (--quiet)
   command->footer("Requests (arguments as --key value, or the first one positional):\n" +
                   daemon::controlRequestHelp());
   command->add_option("--socket", args->socket,

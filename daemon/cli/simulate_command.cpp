@@ -26,6 +26,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 
 #include "calibration/camera/observations_json.h"
 #include "calibration/display/display_model_json.h"
@@ -34,6 +35,7 @@
 #include "calibration/simulation/simulated_session.h"
 #include "calibration/simulation/synthetic_observations.h"
 #include "common/input_error.h"
+#include "common/progress_bar.h"
 #include "common/width_height.h"
 #include "daemon/cli/commands.h"
 #include "daemon/cli/stage_log.h"
@@ -131,11 +133,19 @@ void runSimulate(const SimulateArgs& args, const CLI::App& command) {
                      where);
     return;
   }
-  // The pictures take a minute or more on demo: say which step runs (no step reports progress).
-  StageLog stages("simulate", args.boards > 0 ? 3 : 2);
-  stages.begin(fmt::format("the pattern pictures of {} modules from {} station{}",
-                           truth.modules.size(), args.stations, args.stations == 1 ? "" : "s"));
-  CalibrationCaptures captures = renderSession(truth, camera.truth, camera.metadata, {});
+  // The pictures take a minute or more on demo: a bar with the time left, then the steps that
+  // cannot report their progress by name and time.
+  const int steps = args.boards > 0 ? 3 : 2;
+  SimulatedSessionOptions session;
+  std::optional<ProgressBar> bar;
+  session.onPicture = [&](int, int total) {
+    if (!bar) bar.emplace(fmt::format("simulate [1/{}] {} pattern pictures", steps, total), total);
+    bar->advance();
+  };
+  CalibrationCaptures captures = renderSession(truth, camera.truth, camera.metadata, session);
+  if (bar) bar->finish();
+  StageLog stages("simulate", steps);
+  stages.skip();  // step 1 was the bar
   if (args.boards > 0) {
     stages.begin(fmt::format("{} checkerboard pictures", args.boards));
     CheckerboardShotOptions shots;

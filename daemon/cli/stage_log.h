@@ -1,7 +1,7 @@
 #pragma once
-// For commands whose long steps cannot report their own progress (the picture rendering of
-// `simulate`): one line on stderr as each step starts and how long it took, so a step of a
-// minute never looks hung — "simulate [2/3] the pattern pictures (4 stations) ... 61.2 s".
+// For commands whose long steps cannot report their own progress (`simulate`'s checkerboard
+// pictures and writing): one line on stderr as each step starts and how long it took, so no
+// step looks hung — "simulate [2/3] 12 checkerboard pictures ... 5.2 s".
 // Silent under --quiet.
 
 #include <chrono>
@@ -28,6 +28,11 @@ class StageLog {
     if (quiet()) return;
     std::fprintf(stderr, "%s [%d/%d] %s ...", command_.c_str(), stage_, stages_, what.c_str());
     std::fflush(stderr);
+  }
+  // A step shown otherwise (a progress bar of its own): counted, not printed.
+  void skip() {
+    end();
+    ++stage_;
   }
   void end() {
     if (!open_) return;

@@ -129,13 +129,14 @@ bool Conductor::connectLink(int timeoutMs) {
         }
       }
       if (!linkError_.empty()) {
-        state_.fail("connecting", linkError_, DaemonState::kError);
+        state_.fail(kConnecting, linkError_, DaemonState::kError);
         link_.reset();
         linkHealth_ = LinkHealth::kDown;
         return false;
       }
       linkHealth_ = LinkHealth::kUp;
       needsPush_ = !currentImages_.empty();
+      state_.succeeded(kConnecting);
       return true;
     } catch (const std::exception& e) {
       linkError_ = e.what();
@@ -190,7 +191,7 @@ void Conductor::drainJobs(Clock::time_point until) {
       try {
         reloadFromFile(*configPath);
       } catch (const std::exception& e) {
-        state_.fail("reloading the config (the old one stays)", e.what(), state_.state());
+        state_.fail(kReloadingConfig, e.what(), state_.state());
       }
     } else if (config) {
       applyConfig(*config);
@@ -234,7 +235,7 @@ void Conductor::applyConfig(const DaemonConfig& config) {
       const DisplayModel display = nominalDisplayOf(config.display);
       linkSpecOf(config.hardware, static_cast<int>(display.modules.size()));
     } catch (const std::exception& e) {
-      state_.fail("reloading the config (the old one stays)", e.what(), state_.state());
+      state_.fail(kReloadingConfig, e.what(), state_.state());
       return;
     }
     spdlog::info("config: [{}] changed: building the daemon again", fmt::join(needRestart, "], ["));
@@ -246,6 +247,7 @@ void Conductor::applyConfig(const DaemonConfig& config) {
   options_.config = withInPlaceChanges(options_.config, config);
   spdlog::set_level(spdlog::level::from_str(options_.config.logLevel));
   spdlog::info("config reloaded");
+  state_.succeeded(kReloadingConfig);
   // A scene that does not load is reported in status; the old one plays on.
   if (sceneChanged) loadScene(config.scene.script, config.scene.parameters);
 }

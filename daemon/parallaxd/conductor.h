@@ -108,6 +108,12 @@ class Conductor {
     std::promise<nlohmann::json> reply;
   };
   using Clock = std::chrono::steady_clock;
+  // The stages a failure is recorded under (status: last_error.stage) and cleared by a success.
+  static constexpr const char* kConnecting = "connecting";
+  static constexpr const char* kCalibrating = "calibrating";
+  static constexpr const char* kRegenerating = "regenerating the ray textures";
+  static constexpr const char* kLoadingScene = "loading the scene";
+  static constexpr const char* kReloadingConfig = "reloading the config (the old one stays)";
 
   // What a stage ended with: the caller replies from this, not from side effects.
   struct StageResult {

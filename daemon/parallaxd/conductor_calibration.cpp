@@ -74,6 +74,7 @@ Conductor::StageResult Conductor::calibrate(std::optional<int> onlyModule) {
       spdlog::info("calibration installed: {} (report: {}.report.txt)\n{}", store_.path(),
                    store_.path(), run.summary);
       result.summary = run.summary;
+      state_.succeeded(kCalibrating);
     } else {
       result = textures;
     }
@@ -90,7 +91,7 @@ Conductor::StageResult Conductor::calibrate(std::optional<int> onlyModule) {
   } catch (const std::exception& e) {
     result.outcome = StageResult::Outcome::kFailed;
     result.error = e.what();
-    state_.fail("calibrating", e.what(), back);
+    state_.fail(kCalibrating, e.what(), back);
     spdlog::warn("calibration refused, not installed; the installed one stays: {}",
                  calibrationSource_);
   }
@@ -113,12 +114,13 @@ Conductor::StageResult Conductor::regenerate(const DisplayModel& model) {
     cacheStats_ = stats;
     texturesHash_ = displayContentHash(model);
     ++texturesVersion_;
+    state_.succeeded(kRegenerating);
     spdlog::info("ray textures {}: {} from the cache, {} generated", hashHex(texturesHash_),
                  stats.loaded, stats.generated);
     state_.enter(back);
     return {};
   } catch (const std::exception& e) {
-    state_.fail("regenerating the ray textures", e.what(), back);
+    state_.fail(kRegenerating, e.what(), back);
     return {StageResult::Outcome::kFailed, e.what(), {}};
   }
 }
@@ -141,11 +143,12 @@ Conductor::StageResult Conductor::loadScene(const std::string& argument,
     overlay_.clear();
     nextFrameDue_ = Clock::now();
     spdlog::info("scene: {} ({})", argument, script_->script().animated() ? "animated" : "static");
+    state_.succeeded(kLoadingScene);
     state_.enter(paused_ ? DaemonState::kPaused : DaemonState::kPlaying);
     return {};
   } catch (const std::exception& e) {
     // In last_error; scene_error stays about the scene that plays.
-    state_.fail("loading the scene", e.what(), back);
+    state_.fail(kLoadingScene, e.what(), back);
     return {StageResult::Outcome::kFailed, e.what(), {}};
   }
 }

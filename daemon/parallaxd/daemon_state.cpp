@@ -90,6 +90,14 @@ void StateMachine::fail(const std::string& stage, const std::string& error, Daem
   stage_.clear();
 }
 
+void StateMachine::succeeded(const std::string& stage) {
+  std::lock_guard lock(mutex_);
+  if (lastError_.empty() || lastErrorStage_ != stage) return;
+  spdlog::info("{}: works again (was: {})", stage, lastError_);
+  lastError_.clear();
+  lastErrorStage_.clear();
+}
+
 DaemonState StateMachine::state() const {
   std::lock_guard lock(mutex_);
   return state_;

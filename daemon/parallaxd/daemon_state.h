@@ -29,7 +29,7 @@ std::string_view daemonStateName(DaemonState state);
 struct StateSnapshot {
   DaemonState state = DaemonState::kStarting;
   std::string stage;      // what the current state is doing ("module 3 of 16")
-  std::string lastError;  // the most recent failure, kept until the next one
+  std::string lastError;  // the most recent failure, until the next one or its stage works
   std::string lastErrorStage;
   double secondsInState = 0.0;
 };
@@ -43,6 +43,9 @@ class StateMachine {
   // Records a stage failure; the state goes to `fallback` (the last good one, or kError),
   // through the same table as enter().
   void fail(const std::string& stage, const std::string& error, DaemonState fallback);
+  // `stage` has now worked: its failure, if it is the one last_error holds, is over (status
+  // then says what is wrong now, not what was wrong before a later success).
+  void succeeded(const std::string& stage);
   DaemonState state() const;
   StateSnapshot snapshot() const;
 

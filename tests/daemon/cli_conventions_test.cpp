@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <string>
 
+#include "common/progress_bar.h"
 #include "tests/daemon/shell_command.h"
 
 namespace parallax {
@@ -75,6 +76,11 @@ TEST_F(CliConventions, UsageErrorsExit2RuntimeFailuresExit1) {
     EXPECT_EQ(code, 1) << "parallax " << args << ": " << out;
     EXPECT_NE(out.find("parallax"), std::string::npos) << out;
   }
+  // The whole tool takes `ctl` too, its request words its own (no daemon: a runtime failure).
+  const auto [toolsCode, toolsOut] = run(std::string(PARALLAX_TOOLS_PATH) + " ctl --socket " +
+                                         (folder_ / "nobody.sock").string() + " status");
+  EXPECT_EQ(toolsCode, 1) << toolsOut;
+  EXPECT_NE(toolsOut.find("no daemon at"), std::string::npos) << toolsOut;
   // Help is not an error.
   EXPECT_EQ(run(parallax + " --help").first, 0);
   EXPECT_EQ(run(parallax + " ctl --help").first, 0);
@@ -114,6 +120,30 @@ TEST_F(CliConventions, OneDefaultDisplayAndNoSilentWritesIntoTheCurrentFolder) {
   EXPECT_TRUE(fs::exists(folder_ / "parallax-render" / "module_000.png")) << renderOut;
   EXPECT_FALSE(fs::exists(folder_ / "module_000.png"));
   EXPECT_NE(renderOut.find((folder_ / "parallax-render").string()), std::string::npos) << renderOut;
+}
+
+TEST(ProgressTimeLeft, SaysHowLongIsLeftAtTheRateSoFarOnceASecondHasPassed) {
+  EXPECT_EQ(ProgressBar::timeLeft(0.25, 10.0), "~30s left");
+  EXPECT_EQ(ProgressBar::timeLeft(0.1, 13.0), "~1m57s left");
+  EXPECT_EQ(ProgressBar::timeLeft(0.5, 0.5), "");  // too early to say
+  EXPECT_EQ(ProgressBar::timeLeft(0.0, 5.0), "");  // no rate yet
+  EXPECT_EQ(ProgressBar::timeLeft(1.0, 5.0), "");  // done
+}
+
+TEST_F(CliConventions, SimulateShowsItsStepsWithProgress) {
+  const std::string display = smallDisplay();
+  const std::string simulate = std::string(PARALLAX_PATH) + " simulate --display " + display +
+                               " --seed 1 --stations 1 --boards 0 --camera-resolution 160x90" +
+                               " --out " + (folder_ / "session").string();
+  const auto [code, out] = run(simulate);
+  ASSERT_EQ(code, 0) << out;
+  // Not a tty: a line every 10% of the pictures, then the step that cannot report progress.
+  EXPECT_NE(out.find("simulate [1/2] "), std::string::npos) << out;
+  EXPECT_NE(out.find("pattern pictures: 100%"), std::string::npos) << out;
+  EXPECT_NE(out.find("simulate [2/2] writing the pictures ... "), std::string::npos) << out;
+  const auto [quietCode, quietOut] = run(simulate + " --quiet");
+  ASSERT_EQ(quietCode, 0) << quietOut;
+  EXPECT_EQ(quietOut.find("simulate ["), std::string::npos) << quietOut;
 }
 
 }  // namespace

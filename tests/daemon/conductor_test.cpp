@@ -219,6 +219,19 @@ TEST_F(ConductorTest, BadScenesAndReloadsKeepTheOldSceneUp) {
   EXPECT_EQ(ask({{"request", "status"}})["state"], "playing");
 }
 
+// `status` says what is wrong now: a scene that failed to load is in last_error until a scene
+// loads (issue 20: an old error stayed after a later success).
+TEST_F(ConductorTest, AnErrorLeavesStatusOnceItsStageWorksAgain) {
+  startConductor();
+  waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });
+  EXPECT_EQ(ask({{"request", "load"}, {"scene", (folder_ / "missing.lua").string()}})["ok"], false);
+  EXPECT_EQ(ask({{"request", "status"}})["last_error"]["stage"], "loading the scene");
+  EXPECT_EQ(ask({{"request", "load"}, {"scene", script_}})["ok"], true);
+  const json status = ask({{"request", "status"}});
+  EXPECT_FALSE(status.contains("last_error")) << status.dump();
+  EXPECT_EQ(status["state"], "playing");
+}
+
 TEST_F(ConductorTest, InstallerPatternsPauseAndViews) {
   startConductor();
   waitFor([](const json& s) { return s["module_frames_sent"] == kModules; });

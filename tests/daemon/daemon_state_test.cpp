@@ -52,6 +52,17 @@ TEST(DaemonState, FailGoesThroughTheTableToo) {
   EXPECT_EQ(n.snapshot().lastErrorStage, "calibrating");
 }
 
+TEST(DaemonState, ALaterSuccessOfTheFailedStageClearsTheErrorAnotherDoesNot) {
+  StateMachine m;
+  m.enter(S::kLoading);
+  m.fail("loading the scene", "no such scene", S::kError);
+  m.succeeded("regenerating the ray textures");
+  EXPECT_EQ(m.snapshot().lastError, "no such scene");  // another stage's success: still wrong
+  m.succeeded("loading the scene");
+  EXPECT_TRUE(m.snapshot().lastError.empty());
+  EXPECT_TRUE(m.snapshot().lastErrorStage.empty());
+}
+
 TEST(DaemonState, NothingLeavesStoppingAndEveryOtherStateMayFailOrStop) {
   const S all[] = {S::kStarting, S::kCalibrating, S::kRegenerating, S::kLoading,
                    S::kPlaying,  S::kPaused,      S::kError,        S::kStopping};

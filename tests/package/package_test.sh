@@ -60,6 +60,12 @@ for f in usr/bin/parallax usr/bin/parallax-tools usr/bin/parallaxd usr/bin/paral
   [ -e "$root/$f" ] || fail "the package lacks /$f"
 done
 dpkg-deb -f "$deb" Depends | grep -q "libc6" || fail "no shared-library dependencies computed"
+# Manual pages (help2man at build time), when the build had it.
+if command -v help2man >/dev/null; then
+  for p in parallax parallax-tools parallaxd parallax-simhw; do
+    [ -s "$root/usr/share/man/man1/$p.1.gz" ] || fail "the package lacks the manual page of $p"
+  done
+fi
 # The light front answers --version itself and runs parallax-tools beside it for the rest.
 "$root/usr/bin/parallax" --version | grep -q "^parallax [0-9]" || fail "parallax --version"
 "$root/usr/bin/parallax-tools" --version | grep -q "^parallax [0-9]" || fail "parallax-tools --version"

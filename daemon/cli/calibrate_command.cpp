@@ -1,19 +1,21 @@
 // parallax calibrate --captures DIR --nominal FILE|default|demo --out calib.json
-// parallax calibrate --link auto|simhw:SOCKET --camera camera.json --nominal ... --out calib.json
-//                    [--stations 0,2,4] [--save-captures DIR]
+// parallax calibrate --link auto|simhw:SOCKET --camera-metadata camera.json --nominal ...
+//                    --out calib.json [--camera link|opencv:SPEC [--allow-auto-exposure]
+//                    [--station-command CMD]] [--stations 0,2,4] [--save-captures DIR]
 //        common:     [--report] [--truth gt.json [--camera-truth camera_truth.json]] [--transfer
 //        conical|linear]
 //                    [--threads N] [--pixel-step N]
 // Fits the display to a calibration session — never its ground truth —, starting from the
-// nominal display. The session is either a captures folder (calibration_captures.h: the
-// pictures, patterns.json and camera.json, decoded here; or decoded.json from `parallax
-// simulate --synthetic`) or taken now through the link: the modules show the patterns, the
-// camera (described by camera.json: intrinsics, response, tape-measured stations) photographs
-// them at every station (hw/camera/calibration_capture.h). A captures folder with checkerboard
-// pictures (checkerboard_captures.h) gives the camera's intrinsics first (cv::calibrateCamera);
-// without them camera.json's intrinsics are used. The result is written
-// atomically (temporary file, then rename) and the previous calibration is kept as
-// calib.json.previous; a calibration that fails its own quality checks is not installed.
+// nominal display, through the same pipeline as parallaxd (daemon/parallaxd/
+// calibration_pipeline.h: one set of defaults, one store). The session is either a captures folder
+// (calibration_captures.h: the pictures, patterns.json and camera.json, decoded here; or
+// decoded.json from `parallax simulate --synthetic`) or taken now through the link: the modules
+// show the patterns, the camera (described by camera.json: intrinsics, response, tape-measured
+// stations) photographs them at every station (hw/camera/calibration_capture.h) with the camera
+// --camera names. A captures folder with checkerboard pictures (checkerboard_captures.h) gives the
+// camera's intrinsics first (cv::calibrateCamera); without them camera.json's intrinsics are used.
+// The result is written atomically (temporary file, then rename) and the previous calibration is
+// kept as calib.json.previous; a calibration that fails its own quality checks is not installed.
 // --truth adds error-against-truth columns to the report, and the camera's (camera_truth.json
 // beside it, or --camera-truth) to the checkerboard calibration's; the fit never sees them.
 
@@ -40,9 +42,10 @@
 #include "common/input_error.h"
 #include "common/progress_bar.h"
 #include "daemon/cli/commands.h"
+#include "daemon/parallaxd/calibration_pipeline.h"
 #include "daemon/parallaxd/calibration_store.h"
 #include "hw/camera/calibration_capture.h"
-#include "hw/camera/camera.h"
+#include "hw/camera/camera_name.h"
 #include "hw/link/link_client.h"
 #include "hw/link/link_factory.h"
 
@@ -78,21 +81,29 @@ class InterruptStopsCalibration {
 struct CalibrateArgs {
   std::string captures;
   std::string link;
-  std::string camera;
-  std::vector<int> stations;
   std::string saveCaptures;
-  int pixelStep = 2;
   std::string nominal = "demo";
   std::string out;
   bool report = false;
   std::string truth;
   std::string cameraTruth;
   std::string transfer;
-  int threads = 2;
-  bool allowPartial = false;
-  double maxErrorPx = GateLimits{}.worstPx;
-  double maxObserverMm = GateLimits{}.worstObserverMm;
+  // The pipeline's own defaults, changed by the flags.
+  daemon::CalibrationSettings settings;
 };
+
+// Asks the operator at the terminal to move the camera to a station (no rig command given).
+void promptForStation(const CameraMetadata& camera, int station) {
+  const CameraStation& s = camera.stations.at(static_cast<size_t>(station));
+  std::cout << fmt::format(
+                   "move the camera to station {} (x {:.3f} m, y {:.3f} m, z {:.3f} m), aim it at "
+                   "the screen centre and press Enter",
+                   station, s.tapeCentre.x(), s.tapeCentre.y(), s.tapeCentre.z())
+            << std::flush;
+  std::string line;
+  if (!std::getline(std::cin, line))
+    throw std::runtime_error(fmt::format("station {}: no answer on the terminal", station));
+}
 
 // A ground truth must describe the same display as the nominal: checked before the fit, so a
 // wrong file costs nothing.
@@ -142,8 +153,6 @@ void requireModulesOfNominal(const std::set<int>& shown, const DisplayModel& nom
 CalibrationObservations sessionObservations(const CalibrateArgs& args, const DisplayModel& nominal,
                                             const CameraIntrinsics* cameraTruth,
                                             std::string* source) {
-  CaptureDecoderOptions decoder;
-  decoder.pixelStep = args.pixelStep;
   namespace fs = std::filesystem;
   if (!args.captures.empty()) {
     if (!fs::exists(args.captures + "/patterns.json") &&
@@ -175,59 +184,52 @@ CalibrationObservations sessionObservations(const CalibrateArgs& args, const Dis
     std::cout << fmt::format("decoding {} picture sets from {}\n", captures.stations.size(),
                              args.captures);
     try {
-      return decodeCaptures(captures, nominal, decoder);
+      return daemon::decodePictures(captures, nominal, args.settings);
     } catch (const InputError& e) {
       throw e.location().file.empty() ? e.inFile(*source) : e;
     }
   }
-  *source = args.camera;
-  const CameraMetadata camera = loadCameraMetadata(args.camera);
-  requireKnownIntrinsics(camera, args.camera, "calibrating through the link");
+  *source = args.settings.cameraMetadata;
+  const CameraMetadata camera = loadCameraMetadata(args.settings.cameraMetadata);
+  requireKnownIntrinsics(camera, args.settings.cameraMetadata, "calibrating through the link");
   hw::LinkSelection selection;
   selection.spec = args.link;
   hw::SelectedLink chosen = hw::selectLink(selection);
   std::cout << chosen.note << "\n";
   hw::LinkClient link(std::move(chosen.transport));
-  hw::SimulatedCamera cameraDevice(link);
-  hw::CalibrationCaptureOptions capture;
-  capture.patterns = decoder.patterns;
-  capture.stations = args.stations;
   std::optional<ProgressBar> bar;
-  const CalibrationCaptures captures = hw::captureCalibration(
-      link, cameraDevice, nominal, camera, capture,
-      [&bar](int done, int total) {
-        if (!bar) bar.emplace("capture", total);
-        if (done > 0) bar->advance();
-      },
-      &gInterrupted);
-  if (bar) bar->finish();
+  daemon::PipelineProgress progress;
+  progress.pictures = [&bar](int done, int total) {
+    if (!bar) bar.emplace("capture", total);
+    if (done > 0) bar->advance();
+  };
+  progress.note = [](const std::string& line) { std::cerr << line << "\n"; };
+  progress.moveCamera = [&camera](int station) { promptForStation(camera, station); };
+  progress.captured = [&bar, &args](const hw::CaptureSyncStats& stats) {
+    if (bar) bar->finish();
+    std::cout << args.settings.camera << ": " << stats.describe() << "\n";
+  };
+  const CalibrationCaptures captures = daemon::capturePictures(
+      link, nominal, args.settings, progress, [] { return gInterrupted.load(); });
   if (!args.saveCaptures.empty()) {
     saveCaptures(captures, args.saveCaptures);
     std::cout << "pictures saved to " << args.saveCaptures << "\n";
   }
-  return decodeCaptures(captures, nominal, decoder);
+  return daemon::decodePictures(captures, nominal, args.settings);
 }
 
-void runCalibrate(const CalibrateArgs& args) {
+void runCalibrate(CalibrateArgs args) {
   if (args.captures.empty() == args.link.empty()) {
-    throw InputError({"", "--captures", 0},
-                     "give either --captures DIR or --link SPEC (with --camera camera.json)");
+    throw InputError(
+        {"", "--captures", 0},
+        "give either --captures DIR or --link SPEC (with --camera-metadata camera.json)");
   }
-  if (!args.link.empty() && args.camera.empty()) {
-    throw InputError({"", "--camera", 0},
+  if (!args.link.empty() && args.settings.cameraMetadata.empty()) {
+    throw InputError({"", "--camera-metadata", 0},
                      "--link needs the camera's metadata (camera.json: intrinsics, stations)");
   }
+  args.settings.validate("--");
   const DisplayModel nominal = resolveDisplay(args.nominal);
-  FitOptions options;
-  options.threads = args.threads;
-  options.gate.allowPartial = args.allowPartial;
-  options.gate.worstPx = args.maxErrorPx;
-  options.gate.worstObserverMm = args.maxObserverMm;
-  for (const auto& [value, name] : {std::pair{args.maxErrorPx, "--max-error-px"},
-                                    std::pair{args.maxObserverMm, "--max-observer-mm"}}) {
-    if (!(std::isfinite(value) && value > 0.0))
-      throw InputError({"", name, 0}, fmt::format("must be > 0, got {}", value));
-  }
   std::optional<DisplayModel> truth;
   if (!args.truth.empty()) {
     truth = loadDisplayModel(args.truth);
@@ -250,19 +252,21 @@ void runCalibrate(const CalibrateArgs& args) {
   std::cout << fmt::format("{} correspondences, {} stripe centres, {} fiducial sightings\n",
                            observations.correspondences.size(), observations.stripes.size(),
                            observations.fiducialSightings.size());
+  daemon::CalibrationSettings settings = args.settings;
   if (!args.transfer.empty()) {
     ScreenTransfer transfer;
     if (!parseTransfer(args.transfer, &transfer))
       throw InputError({"", "--transfer", 0}, "must be conical or linear");
-    options.transfer = transfer;
+    settings.transfer = transfer;
   }
   // Three solves of up to maxIterations each; the bar counts iterations and finishes early.
-  ProgressBar progress("calibrate", 3L * options.maxIterations);
-  options.onIteration = [&progress](int, double) { progress.advance(); };
-  options.stopRequested = [] { return gInterrupted.load(); };
+  ProgressBar progress("calibrate", 3L * FitOptions{}.maxIterations);
+  daemon::PipelineProgress fitProgress;
+  fitProgress.iteration = [&progress](int) { progress.advance(); };
   FitResult result;
   try {
-    result = fitDisplay(nominal, observations, options);
+    result = daemon::fitObservations(nominal, observations, settings, std::nullopt, fitProgress,
+                                     [] { return gInterrupted.load(); });
   } catch (const InputError& e) {
     throw e.location().file.empty() ? e.inFile(source) : e;
   }
@@ -297,14 +301,28 @@ void addCalibrateCommand(CLI::App& app) {
                       "captures folder (camera.json, patterns.json and pictures, or decoded.json)");
   command->add_option("--link", args->link,
                       "calibrate through the link: auto, simhw:SOCKET or usb[...]");
-  command->add_option("--camera", args->camera, "with --link: the camera's metadata (camera.json)");
+  command->add_option("--camera", args->settings.camera,
+                      "with --link: the camera taking the pictures: link (default; the one behind "
+                      "the link) or opencv:SPEC (/dev/video0, an index, a GStreamer pipeline "
+                      "ending in appsink, a stream URL, gphoto2)");
+  command->add_option("--camera-metadata", args->settings.cameraMetadata,
+                      "with --link: the camera's metadata (camera.json: intrinsics, stations)");
+  command->add_flag("--allow-auto-exposure", args->settings.allowAutoExposure,
+                    "use a camera whose exposure, gain, white balance or focus does not lock "
+                    "(a warning; each picture's exposure is measured)");
+  command->add_option("--station-command", args->settings.stationCommand,
+                      "a camera not behind the link: run this before each station's pictures "
+                      "({station} is its number; default: ask at the terminal)");
   command
-      ->add_option("--stations", args->stations,
+      ->add_option("--stations", args->settings.stations,
                    "with --link: the stations to photograph from (default: all)")
       ->delimiter(',');
   command->add_option("--save-captures", args->saveCaptures,
                       "with --link: also save the pictures as a captures folder");
-  command->add_option("--pixel-step", args->pixelStep, "decode every n-th camera pixel each way");
+  command
+      ->add_option("--pixel-step", args->settings.pixelStep,
+                   "decode every n-th camera pixel each way")
+      ->capture_default_str();
   command->add_option("--nominal", args->nominal, "nominal display: JSON file or built-in name");
   command->add_option("--out", args->out, "calibrated display JSON to write")->required();
   command->add_flag("--report", args->report, "print the per-module table");
@@ -316,15 +334,24 @@ void addCalibrateCommand(CLI::App& app) {
                       "error to the camera report");
   command->add_option("--transfer", args->transfer,
                       "assumed screen transfer (default: the nominal's)");
-  command->add_option("--threads", args->threads, "solver threads");
-  command->add_flag("--allow-partial", args->allowPartial,
+  command->add_option("--threads", args->settings.threads, "solver threads");
+  command->add_flag("--allow-partial", args->settings.gate.allowPartial,
                     "install the modules that pass the gate; the others are held at their "
                     "nominal calibration and named");
-  command->add_option("--max-error-px", args->maxErrorPx,
+  command->add_option("--max-error-px", args->settings.gate.worstPx,
                       "gate: largest predicted worst ray error of any module (module px)");
-  command->add_option("--max-observer-mm", args->maxObserverMm,
+  command->add_option("--max-observer-mm", args->settings.gate.worstObserverMm,
                       "gate: largest predicted worst error where rays meet the observer line (mm)");
-  command->callback([args] { runCalibrate(*args); });
+  command->callback([args] {
+    CalibrateArgs given = *args;
+    // The old form, --camera camera.json, named the metadata: it still does.
+    if (!hw::isCameraName(given.settings.camera) && given.settings.camera.ends_with(".json") &&
+        given.settings.cameraMetadata.empty()) {
+      given.settings.cameraMetadata = given.settings.camera;
+      given.settings.camera = "link";
+    }
+    runCalibrate(given);
+  });
 }
 
 }  // namespace parallax::cli

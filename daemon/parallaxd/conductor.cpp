@@ -95,10 +95,10 @@ void Conductor::startUp() {
   publish();
 }
 
-CalibrationConfig Conductor::calibrationConfig() const {
-  CalibrationConfig c = options_.config.calibration;
-  if (c.camera.empty()) c.camera = options_.simulatorCamera;
-  return c;
+CalibrationSettings Conductor::calibrationSettings() const {
+  CalibrationSettings settings = settingsOf(options_.config.calibration);
+  if (settings.cameraMetadata.empty()) settings.cameraMetadata = options_.simulatorCamera;
+  return settings;
 }
 
 bool Conductor::connectLink(int timeoutMs) {

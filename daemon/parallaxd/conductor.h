@@ -25,6 +25,7 @@
 
 #include "calibration/display/display_model.h"
 #include "calibration/display/ray_textures.h"
+#include "daemon/parallaxd/calibration_pipeline.h"
 #include "daemon/parallaxd/calibration_store.h"
 #include "daemon/parallaxd/control_request.h"
 #include "daemon/parallaxd/daemon_config.h"
@@ -133,7 +134,8 @@ class Conductor {
   // start-up, else `error` (nothing to show; last_error says why).
   DaemonState restingState() const;
   bool stopAsked() const;  // SIGTERM/SIGINT (run's flag) or a `shutdown` request
-  CalibrationConfig calibrationConfig() const;
+  CalibrationSettings calibrationSettings() const;
+  PipelineProgress calibrationProgress();
 
   // Render loop (conductor_render_loop.cpp).
   std::chrono::milliseconds timeToNextTurn() const;

@@ -3,7 +3,7 @@
 
 #include "common/atomic_file.h"
 #include "common/input_error.h"
-#include "daemon/parallaxd/calibration_stage.h"
+#include "daemon/parallaxd/calibration_pipeline.h"
 #include "daemon/parallaxd/conductor.h"  // IWYU pragma: associated
 #include "hw/camera/calibration_capture.h"
 #include "scripts/scene_argument.h"
@@ -40,6 +40,17 @@ DaemonState Conductor::restingState() const {
   return startingUp_ ? DaemonState::kStarting : DaemonState::kError;
 }
 
+PipelineProgress Conductor::calibrationProgress() {
+  PipelineProgress progress;
+  progress.stage = [this](const std::string& stage) {
+    state_.setStage(stage);
+    if (options_.onHeartbeat) options_.onHeartbeat();
+    publish();
+  };
+  progress.note = [](const std::string& line) { spdlog::info("{}", line); };
+  return progress;
+}
+
 Conductor::StageResult Conductor::calibrate(std::optional<int> onlyModule) {
   const DaemonState back = restingState();
   // Reset before the state says "calibrating", which is when a `cancel` is accepted.
@@ -51,13 +62,8 @@ Conductor::StageResult Conductor::calibrate(std::optional<int> onlyModule) {
   try {
     if (!link_) throw std::runtime_error("no link to the modules: " + linkError_);
     const CalibrationRun run = calibrateThroughLink(
-        *link_, nominal_, onlyModule ? calibration_ : nominal_, calibrationConfig(), onlyModule,
-        [this](const std::string& stage) {
-          state_.setStage(stage);
-          if (options_.onHeartbeat) options_.onHeartbeat();
-          publish();
-        },
-        [this] { return cancel_.load() || stopAsked(); });
+        *link_, nominal_, onlyModule ? calibration_ : nominal_, calibrationSettings(), onlyModule,
+        calibrationProgress(), [this] { return cancel_.load() || stopAsked(); });
     // Textures first: if they cannot be made, the old calibration stays installed.
     const StageResult textures = regenerate(run.model);
     if (textures.done()) {

@@ -13,6 +13,7 @@
 #include "calibration/display/display_model_json.h"
 #include "calibration/display/display_presets.h"
 #include "common/regular_file.h"
+#include "hw/camera/camera_name.h"
 
 namespace parallax::daemon {
 namespace {
@@ -171,7 +172,27 @@ void readHardware(TableReader& r, HardwareConfig* h) {
 
 void readCalibration(TableReader& r, CalibrationConfig* c) {
   r.readString("file", &c->file);
-  r.readString("camera", &c->camera);
+  r.readString("camera", &c->cameraName);
+  r.readString("camera_metadata", &c->cameraMetadata);
+  if (const toml::node* n = r.find("camera"); n && !hw::isCameraName(c->cameraName)) {
+    // The old form named the camera's metadata here; it still means that.
+    const bool metadataFile = c->cameraName.size() > 5 && c->cameraName.ends_with(".json");
+    if (!metadataFile || r.find("camera_metadata")) {
+      r.fail(*n, "camera",
+             fmt::format("unknown camera \"{}\": give link or opencv:SPEC (the camera's "
+                         "metadata goes in camera_metadata)",
+                         c->cameraName));
+    }
+    c->cameraMetadata = c->cameraName;
+    c->cameraName = "link";
+  }
+  int pixelStep = 0;
+  if (r.find("pixel_step")) {
+    r.readInt("pixel_step", &pixelStep, 1, 64);
+    c->pixelStep = pixelStep;
+  }
+  r.readBool("allow_auto_exposure", &c->allowAutoExposure);
+  r.readString("station_command", &c->stationCommand);
   r.readBool("auto", &c->autoCalibrate);
   r.refuseUnknownKeys();
 }
@@ -310,7 +331,11 @@ void checkDisplaySize(const DisplayModel& model, const DisplayConfig& d) {
 void copyInPlaceFields(const DaemonConfig& from, DaemonConfig* to) {
   to->sourceFile = from.sourceFile;
   to->scene = from.scene;
-  to->calibration.camera = from.calibration.camera;
+  to->calibration.cameraName = from.calibration.cameraName;
+  to->calibration.cameraMetadata = from.calibration.cameraMetadata;
+  to->calibration.pixelStep = from.calibration.pixelStep;
+  to->calibration.allowAutoExposure = from.calibration.allowAutoExposure;
+  to->calibration.stationCommand = from.calibration.stationCommand;
   to->calibration.autoCalibrate = from.calibration.autoCalibrate;
   to->logLevel = from.logLevel;
 }

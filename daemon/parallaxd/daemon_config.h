@@ -9,7 +9,12 @@
 //                       its own with a seeded ground truth: seed = 7; for tests also
 //                       faults = ["2:disconnect"], dump = "dir" (frames the modules showed))
 //                  usb: vid = 0x1d50, pid = 0x6150, [hardware.modules] "SERIAL" = index
-//   [calibration]  file = "calibration.json", camera = "camera.json", auto = true
+//   [calibration]  file = "calibration.json", auto = true,
+//                  camera = "link" | "opencv:SPEC"   (hw/camera/camera_name.h; default link)
+//                  camera_metadata = "camera.json"   (intrinsics, tape-measured stations)
+//                  pixel_step = 4, allow_auto_exposure = false,
+//                  station_command = "move-rig {station}"   (a camera not behind the link)
+//                  (camera = "x.json", the old form, is read as camera_metadata)
 //   [scene]        script = "cornell" | "scene.lua", fps = 30, [scene.parameters] name = value
 //   [daemon]       socket = "...", cache_dir = "...", log_level = "info"
 
@@ -47,9 +52,15 @@ struct HardwareConfig {
   bool operator==(const HardwareConfig&) const = default;
 };
 
+// The calibration pipeline's settings the config can change (calibration_pipeline.h has the
+// defaults; settingsOf makes the pipeline's settings from these).
 struct CalibrationConfig {
-  std::string file;           // the installed calibration (empty: in cache_dir)
-  std::string camera;         // camera metadata (intrinsics, tape-measured stations)
+  std::string file;                 // the installed calibration (empty: in cache_dir)
+  std::string cameraName = "link";  // the camera by name (camera_name.h)
+  std::string cameraMetadata;       // camera metadata (intrinsics, tape-measured stations)
+  std::optional<int> pixelStep;     // unset: the pipeline's default
+  bool allowAutoExposure = false;
+  std::string stationCommand;
   bool autoCalibrate = true;  // calibrate at start when there is no valid calibration
   bool operator==(const CalibrationConfig&) const = default;
 };
@@ -80,8 +91,8 @@ struct DaemonConfig {
 };
 
 // What a running daemon takes from a reloaded config without being built again: the scene and
-// its parameters, the camera metadata, auto-calibrate, the log level (one list, in
-// daemon_config.cpp). Any other difference needs a restart.
+// its parameters, the calibration camera and its settings (all but the file), auto-calibrate,
+// the log level (one list, in daemon_config.cpp). Any other difference needs a restart.
 //
 // The sections ("display", "hardware", "calibration", "daemon") in which `next` differs from
 // `running` in something that needs a restart. Whole sections are compared (paths as resolved),

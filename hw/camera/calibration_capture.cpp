@@ -2,6 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+#include <chrono>
+#include <optional>
+
 #include "calibration/simulation/simulated_session.h"
 #include "common/input_error.h"
 
@@ -62,6 +66,13 @@ void CalibrationCaptureOptions::validate(const CameraMetadata& camera) const {
   }
 }
 
+std::string CaptureSyncStats::describe() const {
+  return fmt::format(
+      "{} pictures in {:.1f} s; {} late or torn pictures retaken; settle time median {:.0f} ms, "
+      "max {:.0f} ms",
+      pictures, seconds, retaken, settleMedianMs, settleMaxMs);
+}
+
 cv::Mat linearPicture(const Image& picture, double responseGamma) {
   const int bpp = bytesPerPixel(picture.format);
   cv::Mat grey(picture.height, picture.width, CV_8U);
@@ -83,7 +94,7 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
                                        const DisplayModel& nominal, const CameraMetadata& metadata,
                                        const CalibrationCaptureOptions& options,
                                        const std::function<void(int done, int total)>& progress,
-                                       const std::atomic<bool>* cancel) {
+                                       const std::atomic<bool>* cancel, CaptureSyncStats* stats) {
   options.validate(metadata);
   const int modules = static_cast<int>(nominal.modules.size());
   const int mw = nominal.modules.front().width, mh = nominal.modules.front().height;
@@ -107,11 +118,17 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
   captures.patterns = options.patterns;
   captures.moduleWidth = mw;
   captures.moduleHeight = mh;
-  std::vector<std::shared_ptr<const Image>> columnFrames, rowFrames;
-  for (const cv::Mat& f : makePatternFrames(mw, mh, PatternAxis::kColumns, options.patterns))
-    columnFrames.push_back(moduleFrame(f, format));
-  for (const cv::Mat& f : makePatternFrames(mw, mh, PatternAxis::kRows, options.patterns))
-    rowFrames.push_back(moduleFrame(f, format));
+  // Every frame carries its sync code, unless the modules are too small for one and the
+  // camera is one whose pictures cannot be late.
+  std::string noSync;
+  const std::optional<SyncCodeLayout> sync = syncLayoutFor(nominal, &noSync);
+  if (!sync && !camera.picturesFollowTheLink())
+    throw std::runtime_error(fmt::format("{}: {}", camera.name(), noSync));
+  const SyncCodeLayout layout = sync.value_or(SyncCodeLayout{});
+  const std::vector<cv::Mat> columnPatterns =
+      makePatternFrames(mw, mh, PatternAxis::kColumns, options.patterns);
+  const std::vector<cv::Mat> rowPatterns =
+      makePatternFrames(mw, mh, PatternAxis::kRows, options.patterns);
   const auto dark = moduleFrame(cv::Mat(mh, mw, CV_32F, cv::Scalar(0)), format);
 
   std::vector<int> stations = options.stations;
@@ -119,60 +136,141 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
     for (int s = 0; s < static_cast<int>(metadata.stations.size()); ++s) stations.push_back(s);
   }
   const auto groups = moduleGroups(modules, options.groupStride);
-  const int total =
-      static_cast<int>(stations.size() * groups.size() * (columnFrames.size() + rowFrames.size()));
+  const int total = static_cast<int>(stations.size() * groups.size() *
+                                     (columnPatterns.size() + rowPatterns.size()));
   int done = 0;
 
   const CameraLockResult lock = camera.lock(options.cameraSettings);
-  if (!lock.ok) throw std::runtime_error(lock.describe());
+  if (!lock.ok && !options.allowUnlockedCamera) {
+    throw std::runtime_error(fmt::format(
+        "{}: {}; refused, since a control that drifts between two patterns shifts their "
+        "decoding (lock it on the camera, or allow auto exposure to measure each picture)",
+        camera.name(), lock.describe()));
+  }
+  if (!lock.ok && options.onUnlocked) options.onUnlocked(lock.describe());
+  const bool measureExposure = !lock.ok;
   SessionGuard guard(link, camera);
   if (!link.setMode(DisplayMode::kPattern))
     throw std::runtime_error("the modules did not switch to pattern mode");
   if (progress) progress(0, total);
 
+  using Clock = std::chrono::steady_clock;
+  const auto sessionStart = Clock::now();
+  std::vector<double> settleMs;
+  int retaken = 0;
+  int sequence = 0;  // frames shown so far: the sync code is its residue
+  const auto show = [&](const std::vector<int>& group, const std::shared_ptr<const Image>& frame,
+                        const std::string& what) {
+    std::vector<bool> inGroup(static_cast<size_t>(modules), false);
+    for (int m : group) inGroup[static_cast<size_t>(m)] = true;
+    for (int m = 0; m < modules; ++m)
+      link.submit(m, inGroup[static_cast<size_t>(m)] ? frame : dark);
+    link.flush();
+    for (const FrameOutcome& o : link.takeOutcomes()) {
+      if (o.status == FrameStatus::kDelivered || o.status == FrameStatus::kSkippedUnchanged)
+        continue;
+      throw std::runtime_error(fmt::format("{}: module {} did not show it ({}: {})", what, o.module,
+                                           frameStatusName(o.status), o.reason));
+    }
+    ++sequence;
+  };
+
   for (int station : stations) {
     if (options.beforeStation) options.beforeStation(station);
     camera.setStation(station);
+    const SyncPrediction prediction =
+        predictSync(nominal, metadata.intrinsics,
+                    metadata.stations[static_cast<size_t>(station)].tapeCentre, layout);
     for (const std::vector<int>& group : groups) {
       StationCaptures set;
       set.station = station;
       set.group = group;
-      for (auto [frames, out, axis] : {std::tuple{&columnFrames, &set.columnFrames, "column"},
-                                       std::tuple{&rowFrames, &set.rowFrames, "row"}}) {
-        for (size_t f = 0; f < frames->size(); ++f) {
+      SyncGeometry geometry;
+      for (auto [patterns, out, axis] : {std::tuple{&columnPatterns, &set.columnFrames, "column"},
+                                         std::tuple{&rowPatterns, &set.rowFrames, "row"}}) {
+        for (size_t f = 0; f < patterns->size(); ++f) {
           if (cancel && cancel->load()) throw CalibrationCancelled();
-          std::vector<bool> inGroup(static_cast<size_t>(modules), false);
-          for (int m : group) inGroup[static_cast<size_t>(m)] = true;
-          for (int m = 0; m < modules; ++m)
-            link.submit(m, inGroup[static_cast<size_t>(m)] ? (*frames)[f] : dark);
-          link.flush();
-          for (const FrameOutcome& o : link.takeOutcomes()) {
-            if (o.status == FrameStatus::kDelivered || o.status == FrameStatus::kSkippedUnchanged)
-              continue;
-            throw std::runtime_error(
-                fmt::format("station {}, {} pattern {}: module {} did not show it ({}: {})",
-                            station, axis, f, o.module, frameStatusName(o.status), o.reason));
+          const std::string what = fmt::format("station {}, {} pattern {}", station, axis, f);
+          // makePatternFrames' order: white, black, then the coded frames.
+          const bool white = f == 0, black = f == 1;
+          const int code = sequence % SyncCodeLayout::kCodes;
+          cv::Mat pattern = (*patterns)[f].clone();
+          if (sync)
+            drawSyncCode(&pattern, white || black ? std::nullopt : std::optional<int>(code),
+                         layout);
+          show(group, moduleFrame(pattern, format), what);
+          const auto shown = Clock::now();
+          std::string seen;
+          cv::Mat linear;
+          for (int attempt = 0;; ++attempt) {
+            if (attempt > 0) {
+              ++retaken;
+              if (std::chrono::duration<double>(Clock::now() - shown).count() >
+                  options.settleTimeoutS) {
+                throw std::runtime_error(fmt::format(
+                    "{}: after {:g} s the camera still gives pictures of something else ({}); "
+                    "is it aimed at the screen, with the top edge in view?",
+                    what, options.settleTimeoutS, seen));
+              }
+              if (cancel && cancel->load()) throw CalibrationCancelled();
+            }
+            std::string error;
+            const Image picture = camera.capture(&error);
+            if (picture.empty()) throw std::runtime_error(fmt::format("{}: {}", what, error));
+            if (picture.width != metadata.intrinsics.width ||
+                picture.height != metadata.intrinsics.height) {
+              throw std::runtime_error(fmt::format(
+                  "station {}: the camera gave a {}x{} picture, its metadata says {}x{}", station,
+                  picture.width, picture.height, metadata.intrinsics.width,
+                  metadata.intrinsics.height));
+            }
+            linear = linearPicture(picture, metadata.responseGamma);
+            if (!sync) {
+              // Too small for a code, and a camera whose pictures are never late: as taken.
+            } else if (white) {
+              std::string why;
+              const std::optional<SyncGeometry> g =
+                  syncGeometryFromWhite(linear, layout, prediction, &why);
+              if (!g) {
+                seen = "not the white reference: " + why;
+                continue;
+              }
+              geometry = *g;
+            } else if (black) {
+              if (!looksBlack(linear, geometry, layout, prediction)) {
+                seen = "not the black reference: the band or the patterns are lit";
+                continue;
+              }
+            } else {
+              const SyncReading reading = readSyncCode(linear, geometry, layout);
+              if (reading.code != code) {
+                seen = fmt::format("{}, expected code {}", reading.describe(), code);
+                continue;
+              }
+              if (measureExposure && reading.exposure > 0.0) linear /= reading.exposure;
+            }
+            settleMs.push_back(
+                std::chrono::duration<double, std::milli>(Clock::now() - shown).count());
+            break;
           }
-          std::string error;
-          const Image picture = camera.capture(&error);
-          if (picture.empty()) {
-            throw std::runtime_error(
-                fmt::format("station {}, {} pattern {}: {}", station, axis, f, error));
-          }
-          if (picture.width != metadata.intrinsics.width ||
-              picture.height != metadata.intrinsics.height) {
-            throw std::runtime_error(
-                fmt::format("station {}: the camera gave a {}x{} picture, its metadata says {}x{}",
-                            station, picture.width, picture.height, metadata.intrinsics.width,
-                            metadata.intrinsics.height));
-          }
-          out->push_back(linearPicture(picture, metadata.responseGamma));
+          out->push_back(std::move(linear));
           ++done;
           if (progress) progress(done, total);
         }
       }
       captures.stations.push_back(std::move(set));
     }
+  }
+  if (stats) {
+    stats->pictures = static_cast<int>(settleMs.size());
+    stats->retaken = retaken;
+    if (!settleMs.empty()) {
+      std::vector<double> sorted = settleMs;
+      std::sort(sorted.begin(), sorted.end());
+      stats->settleMedianMs = sorted[sorted.size() / 2];
+      stats->settleMaxMs = sorted.back();
+    }
+    stats->seconds = std::chrono::duration<double>(Clock::now() - sessionStart).count();
   }
   return captures;
 }

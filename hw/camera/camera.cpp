@@ -4,8 +4,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
+#include <opencv2/videoio/registry.hpp>
 
 #include "hw/link/link_client.h"
 
@@ -69,18 +72,88 @@ struct OpenCvCamera::State {
 OpenCvCamera::OpenCvCamera() : state_(std::make_unique<State>()) {}
 OpenCvCamera::~OpenCvCamera() = default;
 
+namespace {
+
+// OpenCV's own warnings (a GStreamer element missing, a property a backend does not handle)
+// would print several lines per call; our one-line reasons say what they mean.
+class QuietOpenCv {
+ public:
+  QuietOpenCv() : previous_(cv::utils::logging::getLogLevel()) {
+    cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
+  }
+  ~QuietOpenCv() { cv::utils::logging::setLogLevel(previous_); }
+
+ private:
+  cv::utils::logging::LogLevel previous_;
+};
+
+bool allDigits(const std::string& s) {
+  return !s.empty() && s.size() < 6 && std::all_of(s.begin(), s.end(), ::isdigit);
+}
+
+}  // namespace
+
 bool OpenCvCamera::open(const std::string& source, std::string* error) {
   source_ = source;
-  const bool isIndex = !source.empty() && std::all_of(source.begin(), source.end(), ::isdigit);
+  const std::string named = "opencv:" + source;
+  const QuietOpenCv quiet;
+  const bool pipeline = source.find('!') != std::string::npos;
   bool opened = false;
   try {
-    opened = isIndex ? state_->capture.open(std::stoi(source)) : state_->capture.open(source);
+    if (allDigits(source)) {
+      opened = state_->capture.open(std::stoi(source), cv::CAP_V4L2);
+      if (!opened) {
+        *error = fmt::format("{}: no V4L2 camera with index {} (/dev/video{} does not open)", named,
+                             source, source);
+        return false;
+      }
+    } else if (source.rfind("/dev/", 0) == 0) {
+      std::error_code ec;
+      if (!std::filesystem::exists(source, ec)) {
+        *error = fmt::format("{}: no such device", named);
+        return false;
+      }
+      opened = state_->capture.open(source, cv::CAP_V4L2);
+      if (!opened) {
+        *error = fmt::format("{}: the device exists but is not a V4L2 capture device (or is busy)",
+                             named);
+        return false;
+      }
+    } else if (source == "gphoto2" || source.rfind("gphoto2:", 0) == 0) {
+      const std::string index = source.size() > 8 ? source.substr(8) : "0";
+      if (!allDigits(index)) {
+        *error = fmt::format("{}: gphoto2 takes a camera index (gphoto2:0)", named);
+        return false;
+      }
+      opened = state_->capture.open(std::stoi(index), cv::CAP_GPHOTO2);
+      if (!opened) {
+        *error = fmt::format("{}: no tethered camera {} through gPhoto2", named, index);
+        return false;
+      }
+    } else if (pipeline) {
+      if (!cv::videoio_registry::hasBackend(cv::CAP_GSTREAMER)) {
+        *error = fmt::format("{}: this OpenCV has no GStreamer backend", named);
+        return false;
+      }
+      opened = state_->capture.open(source, cv::CAP_GSTREAMER);
+      if (!opened) {
+        *error = fmt::format(
+            "{}: GStreamer could not start the pipeline (an element that does not exist or "
+            "does not link, a syntax error, a source that fails, or no appsink at its end; "
+            "try it with gst-launch-1.0)",
+            named);
+        return false;
+      }
+    } else {
+      opened = state_->capture.open(source);
+      if (!opened) {
+        *error = fmt::format("{}: cannot open camera \"{}\" (no such device, file or stream)",
+                             named, source);
+        return false;
+      }
+    }
   } catch (const cv::Exception& e) {
-    *error = fmt::format("cannot open camera \"{}\": {}", source, e.what());
-    return false;
-  }
-  if (!opened) {
-    *error = fmt::format("cannot open camera \"{}\" (no such device or file)", source);
+    *error = fmt::format("{}: cannot open camera: {}", named, e.what());
     return false;
   }
   return true;
@@ -89,12 +162,15 @@ bool OpenCvCamera::open(const std::string& source, std::string* error) {
 CameraLockResult OpenCvCamera::lock(const CameraSettings& settings) {
   CameraLockResult result;
   cv::VideoCapture& c = state_->capture;
+  const QuietOpenCv quiet;
   // Each control is set, then read back: a backend may accept a value and ignore it.
   auto pin = [&](int property, double value, const char* name) {
     const bool set = c.set(property, value);
     const double back = c.get(property);
     if (!set || std::abs(back - value) > 1e-3 * std::max(1.0, std::abs(value))) {
-      result.unlocked.push_back(name);
+      result.unlocked.push_back(
+          set ? fmt::format("{} (set {:g}, reads back {:g})", name, value, back)
+              : fmt::format("{} (the backend refuses the property)", name));
     }
   };
   // V4L2 through OpenCV: auto exposure 1 = manual, 3 = aperture priority; exposure in 100 µs.
@@ -102,6 +178,7 @@ CameraLockResult OpenCvCamera::lock(const CameraSettings& settings) {
   pin(cv::CAP_PROP_EXPOSURE, settings.exposureUs / 100.0, "exposure");
   pin(cv::CAP_PROP_GAIN, settings.gain, "gain");
   pin(cv::CAP_PROP_AUTO_WB, 0.0, "auto white balance off");
+  pin(cv::CAP_PROP_AUTOFOCUS, 0.0, "autofocus off");
   result.ok = result.unlocked.empty();
   settings_ = settings;
   locked_ = result.ok;
@@ -109,6 +186,7 @@ CameraLockResult OpenCvCamera::lock(const CameraSettings& settings) {
 }
 
 void OpenCvCamera::unlock() {
+  const QuietOpenCv quiet;
   state_->capture.set(cv::CAP_PROP_AUTO_EXPOSURE, 3.0);
   state_->capture.set(cv::CAP_PROP_AUTO_WB, 1.0);
   locked_ = false;
@@ -117,7 +195,7 @@ void OpenCvCamera::unlock() {
 Image OpenCvCamera::capture(std::string* error) {
   cv::Mat frame;
   if (!state_->capture.isOpened() || !state_->capture.read(frame) || frame.empty()) {
-    *error = fmt::format("camera \"{}\" gave no frame", source_);
+    *error = fmt::format("opencv:{} gave no frame", source_);
     return {};
   }
   cv::Mat rgb;

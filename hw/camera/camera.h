@@ -27,9 +27,13 @@ class Camera {
  public:
   virtual ~Camera() = default;
   virtual std::string name() const = 0;
-  // Pins the settings (manual exposure, fixed gain, fixed white balance). Reports every
-  // control the device refused rather than pretending.
+  // Pins the settings (manual exposure, fixed gain, fixed white balance, no autofocus) and
+  // reads each back. Reports every control the device refused or ignored rather than
+  // pretending.
   virtual CameraLockResult lock(const CameraSettings& settings) = 0;
+  // True when a picture taken after a frame was delivered is always of that frame (the camera
+  // behind the link renders or exposes on request); a streaming camera may deliver late.
+  virtual bool picturesFollowTheLink() const { return false; }
   virtual void unlock() = 0;
   bool locked() const { return locked_; }
   const CameraSettings& settings() const { return settings_; }
@@ -55,6 +59,7 @@ class SimulatedCamera : public Camera {
   explicit SimulatedCamera(LinkClient& link, int viewModule = 0)
       : link_(link), viewModule_(viewModule) {}
   std::string name() const override { return "simulated camera"; }
+  bool picturesFollowTheLink() const override { return true; }
   CameraLockResult lock(const CameraSettings& settings) override;
   void unlock() override { locked_ = false; }
   Image capture(std::string* error) override;
@@ -65,14 +70,15 @@ class SimulatedCamera : public Camera {
   int viewModule_;
 };
 
-// A cv::VideoCapture source: "0" (device index) or a path / URL / image-sequence pattern.
+// A cv::VideoCapture source (camera_name.h): a V4L2 index or device, a GStreamer pipeline,
+// gphoto2[:INDEX], or a path / URL / image-sequence pattern.
 class OpenCvCamera : public Camera {
  public:
   OpenCvCamera();
   ~OpenCvCamera() override;
   // False with a one-line reason when the source does not open.
   bool open(const std::string& source, std::string* error);
-  std::string name() const override { return "OpenCV camera " + source_; }
+  std::string name() const override { return "opencv:" + source_; }
   CameraLockResult lock(const CameraSettings& settings) override;
   void unlock() override;
   Image capture(std::string* error) override;

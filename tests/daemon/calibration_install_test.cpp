@@ -101,7 +101,7 @@ TEST_F(CalibrationInstall, AnInstallOnAFullDiskIsAnErrorAndTheOldCalibrationKeep
   options.config.cacheDir = (folder_ / "cache").string();
   options.config.calibration.file = calibration.string();
   options.config.calibration.autoCalibrate = false;
-  options.config.calibration.camera = cameraPath;
+  options.config.calibration.cameraMetadata = cameraPath;
   options.linkSpec = sim.spec();
   options.keepAliveMs = 100;
   options.onReady = [this] { ready_ = true; };

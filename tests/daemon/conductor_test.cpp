@@ -70,7 +70,7 @@ class ConductorTest : public ::testing::Test {
     o.config.scene.script = script_;
     o.config.cacheDir = (folder_ / "cache").string();
     o.config.calibration.autoCalibrate = false;
-    o.config.calibration.camera = camera_;
+    o.config.calibration.cameraMetadata = camera_;
     o.linkSpec = sim_->spec();
     o.link = link_;
     o.keepAliveMs = 100;

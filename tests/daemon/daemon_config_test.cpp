@@ -199,7 +199,7 @@ TEST(DaemonConfig, ReloadRestartsForAnyChangeOutsideTheInPlaceList) {
 
   const DaemonConfig applied = withInPlaceChanges(
       running, parseDaemonConfig(socket + "[calibration]\ncamera = \"/tmp/cam.json\"\n", "b"));
-  EXPECT_EQ(applied.calibration.camera, "/tmp/cam.json");
+  EXPECT_EQ(applied.calibration.cameraMetadata, "/tmp/cam.json");
   EXPECT_EQ(applied.sourceFile, "a");
 }
 
@@ -213,6 +213,45 @@ TEST(DaemonConfig, DisplaySizeIsBoundedBeforeAllocation) {
   EXPECT_EQ(e.location().field, "display.resolution") << e.what();
   // The largest built-in display fits.
   EXPECT_NO_THROW(parseDaemonConfig("[display]\npreset = \"default\"\n", "ok.toml"));
+}
+
+// [calibration] camera names the camera (camera_name.h); its metadata has its own key. The old
+// form, camera = "x.json", still names the metadata; anything else is refused with its line.
+TEST(DaemonConfig, CalibrationCameraByNameAndItsSettings) {
+  const DaemonConfig c = parseDaemonConfig(
+      "[calibration]\ncamera = \"opencv:/dev/video2\"\ncamera_metadata = \"/etc/cam.json\"\n"
+      "pixel_step = 3\nallow_auto_exposure = true\nstation_command = \"rig {station}\"\n",
+      "p.toml");
+  EXPECT_EQ(c.calibration.cameraName, "opencv:/dev/video2");
+  EXPECT_EQ(c.calibration.cameraMetadata, "/etc/cam.json");
+  EXPECT_EQ(c.calibration.pixelStep, 3);
+  EXPECT_TRUE(c.calibration.allowAutoExposure);
+  EXPECT_EQ(c.calibration.stationCommand, "rig {station}");
+  const DaemonConfig defaults = parseDaemonConfig("", "p.toml");
+  EXPECT_EQ(defaults.calibration.cameraName, "link");
+  const DaemonConfig old = parseDaemonConfig("[calibration]\ncamera = \"cam.json\"\n", "p.toml");
+  EXPECT_EQ(old.calibration.cameraName, "link");
+  EXPECT_EQ(old.calibration.cameraMetadata, "cam.json");
+  for (const std::string& bad :
+       {std::string("[calibration]\n\ncamera = \"webcam\"\n"),
+        std::string("[calibration]\n\ncamera = \"opencv:\"\n"),
+        std::string("[calibration]\n\ncamera = \"a.json\"\ncamera_metadata = \"b.json\"\n")}) {
+    try {
+      parseDaemonConfig(bad, "p.toml");
+      ADD_FAILURE() << bad;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.location().field, "calibration.camera") << e.what();
+      EXPECT_EQ(e.location().line, 3) << e.what();
+    }
+  }
+  try {
+    parseDaemonConfig("[calibration]\npixel_step = 0\n", "p.toml");
+    ADD_FAILURE() << "pixel_step 0";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.location().field, "calibration.pixel_step") << e.what();
+  }
+  // The camera and its settings apply at the next calibration, without a restart.
+  EXPECT_TRUE(sectionsNeedingRestart(defaults, c).empty());
 }
 
 }  // namespace

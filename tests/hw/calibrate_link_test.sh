@@ -28,6 +28,7 @@ for _ in $(seq 1 600); do
 done
 [ -S "$sock" ] || { echo "FAIL: parallax-simhw never listened on $sock"; exit 1; }
 
+# (The interrupted run names the metadata the old way, --camera camera.json, which still works.)
 # Interrupted (Ctrl-C) once the pictures have started: it stops with a clear message, installs
 # nothing and hands the modules back, so the run below on the same simulator works.
 "$parallax" calibrate --link "simhw:$sock" --camera "$dir/camera.json" --nominal "$dir/nominal.json" \
@@ -45,7 +46,7 @@ cat "$dir/interrupted.txt"
 grep -qE "cancelled|interrupted" "$dir/interrupted.txt" || { echo "FAIL: no word of the interruption"; exit 1; }
 [ ! -e "$dir/calib.json" ] || { echo "FAIL: an interrupted calibration installed a file"; exit 1; }
 
-out=$("$parallax" calibrate --link "simhw:$sock" --camera "$dir/camera.json" --nominal "$dir/nominal.json" \
+out=$("$parallax" calibrate --link "simhw:$sock" --camera link --camera-metadata "$dir/camera.json" --nominal "$dir/nominal.json" \
         --out "$dir/calib.json" --truth "$dir/ground_truth.json" --pixel-step 6 2>&1)
 echo "$out"
 [ -f "$dir/calib.json" ] || { echo "FAIL: no calibration installed"; exit 1; }

@@ -89,24 +89,32 @@ TEST(CalibrationSession, LinkSessionRecordsWhatTheOfflineRendererMakes) {
   EXPECT_EQ(lastDone, lastTotal);
   EXPECT_EQ(calls, lastTotal + 1);  // 0 first, then one per picture
   EXPECT_EQ(sim.hardware().mode(), DisplayMode::kPlayback);
-  double worst = 0.0;
+  // Same truth, same sensor noise stream, same order: equal up to a rounding tie of one 8-bit
+  // level (at most ~0.01 in linear light near white), except where the link's frames carry the
+  // picture sync code (sync_code.h), a band near the screen's top edge the offline patterns
+  // do not have.
+  double worstShare = 0.0;
+  const auto differingShare = [](const cv::Mat& a, const cv::Mat& b) {
+    cv::Mat differs = cv::abs(a - b) > 0.02;
+    return static_cast<double>(cv::countNonZero(differs)) / static_cast<double>(a.total());
+  };
   for (size_t i = 0; i < offline.stations.size(); ++i) {
     EXPECT_EQ(viaLink.stations[i].station, offline.stations[i].station);
     EXPECT_EQ(viaLink.stations[i].group, offline.stations[i].group);
     ASSERT_EQ(viaLink.stations[i].columnFrames.size(), offline.stations[i].columnFrames.size());
     ASSERT_EQ(viaLink.stations[i].rowFrames.size(), offline.stations[i].rowFrames.size());
     for (size_t f = 0; f < offline.stations[i].columnFrames.size(); ++f) {
-      worst = std::max(worst, cv::norm(viaLink.stations[i].columnFrames[f],
-                                       offline.stations[i].columnFrames[f], cv::NORM_INF));
+      worstShare = std::max(worstShare, differingShare(viaLink.stations[i].columnFrames[f],
+                                                       offline.stations[i].columnFrames[f]));
     }
     for (size_t f = 0; f < offline.stations[i].rowFrames.size(); ++f) {
-      worst = std::max(worst, cv::norm(viaLink.stations[i].rowFrames[f],
-                                       offline.stations[i].rowFrames[f], cv::NORM_INF));
+      worstShare = std::max(worstShare, differingShare(viaLink.stations[i].rowFrames[f],
+                                                       offline.stations[i].rowFrames[f]));
     }
   }
-  // Same truth, same sensor noise stream, same order: equal up to a rounding tie of one 8-bit
-  // level (at most ~0.01 in linear light near white).
-  EXPECT_LT(worst, 0.02);
+  // That band takes a third of these small modules' visible rows (16% of the pictures); a frame
+  // lost or out of order differs over the half of the screen its stripes change.
+  EXPECT_LT(worstShare, 0.2);
   // And the pictures are of the display, not blank: they decode to correspondences for every
   // module.
   CaptureDecoderOptions decoder;

@@ -1,0 +1,104 @@
+#pragma once
+// The picture sync code: a small band at the top of every pattern frame that says which frame
+// it is, so a camera that delivers late (buffers, auto-processing, a module still showing the
+// previous frame) is caught: a picture of another frame is retaken, never decoded as this one.
+//
+// Layout, in module rows from `firstRow` (the top of the screen as the nominal display has it,
+// plus a margin: a module's picture overfills the screen): 2·kBits code cells of `cellRows`
+// rows (Manchester: bit b of the code lights cell 2b when 1, cell 2b+1 when 0, so every coded
+// frame lights exactly one cell of each pair, readable under any exposure), then one dark
+// cell, then the patterns. The
+// code is the frame's place in the session modulo kCodes, so up to kCodes − 1 frames of delay
+// are seen. The white and black references show the band dark: their white − black contrast
+// there is zero, so the decoder never decodes a band pixel, and the fiducials near the screen's
+// edge stay the only bright spots of the black picture. The references are told apart by what
+// they show (white_reference: a long bright area under a dark band; black: all dark).
+//
+// Where the band lies in a picture is learned from the station's white reference, which shows
+// it as a dark gap between the bright pattern area and the strip of screen above the band, per
+// camera column through a module's stripe. The nominal display and the tape-measured station
+// predict roughly where the screen is and how tall the band should look, which tells a white
+// reference from a coded frame (whose band is partly lit).
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calibration/camera/calibration_camera.h"
+#include "calibration/display/display_model.h"
+
+namespace parallax {
+
+struct SyncCodeLayout {
+  static constexpr int kBits = 3;
+  static constexpr int kCodes = 1 << kBits;
+  int firstRow = 0;
+  int cellRows = 2;
+
+  int codeCells() const { return 2 * kBits; }
+  int bandRows() const { return cellRows * (codeCells() + 1); }  // the code cells and the gap
+  int patternTop() const { return firstRow + bandRows(); }       // the first row under the band
+};
+
+// A cell is 1/48 of the rows the screen shows (a few camera pixels at the usual camera
+// distance), at least two rows (one-row cells blur into each other); the band starts 3% of them
+// under the lowest row at which a module's picture meets the screen's top edge. nullopt, with
+// `why`, when the band would take more than 40% of the screen's rows (a display of tiny
+// modules, as tests use).
+std::optional<SyncCodeLayout> syncLayoutFor(const DisplayModel& nominal, std::string* why);
+
+// What the nominal display and a camera at its tape-measured station predict, per camera column
+// (0 where the screen is not seen): camera px per module row at the band, and the height of the
+// pattern area under the band down to the screen's bottom edge.
+struct SyncPrediction {
+  std::vector<float> pxPerRow, patternPx;
+};
+SyncPrediction predictSync(const DisplayModel& nominal, const CameraIntrinsics& intrinsics,
+                           const Eigen::Vector3d& tapeCentre, const SyncCodeLayout& layout);
+
+// Draws the band into a module frame (CV_32F, linear, values in [0, 1]): `code` in 0..kCodes−1,
+// or nullopt for the references' dark band.
+void drawSyncCode(cv::Mat* frame, std::optional<int> code, const SyncCodeLayout& layout);
+
+// Where the band lies in the camera pictures of one station and module group.
+struct SyncGeometry {
+  std::vector<int> columns;      // camera columns through a module's stripe
+  std::vector<float> bandTop;    // per column: camera y of module row 0
+  std::vector<float> whiteTop;   // per column: the white reference near the pattern's top edge
+  std::vector<float> pxPerRow;   // per column: camera px per module row
+  std::vector<float> patternPx;  // per column: the white pattern area's height
+};
+
+// From a picture that should be a white reference (linear light, CV_32F): the columns whose
+// profile has a long bright run (at least half the predicted pattern area) under a dark band
+// of the code's height (0.6–1.6 times the predicted), under the bright strip of the screen
+// above the band. The band's height there gives the column's camera px per module row. nullopt,
+// with `why`, when the picture is not a white reference (a coded frame, dark, torn).
+std::optional<SyncGeometry> syncGeometryFromWhite(const cv::Mat& linear,
+                                                  const SyncCodeLayout& layout,
+                                                  const SyncPrediction& prediction,
+                                                  std::string* why);
+
+struct SyncReading {
+  std::optional<int> code;  // the code most columns read, when they agree
+  double agreement = 0.0;   // fraction of the columns that read `code`
+  double readable = 0.0;    // fraction of the columns with a readable code
+  // The lit code cells over the white reference at the same place: the picture's exposure
+  // relative to the white reference's (1 for a camera whose exposure is locked).
+  double exposure = 0.0;
+  std::string describe() const;  // "code 3 (97% of columns)", "no code (12% readable)"
+};
+
+// Reads the code of a picture (linear light) of the same station and group. A code is
+// reported when a quarter of the columns (at least 8) read one and 90% of those agree.
+SyncReading readSyncCode(const cv::Mat& linear, const SyncGeometry& geometry,
+                         const SyncCodeLayout& layout);
+
+// True when the picture shows the black reference: the band and the pattern area dark next to
+// the white reference (below `fraction` of it) in most columns.
+bool looksBlack(const cv::Mat& linear, const SyncGeometry& geometry, const SyncCodeLayout& layout,
+                const SyncPrediction& prediction, double fraction = 0.3);
+
+}  // namespace parallax

@@ -1,0 +1,186 @@
+#include "daemon/parallaxd/calibration_pipeline.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+#include <stdexcept>
+
+#include "calibration/fit/fit_report.h"
+#include "common/input_error.h"
+#include "hw/camera/calibration_capture.h"
+#include "hw/camera/camera.h"
+#include "hw/camera/camera_name.h"
+
+namespace parallax::daemon {
+namespace {
+
+// Runs the station command with "{station}" replaced; a failing command stops the session.
+void runStationCommand(const std::string& command, int station) {
+  std::string line = command;
+  for (size_t at = line.find("{station}"); at != std::string::npos;
+       at = line.find("{station}", at)) {
+    line.replace(at, 9, std::to_string(station));
+  }
+  const int status = std::system(line.c_str());
+  if (status != 0) {
+    throw std::runtime_error(fmt::format(
+        "station {}: the station command \"{}\" failed (status {})", station, line, status));
+  }
+}
+
+}  // namespace
+
+void CalibrationSettings::validate(const std::string& prefix) const {
+  // Flags spell the config's keys with dashes.
+  const auto field = [&prefix](std::string key) {
+    if (prefix == "--") std::replace(key.begin(), key.end(), '_', '-');
+    return prefix + key;
+  };
+  hw::parseCameraName(camera, field("camera"));
+  if (pixelStep < 1 || pixelStep > 64)
+    throw InputError({"", field("pixel_step"), 0}, "must be 1..64");
+  if (threads < 1 || threads > 256) throw InputError({"", field("threads"), 0}, "must be 1..256");
+  for (const auto& [value, name] : {std::pair{gate.worstPx, "max_error_px"},
+                                    std::pair{gate.worstObserverMm, "max_observer_mm"}}) {
+    if (!(std::isfinite(value) && value > 0.0))
+      throw InputError({"", field(name), 0}, fmt::format("must be > 0, got {}", value));
+  }
+}
+
+CalibrationSettings settingsOf(const CalibrationConfig& config) {
+  CalibrationSettings settings;
+  settings.camera = config.cameraName;
+  settings.cameraMetadata = config.cameraMetadata;
+  if (config.pixelStep) settings.pixelStep = *config.pixelStep;
+  settings.allowAutoExposure = config.allowAutoExposure;
+  settings.stationCommand = config.stationCommand;
+  return settings;
+}
+
+CalibrationCaptures capturePictures(hw::LinkClient& link, const DisplayModel& nominal,
+                                    const CalibrationSettings& settings,
+                                    const PipelineProgress& progress,
+                                    const std::function<bool()>& cancelled) {
+  if (settings.cameraMetadata.empty()) {
+    throw InputError({"", "calibration.camera_metadata", 0},
+                     "calibrating needs the camera's metadata (camera.json)");
+  }
+  const CameraMetadata metadata = loadCameraMetadata(settings.cameraMetadata);
+  requireKnownIntrinsics(metadata, settings.cameraMetadata, "calibrating through the link");
+  const hw::CameraName name = hw::parseCameraName(settings.camera, "camera");
+  std::unique_ptr<hw::Camera> camera = hw::openCamera(name, link);
+
+  hw::CalibrationCaptureOptions capture;
+  capture.stations = settings.stations;
+  capture.cameraSettings = settings.cameraSettings;
+  capture.allowUnlockedCamera = settings.allowAutoExposure;
+  capture.onUnlocked = [&](const std::string& what) {
+    if (progress.note)
+      progress.note(
+          fmt::format("warning: {}: {}; going on (allow auto exposure): each "
+                      "picture's exposure is measured from what it shows",
+                      camera->name(), what));
+  };
+  const size_t stationCount =
+      settings.stations.empty() ? metadata.stations.size() : settings.stations.size();
+  if (name.kind != hw::CameraKind::kLink) {
+    if (!settings.stationCommand.empty()) {
+      capture.beforeStation = [&](int station) {
+        runStationCommand(settings.stationCommand, station);
+      };
+    } else if (progress.moveCamera) {
+      capture.beforeStation = progress.moveCamera;
+    } else if (stationCount > 1) {
+      throw InputError({"", "calibration.station_command", 0},
+                       fmt::format("{} is not behind the link and cannot move itself between "
+                                   "the {} stations: give a station command (a rig) or one station",
+                                   settings.camera, stationCount));
+    }
+  }
+  // The capture asks a flag between pictures, right after reporting progress: the flag is
+  // refreshed from the predicate there.
+  std::atomic<bool> captureCancelled{cancelled()};
+  hw::CaptureSyncStats stats;
+  CalibrationCaptures captures = hw::captureCalibration(
+      link, *camera, nominal, metadata, capture,
+      [&](int done, int total) {
+        if (progress.pictures) progress.pictures(done, total);
+        captureCancelled = cancelled();
+      },
+      &captureCancelled, &stats);
+  if (progress.captured) progress.captured(stats);
+  return captures;
+}
+
+CalibrationObservations decodePictures(const CalibrationCaptures& captures,
+                                       const DisplayModel& nominal,
+                                       const CalibrationSettings& settings) {
+  CaptureDecoderOptions decoder;
+  decoder.patterns = captures.patterns;
+  decoder.pixelStep = settings.pixelStep;
+  return decodeCaptures(captures, nominal, decoder);
+}
+
+FitResult fitObservations(const DisplayModel& start, const CalibrationObservations& observations,
+                          const CalibrationSettings& settings, std::optional<int> onlyModule,
+                          const PipelineProgress& progress,
+                          const std::function<bool()>& cancelled) {
+  FitOptions fit;
+  fit.threads = settings.threads;
+  fit.transfer = settings.transfer;
+  fit.gate = settings.gate;
+  fit.stopRequested = cancelled;
+  if (progress.iteration)
+    fit.onIteration = [&](int iteration, double) { progress.iteration(iteration); };
+  if (onlyModule) {
+    // One replaced module: the others and the screen stay as calibrated.
+    for (int m = 0; m < static_cast<int>(start.modules.size()); ++m) {
+      if (m != *onlyModule) fit.heldModules.push_back(m);
+    }
+    fit.fitCurvature = false;
+  }
+  return fitDisplay(start, observations, fit);
+}
+
+CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& nominal,
+                                    const DisplayModel& start, const CalibrationSettings& settings,
+                                    std::optional<int> onlyModule, const PipelineProgress& progress,
+                                    const std::function<bool()>& cancelled) {
+  const auto stage = [&](const std::string& what) {
+    if (progress.stage) progress.stage(what);
+  };
+  PipelineProgress pictures = progress;
+  pictures.captured = [&](const hw::CaptureSyncStats& stats) {
+    if (progress.captured) progress.captured(stats);
+    if (progress.note) progress.note(settings.camera + ": " + stats.describe());
+  };
+  pictures.pictures = [&](int done, int total) {
+    if (progress.pictures) progress.pictures(done, total);
+    stage(fmt::format("pictures: {} of {}", done, total));
+  };
+  const CalibrationCaptures captures =
+      capturePictures(link, nominal, settings, pictures, cancelled);
+  // Decoding takes seconds and is not interrupted: a `cancel` meanwhile is seen after it.
+  const auto stopIfCancelled = [&cancelled] {
+    if (cancelled()) throw hw::CalibrationCancelled();
+  };
+  stopIfCancelled();
+  stage("decoding the pictures");
+  const CalibrationObservations observations = decodePictures(captures, nominal, settings);
+  stage(fmt::format("fitting ({} correspondences)", observations.correspondences.size()));
+  stopIfCancelled();
+  const FitResult result =
+      fitObservations(start, observations, settings, onlyModule, progress, cancelled);
+  stopIfCancelled();
+  CalibrationRun run{result.model, formatFitSummary(result), formatFitReport(result)};
+  if (!result.passesQualityChecks()) {
+    throw std::runtime_error("the fit failed its quality checks, nothing installed: " +
+                             run.summary);
+  }
+  return run;
+}
+
+}  // namespace parallax::daemon

@@ -1,0 +1,102 @@
+#pragma once
+// The one calibration pipeline, run by both `parallax calibrate` and parallaxd's calibrate
+// stage: pictures (a camera by name, hw/camera/camera_name.h, while the modules show the
+// patterns through the link; or a captures folder) → decode → fit → quality gate. Both take
+// their settings from CalibrationSettings — one default here, changed by the command's flags
+// or the daemon's [calibration] section — and both install through the one CalibrationStore
+// (calibration_store.h). Nothing here installs: the tool installs at once, the daemon after
+// the ray textures of the new model are made, so a failure leaves the old calibration in place.
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "calibration/capture/calibration_captures.h"
+#include "calibration/display/display_model.h"
+#include "calibration/display/screen_transfer.h"
+#include "calibration/fit/display_fit.h"
+#include "daemon/parallaxd/daemon_config.h"
+#include "hw/camera/calibration_capture.h"
+#include "hw/link/camera_settings.h"
+#include "hw/link/link_client.h"
+
+namespace parallax::daemon {
+
+struct CalibrationSettings {
+  std::string camera = "link";  // camera_name.h
+  std::string cameraMetadata;   // camera.json: intrinsics, response, tape-measured stations
+  std::vector<int> stations;    // empty: every station of the metadata
+  // Every n-th camera pixel decoded each way (and stripe centres on every n-th row). On the
+  // simulated demo display (seed 7, 640x360 camera) steps 2, 4 and 6 reach 0.124, 0.120 and
+  // 0.117 module px RMS: 4 decodes a quarter of the pixels of 2 for the same rays.
+  int pixelStep = 4;
+  int threads = 2;  // solver threads
+  std::optional<ScreenTransfer> transfer;
+  GateLimits gate;
+  hw::CameraSettings cameraSettings;
+  // A camera whose controls do not lock (or cannot be read back) is used anyway: a warning,
+  // and each picture's exposure measured from what it shows.
+  bool allowAutoExposure = false;
+  // Run before the pictures of each station with a camera that is not behind the link (a rig
+  // moving it, or a prompt); "{station}" is replaced by the station number.
+  std::string stationCommand;
+
+  // Throws InputError naming the field (`prefix` + name: "--" for flags, "calibration." for
+  // the config).
+  void validate(const std::string& prefix) const;
+};
+
+// The pipeline's settings with the config's changes.
+CalibrationSettings settingsOf(const CalibrationConfig& config);
+
+struct PipelineProgress {
+  std::function<void(const std::string& stage)> stage;        // "decoding the pictures", ...
+  std::function<void(int done, int total)> pictures;          // during the capture
+  std::function<void(int iteration)> iteration;               // during the fit
+  std::function<void(const std::string& line)> note;          // warnings and facts for the log
+  std::function<void(const hw::CaptureSyncStats&)> captured;  // how the camera kept up
+  // Asks the operator to move a camera that is not behind the link to `station` and returns
+  // once it stands there (the tool's prompt); unset, and without a station command, only one
+  // station can be photographed.
+  std::function<void(int station)> moveCamera;
+};
+
+// The pictures through the link: the modules show the patterns, `settings.camera` takes them
+// (opened and locked here; refused, naming the control, when it does not lock and
+// allowAutoExposure is off). Throws InputError for bad metadata or camera names,
+// std::runtime_error with one line otherwise, hw::CalibrationCancelled once `cancelled()`.
+CalibrationCaptures capturePictures(hw::LinkClient& link, const DisplayModel& nominal,
+                                    const CalibrationSettings& settings,
+                                    const PipelineProgress& progress,
+                                    const std::function<bool()>& cancelled);
+
+// Decoding with the settings' pixel step.
+CalibrationObservations decodePictures(const CalibrationCaptures& captures,
+                                       const DisplayModel& nominal,
+                                       const CalibrationSettings& settings);
+
+// The fit from `start` (the nominal, or the current calibration when refitting `onlyModule`
+// with every other module and the curvature held) with the settings' solver and gate.
+// Returns the result whether or not it passes the gate (FitResult::passesQualityChecks), and
+// with `stopped` set when `cancelled()` became true.
+FitResult fitObservations(const DisplayModel& start, const CalibrationObservations& observations,
+                          const CalibrationSettings& settings, std::optional<int> onlyModule,
+                          const PipelineProgress& progress, const std::function<bool()>& cancelled);
+
+struct CalibrationRun {
+  DisplayModel model;   // the fitted display
+  std::string summary;  // formatFitSummary
+  std::string report;   // formatFitReport (per module)
+};
+
+// The whole pipeline through the link, as the daemon runs it: capturePictures, decodePictures,
+// fitObservations, and the gate. Returns a fit that passed, or throws with the reason
+// (hw::CalibrationCancelled when cancelled: asked between pictures, between stages and at
+// every solver iteration).
+CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& nominal,
+                                    const DisplayModel& start, const CalibrationSettings& settings,
+                                    std::optional<int> onlyModule, const PipelineProgress& progress,
+                                    const std::function<bool()>& cancelled);
+
+}  // namespace parallax::daemon

@@ -1,0 +1,202 @@
+// The picture sync code (calibration/capture/sync_code.h) in a real capture session: the
+// simulated camera behind the link photographs the patterns, and a buffered camera in front of
+// it delivers each picture late (the frames a webcam's or GStreamer's queue holds), with or
+// without auto exposure. Every late picture is retaken, none recorded as the frame after it;
+// with auto exposure each coded picture is brought to the white reference's exposure.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <deque>
+
+#include "calibration/display/display_presets.h"
+#include "calibration/simulation/ground_truth.h"
+#include "calibration/simulation/simulated_session.h"
+#include "hw/camera/calibration_capture.h"
+#include "hw/camera/camera.h"
+#include "hw/camera/camera_name.h"
+#include "hw/link/socket_transport.h"
+#include "hw/simulator/calibration_physics.h"
+#include "sim_fixture.h"
+
+namespace parallax::hw {
+namespace {
+
+struct Session {
+  DisplayModel nominal, truth;
+  SimulatedRig rig;
+};
+
+// Six 128x96 modules, a 320x180 camera.
+Session session() {
+  NominalDisplayOptions options;
+  options.preset = "demo";
+  options.modules = 6;
+  options.width = 128;
+  options.height = 96;
+  Session s;
+  s.nominal = makeNominalDisplay(options);
+  GroundTruthOptions gt;
+  gt.seed = 11;
+  s.truth = makeGroundTruth(s.nominal, gt);
+  CameraRigOptions rig;
+  rig.stations = 1;
+  rig.intrinsics = CameraIntrinsics::centred(320, 180, 350.0);
+  s.rig = makeSimulatedRig(s.truth, rig, 4);
+  return s;
+}
+
+// A camera whose pictures come out `lag` captures late, as from a queue of frames; with
+// `autoExposure`, each picture's exposure drifts (and the controls do not lock).
+class BufferedCamera : public Camera {
+ public:
+  BufferedCamera(Camera& inner, int lag, bool autoExposure)
+      : inner_(inner), lag_(lag), autoExposure_(autoExposure) {}
+  std::string name() const override { return "buffered camera"; }
+  CameraLockResult lock(const CameraSettings& settings) override {
+    CameraLockResult r = inner_.lock(settings);
+    if (autoExposure_) r = {false, {"auto exposure off (the backend refuses the property)"}};
+    locked_ = r.ok;
+    return r;
+  }
+  void unlock() override { inner_.unlock(); }
+  Image capture(std::string* error) override {
+    inner_.setStation(station());
+    Image now = inner_.capture(error);
+    if (now.empty()) return now;
+    if (autoExposure_) {
+      // Exposure between 55% and 100% of the locked one, changing from picture to picture.
+      const double gain = 0.55 + 0.45 * std::abs(std::sin(0.7 * captures_));
+      for (uint8_t& p : now.pixels) p = static_cast<uint8_t>(std::lround(p * gain));
+    }
+    ++captures_;
+    queue_.push_back(std::move(now));
+    if (static_cast<int>(queue_.size()) <= lag_) return queue_.front();
+    Image oldest = std::move(queue_.front());
+    queue_.pop_front();
+    return oldest;
+  }
+
+ private:
+  Camera& inner_;
+  int lag_;
+  bool autoExposure_;
+  int captures_ = 0;
+  std::deque<Image> queue_;
+};
+
+SimulatedHardwareOptions modulesOf(const DisplayModel& display) {
+  SimulatedHardwareOptions o;
+  o.modules = static_cast<int>(display.modules.size());
+  o.width = display.modules.front().width;
+  o.height = display.modules.front().height;
+  return o;
+}
+
+CalibrationCaptures capture(const Session& s, int lag, bool autoExposure,
+                            const CalibrationCaptureOptions& options, CaptureSyncStats* stats) {
+  InProcessSimhw sim(modulesOf(s.truth),
+                     std::make_unique<CalibrationPhysics>(s.truth, s.rig.truth));
+  LinkClient link(std::make_unique<SocketTransport>(sim.path()));
+  SimulatedCamera inner(link);
+  BufferedCamera camera(inner, lag, autoExposure);
+  return captureCalibration(link, camera, s.nominal, s.rig.metadata, options, {}, nullptr, stats);
+}
+
+double meanAbsDifference(const cv::Mat& a, const cv::Mat& b) { return cv::mean(cv::abs(a - b))[0]; }
+
+TEST(PictureSync, LatePicturesAreRetakenNeverRecordedAsTheNextFrame) {
+  const Session s = session();
+  CaptureSyncStats onTime;
+  const CalibrationCaptures reference = capture(s, 0, false, {}, &onTime);
+  EXPECT_EQ(onTime.retaken, 0);
+  for (int lag : {1, 3}) {
+    CaptureSyncStats stats;
+    const CalibrationCaptures late = capture(s, lag, false, {}, &stats);
+    EXPECT_GE(stats.retaken, lag * stats.pictures / 2) << "lag " << lag;
+    ASSERT_EQ(late.stations.size(), reference.stations.size());
+    for (size_t i = 0; i < late.stations.size(); ++i) {
+      for (size_t f = 0; f < reference.stations[i].columnFrames.size(); ++f) {
+        // The same frame up to the sensor's noise; a picture of another frame differs by far
+        // more over the lit screen.
+        EXPECT_LT(meanAbsDifference(late.stations[i].columnFrames[f],
+                                    reference.stations[i].columnFrames[f]),
+                  0.01)
+            << "lag " << lag << ", set " << i << ", column frame " << f;
+      }
+      for (size_t f = 0; f < reference.stations[i].rowFrames.size(); ++f) {
+        EXPECT_LT(
+            meanAbsDifference(late.stations[i].rowFrames[f], reference.stations[i].rowFrames[f]),
+            0.01)
+            << "lag " << lag << ", set " << i << ", row frame " << f;
+      }
+    }
+  }
+  // The stale pictures are not alike: a picture of the previous frame is no stand-in.
+  EXPECT_GT(meanAbsDifference(reference.stations[0].columnFrames[3],
+                              reference.stations[0].columnFrames[4]),
+            0.02);
+}
+
+TEST(PictureSync, AutoExposureIsRefusedUnlessAllowedThenMeasuredInEachPicture) {
+  const Session s = session();
+  try {
+    capture(s, 1, true, {}, nullptr);
+    ADD_FAILURE() << "a camera that does not lock was used";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("auto exposure off"), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
+  }
+  const CalibrationCaptures reference = capture(s, 0, false, {}, nullptr);
+  CalibrationCaptureOptions options;
+  options.allowUnlockedCamera = true;
+  std::string warned;
+  options.onUnlocked = [&](const std::string& what) { warned = what; };
+  const CalibrationCaptures drifting = capture(s, 2, true, options, nullptr);
+  EXPECT_NE(warned.find("auto exposure"), std::string::npos);
+  // Each coded picture at the white reference's exposure: its brightness relative to the
+  // locked camera's picture is the white reference's, whatever its own exposure was (within
+  // 8%: 8-bit steps of the dimmest pictures; unmeasured, the exposures differ by up to 45%).
+  for (size_t i = 0; i < reference.stations.size(); ++i) {
+    for (auto [late, locked] :
+         {std::pair{&drifting.stations[i].columnFrames, &reference.stations[i].columnFrames},
+          std::pair{&drifting.stations[i].rowFrames, &reference.stations[i].rowFrames}}) {
+      const double white = cv::mean((*late)[0])[0] / cv::mean((*locked)[0])[0];
+      for (size_t f = 2; f < late->size(); ++f) {
+        const double ratio = cv::mean((*late)[f])[0] / cv::mean((*locked)[f])[0];
+        EXPECT_NEAR(ratio / white, 1.0, 0.08) << "set " << i << ", frame " << f;
+      }
+    }
+  }
+}
+
+TEST(CameraName, BadNamesAndSourcesAreOneLineEach) {
+  const auto refused = [](const std::string& name) -> std::string {
+    try {
+      const CameraName parsed = parseCameraName(name, "--camera");
+      OpenCvCamera camera;  // what openCamera opens for an opencv: name
+      std::string error;
+      if (parsed.kind == CameraKind::kOpenCv && !camera.open(parsed.argument, &error)) return error;
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "";
+  };
+  const std::string unknown = refused("usb:3");
+  EXPECT_NE(unknown.find("unknown camera \"usb:3\""), std::string::npos) << unknown;
+  EXPECT_NE(refused("opencv:").find("needs a source"), std::string::npos);
+  const std::string device = refused("opencv:/dev/video97");
+  EXPECT_NE(device.find("opencv:/dev/video97: no such device"), std::string::npos) << device;
+  const std::string pipeline = refused("opencv:videotestsrc ! no_such_element ! appsink");
+  EXPECT_NE(pipeline.find("GStreamer could not start the pipeline"), std::string::npos) << pipeline;
+  const std::string syntax = refused("opencv:videotestsrc ! ! appsink");
+  EXPECT_NE(syntax.find("GStreamer could not start the pipeline"), std::string::npos) << syntax;
+  for (const std::string& line : {unknown, device, pipeline, syntax})
+    EXPECT_EQ(line.find('\n'), std::string::npos) << line;
+  EXPECT_TRUE(isCameraName("link"));
+  EXPECT_TRUE(isCameraName("opencv:0"));
+  EXPECT_FALSE(isCameraName("camera.json"));
+}
+
+}  // namespace
+}  // namespace parallax::hw

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <numeric>
 
-#include "calibration/photometry/colour_difference.h"
+#include "calibration/display/colour_difference.h"
 #include "common/input_error.h"
 
 namespace parallax {

@@ -150,6 +150,7 @@ std::string writeReport(const ReportOptions& options) {
   writePrecisionSection(report);
   writeTransferSection(report);
   writeCalibrationSection(report);
+  writePhotometrySection(report);
   report.finish();
   return report.path("report.md");
 }

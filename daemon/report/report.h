@@ -61,6 +61,7 @@ void writeAntialiasingSection(Report& report);
 void writePrecisionSection(Report& report);
 void writeTransferSection(Report& report);
 void writeCalibrationSection(Report& report);
+void writePhotometrySection(Report& report);
 
 // Runs every section; returns report.md's path.
 std::string writeReport(const ReportOptions& options);

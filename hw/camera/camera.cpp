@@ -52,6 +52,7 @@ Image SimulatedCamera::capture(std::string* error) {
     request.whiteBalanceBlueCenti = centi(settings_.whiteBalanceBlue);
   }
   request.station = static_cast<uint16_t>(std::clamp(station_, 0, 65535));
+  if (settings_.colour) request.flags = kCaptureColour;
   Image image = link_.capture(viewModule_, request);
   if (image.empty()) {
     *error = fmt::format(

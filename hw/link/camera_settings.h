@@ -10,6 +10,7 @@ struct CameraSettings {
   uint32_t exposureUs = 10000;
   double gain = 1.0;
   double whiteBalanceRed = 1.0, whiteBalanceBlue = 1.0;
+  bool colour = false;  // RGB pictures (photometric calibration); grey suffices for geometry
 };
 
 }  // namespace parallax::hw

@@ -291,7 +291,7 @@ ProtocolError decodeCaptureRequest(std::span<const uint8_t> body, CaptureRequest
   r->exposureUs = get32(b + 4);
   r->station = get16(b + 8);
   r->flags = get16(b + 10);
-  if (r->flags != 0) return ProtocolError::kBadBody;  // no flags defined in version 1
+  if ((r->flags & ~kCaptureColour) != 0) return ProtocolError::kBadBody;  // undefined flags
   return ProtocolError::kOk;
 }
 

@@ -130,11 +130,14 @@ struct CaptureRequest {     // 16 bytes
   uint32_t exposureUs = 0;  // 0 = keep the locked value
   uint16_t gainCenti = 0;   // gain × 100, 0 = keep
   uint16_t station = 0;     // where the camera stands (the simulator moves it; a rig may ignore it)
-  uint16_t flags = 0;
+  uint16_t flags = 0;       // kCaptureColour or 0
   uint16_t whiteBalanceRedCenti = 0;   // red / green × 100, 0 = keep
   uint16_t whiteBalanceBlueCenti = 0;  // blue / green × 100, 0 = keep
 };
 constexpr size_t kCaptureRequestSize = 16;
+// CaptureRequest flag: an RGB picture (photometric calibration); without it the camera may
+// answer grey (the geometric patterns need no colour).
+constexpr uint16_t kCaptureColour = 1;
 
 struct CaptureReplyHeader {  // 16 bytes, then width · height · bpp pixel bytes
   uint32_t width = 0, height = 0;

@@ -3,10 +3,13 @@
 //
 //   parallax-simhw --socket /tmp/simhw.sock [--display demo|default|file.json]
 //                  [--modules N --resolution WxH] [--fault 3:drop:2 ...] [--dump DIR]
-//                  [--truth ground_truth.json --camera camera_truth.json]
+//                  [--truth ground_truth.json --camera camera_truth.json
+//                   [--photometric-truth photometric_truth.json]]
 // With --truth and --camera (the files `parallax simulate` writes) the camera photographs the
 // ground-truth display from its true pose at the requested station
-// (hw/simulator/calibration_physics.h); the modules are then the truth's.
+// (hw/simulator/calibration_physics.h); the modules are then the truth's. With
+// --photometric-truth they also show their light as that truth says (response, black,
+// primaries, falloff), and the camera answers colour captures in colour.
 
 #include <fmt/format.h>
 #include <sys/prctl.h>
@@ -27,6 +30,7 @@
 #include "common/version.h"
 #include "common/width_height.h"
 #include "hw/simulator/calibration_physics.h"
+#include "hw/simulator/camera_feed.h"
 #include "hw/simulator/fault_spec.h"
 #include "hw/simulator/simhw_server.h"
 #include "hw/simulator/simulated_hardware.h"
@@ -43,7 +47,9 @@ struct Args {
   std::string resolution;
   std::vector<std::string> faults;
   std::string dump;
-  std::string truth, camera;
+  std::string truth, camera, photometricTruth;
+  std::string cameraFeed, cameraFeedStation;
+  bool cameraFeedAutoExposure = false;
   uint32_t maxChunk = 4u << 20;
   bool exitWithParent = false;
 };
@@ -52,6 +58,9 @@ int run(const Args& args) {
   using namespace parallax;
   hw::SimulatedHardwareOptions options;
   options.maxChunkSize = args.maxChunk;
+  if (!args.photometricTruth.empty() && args.truth.empty()) {
+    throw InputError({"", "--photometric-truth", 0}, "needs --truth and --camera");
+  }
   if (args.truth.empty() != args.camera.empty()) {
     throw InputError({"", args.truth.empty() ? "--truth" : "--camera", 0},
                      "the calibration physics needs both --truth and --camera");
@@ -87,9 +96,28 @@ int run(const Args& args) {
     if (args.modules > 0 || !args.resolution.empty()) {
       throw InputError({"", "--modules", 0}, "not with --truth: the modules are the truth's");
     }
-    physics = std::make_unique<hw::CalibrationPhysics>(*truth, loadCameraTruth(args.camera));
+    std::optional<PhotometricTruth> photometry;
+    if (!args.photometricTruth.empty()) photometry = loadPhotometricTruth(args.photometricTruth);
+    physics = std::make_unique<hw::CalibrationPhysics>(*truth, loadCameraTruth(args.camera),
+                                                       std::move(photometry));
+  }
+  if (!args.cameraFeed.empty() && !truth) {
+    throw InputError({"", "--camera-feed", 0}, "needs the calibration physics (--truth, --camera)");
   }
   hw::SimulatedHardware hardware(options, std::move(physics));
+  std::unique_ptr<hw::CameraFeed> feed;
+  if (!args.cameraFeed.empty()) {
+    feed = std::make_unique<hw::CameraFeed>(
+        hw::CameraFeedOptions{args.cameraFeed, args.cameraFeedStation, args.cameraFeedAutoExposure},
+        std::make_unique<hw::CalibrationPhysics>(*truth, loadCameraTruth(args.camera)));
+    const auto showFeed = [&hardware, &feed] {
+      std::vector<hw::Image> frames;
+      for (int i = 0; i < hardware.moduleCount(); ++i) frames.push_back(hardware.shownFrame(i));
+      feed->shown(std::move(frames));
+    };
+    hardware.setOnShown(showFeed);
+    showFeed();  // a camera gives pictures before anything is shown: the dark screen
+  }
   for (const std::string& text : args.faults) {
     const hw::FaultSpec spec = hw::parseFaultSpec(text);
     if (spec.module >= hardware.moduleCount()) {
@@ -163,6 +191,15 @@ int main(int argc, char** argv) {
                  "ground-truth display for the camera's calibration physics (with --camera)");
   app.add_option("--camera", args.camera,
                  "camera truth (camera_truth.json: intrinsics, true station poses, sensor)");
+  app.add_option("--camera-feed", args.cameraFeed,
+                 "with --truth/--camera: also write the camera's picture of what the modules show "
+                 "to this PNG whenever it changes (a streaming camera's source)");
+  app.add_option("--camera-feed-station", args.cameraFeedStation,
+                 "the file naming the feed camera's station (default: station 0)");
+  app.add_flag("--camera-feed-auto-exposure", args.cameraFeedAutoExposure,
+               "the feed camera's exposure follows the scene, lagging a picture");
+  app.add_option("--photometric-truth", args.photometricTruth,
+                 "the modules' photometric truth (photometric_truth.json; with --truth)");
   app.add_option("--max-chunk", args.maxChunk, "largest chunk the modules accept (bytes)");
   app.add_flag("--exit-with-parent", args.exitWithParent,
                "stop when the process that started this one ends (parallaxd's own simulator)");

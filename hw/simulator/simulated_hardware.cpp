@@ -360,6 +360,7 @@ void SimulatedHardware::frameEnd(Module& m, const PacketHeader& header,
     std::swap(m.shown.pixels, u.buffer);
     m.shownHash = u.begin.contentHash;
     ++m.counters.framesShown;
+    if (onShown_) onShown_();
   } else {
     ++m.counters.framesRejected;
   }
@@ -379,6 +380,7 @@ ProtocolError SimulatedHardware::capture(const PacketHeader& header,
     return e;
   }
   if (request.exposureUs != 0) camera_.exposureUs = request.exposureUs;
+  camera_.colour = (request.flags & kCaptureColour) != 0;
   if (request.gainCenti != 0) camera_.gain = request.gainCenti / 100.0;
   if (request.whiteBalanceRedCenti != 0)
     camera_.whiteBalanceRed = request.whiteBalanceRedCenti / 100.0;

@@ -8,6 +8,7 @@
 // shows and never goes unreported.
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -78,6 +79,8 @@ class SimulatedHardware {
   static void appendError(ProtocolError error, uint32_t sequence, std::vector<uint8_t>* replies);
 
   void arm(int module, const Fault& fault);
+  // Called (on the serving thread) each time a module shows a new frame.
+  void setOnShown(std::function<void()> onShown) { onShown_ = std::move(onShown); }
   // A new connection starts: partial uploads are abandoned (the host resends them).
   void resetSession();
 
@@ -127,6 +130,7 @@ class SimulatedHardware {
   std::vector<Module> modules_;
   CameraSettings camera_;
   DisplayMode mode_ = DisplayMode::kPlayback;
+  std::function<void()> onShown_;
 };
 
 }  // namespace parallax::hw

@@ -16,17 +16,19 @@
 #include <cmath>
 
 #include "calibration/display/colour_correction.h"
-#include "calibration/photometry/colour_difference.h"
+#include "calibration/display/colour_difference.h"
+#include "calibration/display/display_presets.h"
 #include "calibration/photometry/photometric_fit.h"
-#include "photometric_rig.h"
+#include "calibration/simulation/simulated_photometric_rig.h"
 #include "tracer/frame.h"
 #include "tracer/module_encoder.h"
 #include "tracer/observer_view.h"
+#include "tracer/viewer_uniformity.h"
 
 namespace parallax {
 namespace {
 
-using testing::PhotometricRig;
+using PhotometricRig = SimulatedPhotometricRig;
 
 struct Calibrated {
   std::unique_ptr<PhotometricRig> rig;
@@ -37,7 +39,8 @@ struct Calibrated {
 const Calibrated& calibrated() {
   static const Calibrated c = [] {
     Calibrated out;
-    out.rig = std::make_unique<PhotometricRig>(7, PhotometricTruthOptions{});
+    out.rig =
+        std::make_unique<PhotometricRig>(resolveDisplay("demo"), 7, PhotometricTruthOptions{});
     out.captures = out.rig->capture(FlatFieldOptions{});
     out.calibration = fitPhotometry(out.captures, PhotometricFitOptions{});
     std::printf("PHOTOMETRY | %d pictures (%d retakes) in %.1f s\n%s", out.captures.pictures,
@@ -81,15 +84,15 @@ template <typename ContentOf>
 ShownLight shownLight(const Calibrated& c, ContentOf contentOf) {
   ShownLight out;
   const ColourTarget& target = c.calibration.correction.target;
-  for (size_t i = 0; i < c.rig->geometry.modules.size(); ++i) {
-    const OpticalModule& m = c.rig->geometry.modules[i];
+  for (size_t i = 0; i < c.rig->geometry().modules.size(); ++i) {
+    const OpticalModule& m = c.rig->geometry().modules[i];
     const Frame frame = contentOf(static_cast<int>(i), m.width, m.height);
     const ModuleEncoder encoder(c.calibration.correction.modules[i], m.width, m.height);
     const std::vector<std::uint8_t> corrected = encoder.encode(frame), plain = frame.toSrgb8();
-    out.corrected.push_back(frameOf(
-        c.rig->photometry.emittedLight(static_cast<int>(i), m.width, m.height, corrected.data())));
+    out.corrected.push_back(frameOf(c.rig->photometry().emittedLight(static_cast<int>(i), m.width,
+                                                                     m.height, corrected.data())));
     out.uncorrected.push_back(frameOf(
-        c.rig->photometry.emittedLight(static_cast<int>(i), m.width, m.height, plain.data())));
+        c.rig->photometry().emittedLight(static_cast<int>(i), m.width, m.height, plain.data())));
     Frame ideal(m.width, m.height);
     for (size_t p = 0; p < frame.pixels.size(); ++p) {
       const Eigen::Vector3d l =
@@ -106,7 +109,7 @@ TEST(PhotometricCalibration, RecoversEachModulesResponseFalloffAndBrightness) {
   const Calibrated& c = calibrated();
   ASSERT_TRUE(c.calibration.excluded().empty()) << c.calibration.describe();
   for (const ModulePhotometricFigures& f : c.calibration.modules) {
-    const ModulePhotometricTruth& t = c.rig->photometry.modules[static_cast<size_t>(f.module)];
+    const ModulePhotometricTruth& t = c.rig->photometry().modules[static_cast<size_t>(f.module)];
     for (int ch = 0; ch < 3; ++ch)
       EXPECT_NEAR(f.gamma[ch], t.gamma[ch], 0.1) << "module " << f.module;
     EXPECT_NEAR(f.falloff, t.vignetting, 0.04) << "module " << f.module;
@@ -125,12 +128,12 @@ TEST(PhotometricCalibration, ViewersSeeTheIdealDisplaysViews) {
   view.width = 320;
   view.height = 180;
   for (double x : {-0.5, 0.0, 0.5}) {
-    const Eigen::Vector3d viewer(x, c.rig->geometry.observer.y, c.rig->geometry.observer.z);
+    const Eigen::Vector3d viewer(x, c.rig->geometry().observer.y, c.rig->geometry().observer.z);
     std::vector<float> coverage;
     const Frame want =
-        synthesizeObserverView(c.rig->geometry, shown.ideal, viewer, view, &coverage);
-    const Frame got = synthesizeObserverView(c.rig->geometry, shown.corrected, viewer, view);
-    const Frame plain = synthesizeObserverView(c.rig->geometry, shown.uncorrected, viewer, view);
+        synthesizeObserverView(c.rig->geometry(), shown.ideal, viewer, view, &coverage);
+    const Frame got = synthesizeObserverView(c.rig->geometry(), shown.corrected, viewer, view);
+    const Frame plain = synthesizeObserverView(c.rig->geometry(), shown.uncorrected, viewer, view);
     const double corrected = psnrDb(got, want, &coverage),
                  geometricOnly = psnrDb(plain, want, &coverage);
     std::printf(
@@ -142,45 +145,15 @@ TEST(PhotometricCalibration, ViewersSeeTheIdealDisplaysViews) {
   }
 }
 
-struct Uniformity {
-  double meanDe = 0, worstDe = 0, nonUniformity = 0;
-};
-
-// A flat grey on every module, seen from viewers all along the observer line: each view pixel's
-// colour (the view over the lobe coverage: the modules' light as the viewer mixes it) against
-// the target's grey.
-Uniformity flatGreyAsSeen(const Calibrated& c, const std::vector<Frame>& light) {
+// A flat grey on every module, seen from 13 viewers along the observer line, against the
+// target's grey.
+ViewerUniformity flatGreyAsSeen(const Calibrated& c, const std::vector<Frame>& light) {
   const ColourTarget& t = c.calibration.correction.target;
-  const Eigen::Vector3d grey = t.black + t.primaries * Eigen::Vector3d::Constant(0.5);
-  const Eigen::Vector3d white = t.black + t.primaries * Eigen::Vector3d::Ones();
-  const Eigen::Vector3d greyLab = labFromLinearSrgb(grey, white);
-  ObserverViewOptions view;
-  view.width = 160;
-  view.height = 90;
-  Uniformity u;
-  double lo = 1e300, hi = 0, sum = 0;
-  int n = 0;
-  for (int k = 0; k <= 12; ++k) {
-    const Eigen::Vector3d viewer(-0.6 + 0.1 * k, c.rig->geometry.observer.y,
-                                 c.rig->geometry.observer.z);
-    std::vector<float> coverage;
-    const Frame seen = synthesizeObserverView(c.rig->geometry, light, viewer, view, &coverage);
-    for (size_t p = 0; p < seen.pixels.size(); ++p) {
-      if (coverage[p] < 0.9f) continue;
-      const Eigen::Vector3d colour = seen.pixels[p].cast<double>() / coverage[p];
-      const double de = ciede2000(labFromLinearSrgb(colour, white), greyLab);
-      u.meanDe += de;
-      u.worstDe = std::max(u.worstDe, de);
-      const double y = luminance(colour);
-      lo = std::min(lo, y);
-      hi = std::max(hi, y);
-      sum += y;
-      ++n;
-    }
-  }
-  u.meanDe /= std::max(n, 1);
-  u.nonUniformity = (hi - lo) / (sum / std::max(n, 1));
-  return u;
+  std::vector<double> xs;
+  for (int k = 0; k <= 12; ++k) xs.push_back(-0.6 + 0.1 * k);
+  return measureViewerUniformity(c.rig->geometry(), light,
+                                 t.black + t.primaries * Eigen::Vector3d::Constant(0.5),
+                                 t.black + t.primaries * Eigen::Vector3d::Ones(), xs);
 }
 
 TEST(PhotometricCalibration, FlatGreyLooksTheSameOnEveryModule) {
@@ -190,15 +163,15 @@ TEST(PhotometricCalibration, FlatGreyLooksTheSameOnEveryModule) {
     for (Rgb& p : f.pixels) p = Rgb(0.5f, 0.5f, 0.5f);
     return f;
   });
-  const Uniformity corrected = flatGreyAsSeen(c, shown.corrected),
-                   plain = flatGreyAsSeen(c, shown.uncorrected);
+  const ViewerUniformity corrected = flatGreyAsSeen(c, shown.corrected),
+                         plain = flatGreyAsSeen(c, shown.uncorrected);
   std::printf(
       "PHOTOMETRY | flat grey as viewers see it: CIEDE2000 mean %.2f worst %.2f, brightness "
       "non-uniformity %.1f%% (geometric only: mean %.2f worst %.2f, %.1f%%)\n",
-      corrected.meanDe, corrected.worstDe, 100.0 * corrected.nonUniformity, plain.meanDe,
-      plain.worstDe, 100.0 * plain.nonUniformity);
-  EXPECT_LE(corrected.meanDe, 1.5);
-  EXPECT_LE(corrected.worstDe, 4.0);
+      corrected.meanDeltaE, corrected.worstDeltaE, 100.0 * corrected.nonUniformity,
+      plain.meanDeltaE, plain.worstDeltaE, 100.0 * plain.nonUniformity);
+  EXPECT_LE(corrected.meanDeltaE, 1.5);
+  EXPECT_LE(corrected.worstDeltaE, 4.0);
   EXPECT_LE(corrected.nonUniformity, 0.05);
 }
 
@@ -222,9 +195,9 @@ FlatFieldOptions quickCapture() {
 }
 
 TEST(PhotometricCalibrationBadInput, DeadModuleIsExcludedByName) {
-  PhotometricRig rig(11, PhotometricTruthOptions{});
-  rig.photometry.modules[5].primaries.setZero();
-  rig.photometry.modules[5].black.setZero();
+  PhotometricRig rig(resolveDisplay("demo"), 11, PhotometricTruthOptions{});
+  rig.photometry().modules[5].primaries.setZero();
+  rig.photometry().modules[5].black.setZero();
   const PhotometricCalibration cal =
       fitPhotometry(rig.capture(quickCapture()), PhotometricFitOptions{});
   ASSERT_EQ(cal.excluded(), std::vector<int>{5}) << cal.describe();
@@ -233,9 +206,9 @@ TEST(PhotometricCalibrationBadInput, DeadModuleIsExcludedByName) {
 }
 
 TEST(PhotometricCalibrationBadInput, ModuleWithAGamutFarOutsideIsExcludedByName) {
-  PhotometricRig rig(12, PhotometricTruthOptions{});
+  PhotometricRig rig(resolveDisplay("demo"), 12, PhotometricTruthOptions{});
   // Module 9's red leaks half into green: an orange primary.
-  rig.photometry.modules[9].primaries.col(0) = Eigen::Vector3d(0.8, 0.45, 0.02);
+  rig.photometry().modules[9].primaries.col(0) = Eigen::Vector3d(0.8, 0.45, 0.02);
   const PhotometricCalibration cal =
       fitPhotometry(rig.capture(quickCapture()), PhotometricFitOptions{});
   ASSERT_EQ(cal.excluded(), std::vector<int>{9}) << cal.describe();
@@ -244,7 +217,7 @@ TEST(PhotometricCalibrationBadInput, ModuleWithAGamutFarOutsideIsExcludedByName)
 }
 
 TEST(PhotometricCalibrationBadInput, SaturatedCameraIsRefusedAfterRetakes) {
-  PhotometricRig rig(13, PhotometricTruthOptions{});
+  PhotometricRig rig(resolveDisplay("demo"), 13, PhotometricTruthOptions{});
   rig.exposureScale = 200.0;  // no exposure the capture asks for brings it below full scale
   FlatFieldOptions o = quickCapture();
   try {
@@ -262,7 +235,7 @@ TEST(PhotometricCalibrationBadInput, SaturatedCameraIsRefusedAfterRetakes) {
 }
 
 TEST(PhotometricCalibrationBadInput, BlindCameraIsRefused) {
-  PhotometricRig rig(14, PhotometricTruthOptions{});
+  PhotometricRig rig(resolveDisplay("demo"), 14, PhotometricTruthOptions{});
   rig.blind = true;
   try {
     rig.capture(quickCapture());

@@ -4,6 +4,8 @@
 //  - in process, a small display: the link session records the pictures the offline renderer
 //    makes of the same truth (nothing lost or reordered on the way), leaves the modules in
 //    playback mode, and stops cleanly when cancelled;
+//  - the photometric flat fields through the link, from modules that show a photometric truth:
+//    the fit finds the weak module and the responses;
 // The real process on the demo display (`parallax-simhw --truth --camera`, then `parallax
 // calibrate --link`) is the CTest calibrate_through_link (calibrate_link_test.sh).
 
@@ -16,10 +18,13 @@
 #include "calibration/display/display_presets.h"
 #include "calibration/display/ray_error.h"
 #include "calibration/fit/display_fit.h"
+#include "calibration/photometry/photometric_fit.h"
 #include "calibration/simulation/ground_truth.h"
+#include "calibration/simulation/photometric_truth.h"
 #include "calibration/simulation/simulated_session.h"
 #include "hw/camera/calibration_capture.h"
 #include "hw/camera/camera.h"
+#include "hw/camera/flat_field_session.h"
 #include "hw/link/socket_transport.h"
 #include "hw/simulator/calibration_physics.h"
 #include "sim_fixture.h"
@@ -158,6 +163,41 @@ TEST(CalibrationSession, AStationTheCameraDoesNotHaveIsAClearError) {
     ADD_FAILURE() << "expected an error";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("station 1"), std::string::npos) << e.what();
+  }
+}
+
+TEST(CalibrationSession, PhotometricFlatFieldsThroughTheLinkFindTheModulesPhotometry) {
+  const SmallSession s = smallSession();
+  PhotometricTruthOptions p;
+  p.seed = 9;
+  const PhotometricTruth photometry = makePhotometricTruth(6, p);
+  InProcessSimhw sim(modulesOf(s.truth),
+                     std::make_unique<CalibrationPhysics>(s.truth, s.rig.truth, photometry));
+  FlatFieldCaptures captures;
+  {
+    LinkClient link(std::make_unique<SocketTransport>(sim.path()));
+    SimulatedCamera camera(link);
+    FlatFieldSession session(link, camera, CameraSettings{});
+    FlatFieldOptions options;
+    options.levels = {40, 128, 255};
+    options.pixelStep = 1;
+    captures = captureFlatFields(s.truth, s.rig.truth.intrinsics, s.rig.truth.poses,
+                                 s.rig.metadata.responseGamma, session.camera(), options);
+  }
+  sim.stop();
+  EXPECT_EQ(sim.hardware().mode(), DisplayMode::kPlayback);
+  PhotometricFitOptions fitOptions;
+  fitOptions.minSamples = 30;
+  const PhotometricCalibration cal = fitPhotometry(captures, fitOptions);
+  ASSERT_TRUE(cal.excluded().empty()) << cal.describe();
+  std::vector<double> whites;
+  for (const ModulePhotometricFigures& f : cal.modules) whites.push_back(f.whiteLuminance);
+  const double brightest = *std::max_element(whites.begin(), whites.end());
+  for (const ModulePhotometricFigures& f : cal.modules) {
+    const ModulePhotometricTruth& t = photometry.modules[static_cast<size_t>(f.module)];
+    const bool weak = t.primaries.colwise().sum().maxCoeff() < 0.75;
+    EXPECT_EQ(f.whiteLuminance < 0.8 * brightest, weak) << cal.describe();
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(f.gamma[c], t.gamma[c], 0.15) << "module " << f.module;
   }
 }
 

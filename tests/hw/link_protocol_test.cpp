@@ -143,7 +143,10 @@ TEST(LinkProtocol, CaptureRequestCarriesTheStation) {
   EXPECT_EQ(back.viewModule, 2);
   EXPECT_EQ(back.exposureUs, 12000u);
   EXPECT_EQ(back.gainCenti, 150);
-  body[10] = 1;  // a flag version 1 does not define
+  body[10] = 1;  // kCaptureColour: an RGB picture
+  ASSERT_EQ(decodeCaptureRequest(body, &back), ProtocolError::kOk);
+  EXPECT_EQ(back.flags, kCaptureColour);
+  body[10] = 2;  // a flag version 1 does not define
   EXPECT_EQ(decodeCaptureRequest(body, &back), ProtocolError::kBadBody);
 }
 

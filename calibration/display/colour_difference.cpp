@@ -1,4 +1,4 @@
-#include "calibration/photometry/colour_difference.h"
+#include "calibration/display/colour_difference.h"
 
 #include <cmath>
 #include <numbers>

@@ -28,33 +28,18 @@
 #include "hw/link/socket_transport.h"
 #include "hw/simulator/calibration_physics.h"
 #include "sim_fixture.h"
+#include "small_session.h"
 
 namespace parallax::hw {
 namespace {
 
-struct SmallSession {
-  DisplayModel nominal, truth;
-  SimulatedRig rig;
-};
-
 // Six 128x96 modules, a 240x136 camera at two stations.
 SmallSession smallSession() {
-  NominalDisplayOptions options;
-  options.preset = "demo";
-  options.modules = 6;
-  options.width = 128;
-  options.height = 96;
-  SmallSession s;
-  s.nominal = makeNominalDisplay(options);
-  GroundTruthOptions gt;
-  gt.seed = 5;
-  s.truth = makeGroundTruth(s.nominal, gt);
   CameraRigOptions rig;
   rig.stations = 2;
   rig.spanM = 1.0;
   rig.intrinsics = CameraIntrinsics::centred(240, 136, 262.0);
-  s.rig = makeSimulatedRig(s.truth, rig, 6);
-  return s;
+  return makeSmallSession(5, rig, 6);
 }
 
 SimulatedHardwareOptions modulesOf(const DisplayModel& display) {

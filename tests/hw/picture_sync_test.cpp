@@ -18,32 +18,17 @@
 #include "hw/link/socket_transport.h"
 #include "hw/simulator/calibration_physics.h"
 #include "sim_fixture.h"
+#include "small_session.h"
 
 namespace parallax::hw {
 namespace {
 
-struct Session {
-  DisplayModel nominal, truth;
-  SimulatedRig rig;
-};
-
 // Six 128x96 modules, a 320x180 camera.
-Session session() {
-  NominalDisplayOptions options;
-  options.preset = "demo";
-  options.modules = 6;
-  options.width = 128;
-  options.height = 96;
-  Session s;
-  s.nominal = makeNominalDisplay(options);
-  GroundTruthOptions gt;
-  gt.seed = 11;
-  s.truth = makeGroundTruth(s.nominal, gt);
+SmallSession session() {
   CameraRigOptions rig;
   rig.stations = 1;
   rig.intrinsics = CameraIntrinsics::centred(320, 180, 350.0);
-  s.rig = makeSimulatedRig(s.truth, rig, 4);
-  return s;
+  return makeSmallSession(11, rig, 4);
 }
 
 // A camera whose pictures come out `lag` captures late, as from a queue of frames; with
@@ -93,7 +78,7 @@ SimulatedHardwareOptions modulesOf(const DisplayModel& display) {
   return o;
 }
 
-CalibrationCaptures capture(const Session& s, int lag, bool autoExposure,
+CalibrationCaptures capture(const SmallSession& s, int lag, bool autoExposure,
                             const CalibrationCaptureOptions& options, CaptureSyncStats* stats) {
   InProcessSimhw sim(modulesOf(s.truth),
                      std::make_unique<CalibrationPhysics>(s.truth, s.rig.truth));
@@ -106,7 +91,7 @@ CalibrationCaptures capture(const Session& s, int lag, bool autoExposure,
 double meanAbsDifference(const cv::Mat& a, const cv::Mat& b) { return cv::mean(cv::abs(a - b))[0]; }
 
 TEST(PictureSync, LatePicturesAreRetakenNeverRecordedAsTheNextFrame) {
-  const Session s = session();
+  const SmallSession s = session();
   CaptureSyncStats onTime;
   const CalibrationCaptures reference = capture(s, 0, false, {}, &onTime);
   EXPECT_EQ(onTime.retaken, 0);
@@ -139,7 +124,7 @@ TEST(PictureSync, LatePicturesAreRetakenNeverRecordedAsTheNextFrame) {
 }
 
 TEST(PictureSync, AutoExposureIsRefusedUnlessAllowedThenMeasuredInEachPicture) {
-  const Session s = session();
+  const SmallSession s = session();
   try {
     capture(s, 1, true, {}, nullptr);
     ADD_FAILURE() << "a camera that does not lock was used";

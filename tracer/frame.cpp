@@ -27,10 +27,6 @@ std::uint8_t srgb8FromLinear(float linear) {
   return static_cast<std::uint8_t>(std::lround(encoded * 255.0f));
 }
 
-float linearFromSrgb(float encoded) {
-  return encoded <= 0.04045f ? encoded / 12.92f : std::pow((encoded + 0.055f) / 1.055f, 2.4f);
-}
-
 Frame frameFromSrgb8(int width, int height, const std::vector<std::uint8_t>& rgb) {
   if (width < 0 || height < 0 ||
       rgb.size() != static_cast<size_t>(width) * static_cast<size_t>(height) * 3) {

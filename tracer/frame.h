@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "calibration/display/srgb_transfer.h"  // linearFromSrgb
 #include "tracer/scene.h"
 
 namespace parallax {
@@ -32,7 +33,6 @@ struct Frame {
 };
 
 std::uint8_t srgb8FromLinear(float linear);
-float linearFromSrgb(float encoded);  // encoded in [0, 1]
 
 // What a module shows of 8-bit sRGB bytes (RGB RGB ..., row-major), back in linear light.
 // Throws std::invalid_argument when the byte count is not width × height × 3.

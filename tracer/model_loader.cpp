@@ -17,6 +17,7 @@
 #include <limits>
 #include <map>
 
+#include "calibration/display/srgb_transfer.h"
 #include "common/input_error.h"
 #include "tracer/scene_fixtures.h"
 
@@ -38,10 +39,6 @@ Eigen::Matrix4d toEigen(const aiMatrix4x4& m) {
   return out;
 }
 
-float srgbToLinear(float c) {
-  return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
-}
-
 // A texture stored inside the model file (glTF binary, FBX): decoded through OpenImageIO from
 // memory into an inline Texture. Returns false with `error` set when it cannot be decoded.
 bool decodeEmbedded(const aiTexture& embedded, Texture* out, std::string* error) {
@@ -57,9 +54,9 @@ bool decodeEmbedded(const aiTexture& embedded, Texture* out, std::string* error)
     out->pixels.resize(count * 3);
     for (size_t i = 0; i < count; ++i) {
       const aiTexel& t = embedded.pcData[i];
-      out->pixels[3 * i] = srgbToLinear(t.r / 255.0f);
-      out->pixels[3 * i + 1] = srgbToLinear(t.g / 255.0f);
-      out->pixels[3 * i + 2] = srgbToLinear(t.b / 255.0f);
+      out->pixels[3 * i] = linearFromSrgb(t.r / 255.0f);
+      out->pixels[3 * i + 1] = linearFromSrgb(t.g / 255.0f);
+      out->pixels[3 * i + 2] = linearFromSrgb(t.b / 255.0f);
     }
     return true;
   }
@@ -90,7 +87,7 @@ bool decodeEmbedded(const aiTexture& embedded, Texture* out, std::string* error)
     for (size_t c = 0; c < 3; ++c) {
       const float v = data[i * static_cast<size_t>(spec.nchannels) + (spec.nchannels >= 3 ? c : 0)];
       const float clean = std::isfinite(v) ? std::max(v, 0.0f) : 0.0f;
-      out->pixels[3 * i + c] = decode ? srgbToLinear(clean) : clean;
+      out->pixels[3 * i + c] = decode ? linearFromSrgb(clean) : clean;
     }
   }
   return true;

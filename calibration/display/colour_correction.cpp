@@ -7,6 +7,7 @@
 
 #include "calibration/display/json_fields.h"
 #include "calibration/display/json_file.h"
+#include "calibration/display/srgb_transfer.h"
 #include "common/atomic_file.h"
 #include "common/input_error.h"
 
@@ -19,10 +20,6 @@ using nlohmann::json;
 constexpr const char* kFormatName = "parallax-photometry";
 constexpr int kFormatVersion = 1;
 constexpr int kMaxGainNodes = 64;  // per side: a low-resolution map, never an image
-
-float srgbDecode(float encoded) {
-  return encoded <= 0.04045f ? encoded / 12.92f : std::pow((encoded + 0.055f) / 1.055f, 2.4f);
-}
 
 json vectorJson(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 json vectorJson(const Eigen::Vector3f& v) { return {v.x(), v.y(), v.z()}; }
@@ -38,7 +35,7 @@ ModuleColourCorrection ModuleColourCorrection::srgbIdentity() {
   ModuleColourCorrection c;
   for (auto& channel : c.response) {
     for (int k = 0; k < 256; ++k)
-      channel[static_cast<size_t>(k)] = srgbDecode(static_cast<float>(k) / 255.0f);
+      channel[static_cast<size_t>(k)] = linearFromSrgb(static_cast<float>(k) / 255.0f);
   }
   return c;
 }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
 #include "calibration/display/ray_function.h"
@@ -51,6 +52,36 @@ double screenHeightOfRow(const DisplayModel& nominal, int module, double v) {
   const PixelRay ray = rays.at(0.5 * nominal.modules[static_cast<size_t>(module)].width, v);
   return ray.valid() ? ray.screenPoint.y() : std::nan("");
 }
+
+// Numbers the runs of neighbouring columns (gaps of at most two) and leaves out those of
+// under three columns: too narrow to tell a module's light from a stray column.
+void assignStripes(SyncGeometry* g) {
+  std::vector<int> stripe(g->columns.size(), 0);
+  int current = 0;
+  for (size_t i = 1; i < g->columns.size(); ++i) {
+    if (g->columns[i] - g->columns[i - 1] > 3) ++current;
+    stripe[i] = current;
+  }
+  std::vector<int> size(static_cast<size_t>(current) + 1, 0);
+  for (int s : stripe) ++size[static_cast<size_t>(s)];
+  SyncGeometry kept;
+  std::vector<int> renumbered(size.size(), -1);
+  int next = 0;
+  for (size_t i = 0; i < g->columns.size(); ++i) {
+    const size_t s = static_cast<size_t>(stripe[i]);
+    if (size[s] < 3) continue;
+    if (renumbered[s] < 0) renumbered[s] = next++;
+    kept.columns.push_back(g->columns[i]);
+    kept.stripe.push_back(renumbered[s]);
+    kept.bandTop.push_back(g->bandTop[i]);
+    kept.whiteTop.push_back(g->whiteTop[i]);
+    kept.pxPerRow.push_back(g->pxPerRow[i]);
+    kept.patternPx.push_back(g->patternPx[i]);
+  }
+  *g = std::move(kept);
+}
+
+int stripeCount(const SyncGeometry& g) { return g.stripe.empty() ? 0 : g.stripe.back() + 1; }
 
 }  // namespace
 
@@ -210,6 +241,7 @@ std::optional<SyncGeometry> syncGeometryFromWhite(const cv::Mat& linear,
     *why = "no bright area where the screen should be";
     return std::nullopt;
   }
+  assignStripes(&g);
   if (g.columns.size() < std::max<size_t>(8, static_cast<size_t>(considered) / 4)) {
     *why = fmt::format(
         "not a white reference: {} of {} lit columns have no dark band of the code's height "
@@ -220,8 +252,28 @@ std::optional<SyncGeometry> syncGeometryFromWhite(const cv::Mat& linear,
   return g;
 }
 
+std::optional<std::string> whitesDiffer(const cv::Mat& first, const cv::Mat& second) {
+  if (first.size() != second.size()) return std::string("the pictures differ in size");
+  double brightest = 0.0;
+  cv::minMaxLoc(first, nullptr, &brightest);
+  if (!(brightest > 0.0)) return std::string("the first picture is dark");
+  const cv::Mat lit = first > 0.5 * brightest;
+  const double a = cv::mean(first, lit)[0], b = cv::mean(second, lit)[0];
+  if (!(b > 0.0)) return std::string("the second picture is dark where the first is lit");
+  cv::Mat difference;
+  cv::GaussianBlur(first - second * (a / b), difference, cv::Size(7, 7), 0.0);
+  const cv::Mat differs = cv::abs(difference) > 0.15 * brightest;
+  const double share =
+      static_cast<double>(cv::countNonZero(differs)) / static_cast<double>(first.total());
+  if (share <= 0.002) return std::nullopt;
+  return fmt::format("the two differ over {:.1f}% of the picture", 100.0 * share);
+}
+
 std::string SyncReading::describe() const {
   if (code) return fmt::format("code {} ({:.0f}% of the columns)", *code, 100.0 * agreement);
+  if (!staleStripe.empty())
+    return fmt::format("torn: most columns agree, but {} (a module still shows another frame)",
+                       staleStripe);
   return fmt::format("no code ({:.0f}% of the columns readable, {:.0f}% agreeing)",
                      100.0 * readable, 100.0 * agreement);
 }
@@ -232,12 +284,16 @@ SyncReading readSyncCode(const cv::Mat& linear, const SyncGeometry& geometry,
   if (geometry.columns.empty()) return reading;
   std::vector<int> votes(SyncCodeLayout::kCodes, 0);
   std::vector<double> exposures;
+  // Per column: its code; kMixed where the cells are lit alike (two modules' bands meet there),
+  // kDark where none is lit (a module still on a frame whose band is dark).
+  constexpr int kMixed = -1, kDark = -2;
+  std::vector<int> read(geometry.columns.size(), kMixed);
   int readable = 0;
   for (size_t i = 0; i < geometry.columns.size(); ++i) {
     int code = 0;
     bool ok = true;
-    double lit = 0.0;
-    for (int b = 0; b < SyncCodeLayout::kBits && ok; ++b) {
+    double lit = 0.0, brightest = 0.0;
+    for (int b = 0; b < SyncCodeLayout::kBits; ++b) {
       const auto [a0, a1] = cellRange(geometry, i, layout, 2 * b);
       const auto [b0, b1] = cellRange(geometry, i, layout, 2 * b + 1);
       const double one = columnMean(linear, geometry.columns[i], a0, a1);
@@ -247,9 +303,14 @@ SyncReading readSyncCode(const cv::Mat& linear, const SyncGeometry& geometry,
       if (!(hi > 0.0) || lo > 0.5 * hi) ok = false;
       if (one > zero) code |= 1 << b;
       lit += hi;
+      brightest = std::max(brightest, hi);
     }
-    if (!ok) continue;
+    if (!ok) {
+      if (brightest < 0.3 * geometry.whiteTop[i]) read[i] = kDark;
+      continue;
+    }
     ++readable;
+    read[i] = code;
     ++votes[static_cast<size_t>(code)];
     if (geometry.whiteTop[i] > 0.0f)
       exposures.push_back(lit / SyncCodeLayout::kBits / geometry.whiteTop[i]);
@@ -258,34 +319,75 @@ SyncReading readSyncCode(const cv::Mat& linear, const SyncGeometry& geometry,
   const int columns = static_cast<int>(geometry.columns.size());
   reading.readable = static_cast<double>(readable) / columns;
   reading.agreement = readable > 0 ? static_cast<double>(*best) / readable : 0.0;
-  if (readable >= std::max(8, columns / 4) && reading.agreement >= 0.9) {
-    reading.code = static_cast<int>(best - votes.begin());
-    reading.exposure = median(exposures);
+  if (readable < std::max(8, columns / 4) || reading.agreement < 0.9) return reading;
+  const int code = static_cast<int>(best - votes.begin());
+  const int stripes = stripeCount(geometry);
+  // Per stripe: the columns that show another frame (another code, or a dark band), by what
+  // they show (index 0: dark, 1 + c: code c).
+  std::vector<int> size(static_cast<size_t>(stripes), 0);
+  std::vector<std::vector<int>> others(size.size(), std::vector<int>(SyncCodeLayout::kCodes + 1));
+  for (size_t i = 0; i < geometry.columns.size(); ++i) {
+    const size_t s = static_cast<size_t>(geometry.stripe[i]);
+    ++size[s];
+    if (read[i] == kDark) ++others[s][0];
+    if (read[i] >= 0 && read[i] != code) ++others[s][static_cast<size_t>(read[i] + 1)];
   }
+  for (size_t s = 0; s < size.size(); ++s) {
+    int stale = 0;
+    for (int n : others[s]) stale += n;
+    if (stale < std::max(3, (size[s] + 2) / 3)) continue;
+    const auto most = std::max_element(others[s].begin(), others[s].end()) - others[s].begin();
+    const auto first =
+        std::find(geometry.stripe.begin(), geometry.stripe.end(), static_cast<int>(s));
+    const auto last =
+        std::find(geometry.stripe.rbegin(), geometry.stripe.rend(), static_cast<int>(s));
+    reading.staleStripe =
+        fmt::format("columns {}..{} read {}",
+                    geometry.columns[static_cast<size_t>(first - geometry.stripe.begin())],
+                    geometry.columns[geometry.columns.size() - 1 -
+                                     static_cast<size_t>(last - geometry.stripe.rbegin())],
+                    most == 0 ? std::string("a dark band") : fmt::format("code {}", most - 1));
+    return reading;
+  }
+  reading.code = code;
+  reading.exposure = median(exposures);
   return reading;
 }
 
 bool looksBlack(const cv::Mat& linear, const SyncGeometry& geometry, const SyncCodeLayout& layout,
                 const SyncPrediction& prediction, double fraction) {
   if (geometry.columns.empty()) return false;
-  int black = 0;
+  std::vector<int> lit(static_cast<size_t>(stripeCount(geometry)), 0), size(lit.size(), 0);
+  int litColumns = 0;
   for (size_t i = 0; i < geometry.columns.size(); ++i) {
     const double white = geometry.whiteTop[i];
-    bool dark = true;
-    for (int c = 0; c < layout.codeCells() && dark; ++c) {
+    // The band's cells, then the pattern area in eight slices from its top to its bottom: a
+    // column is lit when most of its band or most of its pattern area is (a fiducial or a glint
+    // lights a spot, a module still on the white reference all of it).
+    int litCells = 0, litSlices = 0;
+    for (int c = 0; c < layout.codeCells(); ++c) {
       const auto [y0, y1] = cellRange(geometry, i, layout, c);
-      dark = columnMean(linear, geometry.columns[i], y0, y1) < fraction * white;
+      if (columnMean(linear, geometry.columns[i], y0, y1) >= fraction * white) ++litCells;
     }
-    // The pattern area, in eight slices from its top to its bottom.
     const double top = geometry.bandTop[i] + layout.bandRows() * geometry.pxPerRow[i];
     const double slice = prediction.patternPx[static_cast<size_t>(geometry.columns[i])] / 8.0;
-    for (int s = 0; s < 8 && dark; ++s) {
-      dark = columnMean(linear, geometry.columns[i], top + (s + 0.25) * slice,
-                        top + (s + 0.75) * slice) < fraction * white;
+    for (int s = 0; s < 8; ++s) {
+      if (columnMean(linear, geometry.columns[i], top + (s + 0.25) * slice,
+                     top + (s + 0.75) * slice) >= fraction * white)
+        ++litSlices;
     }
-    if (dark) ++black;
+    const size_t stripe = static_cast<size_t>(geometry.stripe[i]);
+    ++size[stripe];
+    if (2 * litCells > layout.codeCells() || litSlices > 4) {
+      ++lit[stripe];
+      ++litColumns;
+    }
   }
-  return black >= static_cast<int>(0.9 * geometry.columns.size());
+  if (litColumns > 0.1 * static_cast<double>(geometry.columns.size())) return false;
+  for (size_t s = 0; s < size.size(); ++s) {
+    if (lit[s] >= std::max(3, (size[s] + 2) / 3)) return false;
+  }
+  return true;
 }
 
 }  // namespace parallax

@@ -14,6 +14,13 @@
 // edge stay the only bright spots of the black picture. The references are told apart by what
 // they show (white_reference: a long bright area under a dark band; black: all dark).
 //
+// Torn pictures (modules change one at a time; a camera may expose between them): every coded
+// and black picture is checked stripe by stripe (each module of the group shows in its own
+// stripe, maybe a small share of the picture). A white reference cannot be checked alone, so
+// the capture session (hw/camera/calibration_capture.cpp) takes it again after the set and
+// compares the two (whitesDiffer), and ends each set on a coded frame, so that the next set's
+// white reference never shows a module of this one as a stripe of its own.
+//
 // Where the band lies in a picture is learned from the station's white reference, which shows
 // it as a dark gap between the bright pattern area and the strip of screen above the band, per
 // camera column through a module's stripe. The nominal display and the tape-measured station
@@ -65,6 +72,7 @@ void drawSyncCode(cv::Mat* frame, std::optional<int> code, const SyncCodeLayout&
 // Where the band lies in the camera pictures of one station and module group.
 struct SyncGeometry {
   std::vector<int> columns;      // camera columns through a module's stripe
+  std::vector<int> stripe;       // per column: its stripe (a run of neighbouring columns)
   std::vector<float> bandTop;    // per column: camera y of module row 0
   std::vector<float> whiteTop;   // per column: the white reference near the pattern's top edge
   std::vector<float> pxPerRow;   // per column: camera px per module row
@@ -74,12 +82,23 @@ struct SyncGeometry {
 // From a picture that should be a white reference (linear light, CV_32F): the columns whose
 // profile has a long bright run (at least half the predicted pattern area) under a dark band
 // of the code's height (0.6–1.6 times the predicted), under the bright strip of the screen
-// above the band. The band's height there gives the column's camera px per module row. nullopt,
-// with `why`, when the picture is not a white reference (a coded frame, dark, torn).
+// above the band. The band's height there gives the column's camera px per module row. Each
+// run of such columns is a stripe (the middle of one module's light, where no neighbour's
+// overlaps it); runs under three columns are left out. nullopt, with `why`, when the picture
+// is not a white reference (a coded frame, dark). A torn white reference (a module still on
+// the frame before) cannot be told from the picture alone, since the group's stripes overlap:
+// whitesDiffer below catches it.
 std::optional<SyncGeometry> syncGeometryFromWhite(const cv::Mat& linear,
                                                   const SyncCodeLayout& layout,
                                                   const SyncPrediction& prediction,
                                                   std::string* why);
+
+// Why two pictures of the white reference (linear light) are not of the same screen, or
+// nullopt when they are: compared at the same exposure (the second scaled to the first over
+// the lit screen), after a little blur (the sensor's noise), no more than 0.2% of the pixels
+// may differ by more than 15% of the brightest. One module still showing another frame in
+// either changes a whole stripe, several percent of the picture.
+std::optional<std::string> whitesDiffer(const cv::Mat& first, const cv::Mat& second);
 
 struct SyncReading {
   std::optional<int> code;  // the code most columns read, when they agree
@@ -88,16 +107,25 @@ struct SyncReading {
   // The lit code cells over the white reference at the same place: the picture's exposure
   // relative to the white reference's (1 for a camera whose exposure is locked).
   double exposure = 0.0;
+  // When the columns agree but one stripe does not (a module still showing another frame):
+  // which, and what it reads.
+  std::string staleStripe;
   std::string describe() const;  // "code 3 (97% of columns)", "no code (12% readable)"
 };
 
 // Reads the code of a picture (linear light) of the same station and group. A code is
-// reported when a quarter of the columns (at least 8) read one and 90% of those agree.
+// reported when a quarter of the columns (at least 8) read one, 90% of those agree, and no
+// stripe has a third of its columns (at least 3) showing another frame (another code, or a
+// dark band): a module that has not changed yet shows in its own stripe only, which may be a
+// small share of the columns. (Columns whose cells are lit alike, where two modules' bands
+// meet, say nothing.)
 SyncReading readSyncCode(const cv::Mat& linear, const SyncGeometry& geometry,
                          const SyncCodeLayout& layout);
 
 // True when the picture shows the black reference: the band and the pattern area dark next to
-// the white reference (below `fraction` of it) in most columns.
+// the white reference (below `fraction` of it): at most 10% of the columns lit, and under a
+// third of any stripe's (a column is lit when most of its band or pattern area is: fiducials
+// and glints are spots).
 bool looksBlack(const cv::Mat& linear, const SyncGeometry& geometry, const SyncCodeLayout& layout,
                 const SyncPrediction& prediction, double fraction = 0.3);
 

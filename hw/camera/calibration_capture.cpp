@@ -68,9 +68,9 @@ void CalibrationCaptureOptions::validate(const CameraMetadata& camera) const {
 
 std::string CaptureSyncStats::describe() const {
   return fmt::format(
-      "{} pictures in {:.1f} s; {} late or torn pictures retaken; settle time median {:.0f} ms, "
-      "max {:.0f} ms",
-      pictures, seconds, retaken, settleMedianMs, settleMaxMs);
+      "{} pictures in {:.1f} s; {} late or torn pictures retaken, {} pattern sets taken again "
+      "(a torn white reference); settle time median {:.0f} ms, max {:.0f} ms",
+      pictures, seconds, retaken, tornWhites, settleMedianMs, settleMaxMs);
 }
 
 cv::Mat linearPicture(const Image& picture, double responseGamma) {
@@ -157,7 +157,7 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
   using Clock = std::chrono::steady_clock;
   const auto sessionStart = Clock::now();
   std::vector<double> settleMs;
-  int retaken = 0;
+  int retaken = 0, tornWhites = 0;
   int sequence = 0;  // frames shown so far: the sync code is its residue
   const auto show = [&](const std::vector<int>& group, const std::shared_ptr<const Image>& frame,
                         const std::string& what) {
@@ -175,6 +175,129 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
     ++sequence;
   };
 
+  // Takes the picture of what `show` put up last: retaken until the sync code says it is that
+  // frame (a white reference: one with the band dark over a lit screen, its geometry stored in
+  // `*whiteGeometry`, and not a late picture of `earlierWhite`).
+  enum class Kind { kWhite, kBlack, kCoded };
+  const auto take = [&](const std::string& what, Kind kind, int code,
+                        const SyncPrediction& prediction, const SyncGeometry& geometry,
+                        SyncGeometry* whiteGeometry, const cv::Mat* earlierWhite) {
+    const auto shown = Clock::now();
+    std::string seen;
+    for (int attempt = 0;; ++attempt) {
+      if (attempt > 0) {
+        ++retaken;
+        if (std::chrono::duration<double>(Clock::now() - shown).count() > options.settleTimeoutS) {
+          throw std::runtime_error(fmt::format(
+              "{}: after {:g} s the camera still gives pictures of something else ({}); "
+              "is it aimed at the screen, with the top edge in view?",
+              what, options.settleTimeoutS, seen));
+        }
+        if (cancel && cancel->load()) throw CalibrationCancelled();
+      }
+      std::string error;
+      const Image picture = camera.capture(&error);
+      if (picture.empty()) throw std::runtime_error(fmt::format("{}: {}", what, error));
+      if (picture.width != metadata.intrinsics.width ||
+          picture.height != metadata.intrinsics.height) {
+        throw std::runtime_error(fmt::format(
+            "{}: the camera gave a {}x{} picture, its metadata says {}x{}", what, picture.width,
+            picture.height, metadata.intrinsics.width, metadata.intrinsics.height));
+      }
+      cv::Mat linear = linearPicture(picture, metadata.responseGamma);
+      if (!sync) {
+        // Too small for a code, and a camera whose pictures are never late: as taken.
+      } else if (kind == Kind::kWhite) {
+        std::string why;
+        const std::optional<SyncGeometry> g =
+            syncGeometryFromWhite(linear, layout, prediction, &why);
+        if (!g) {
+          seen = "not the white reference: " + why;
+          continue;
+        }
+        if (earlierWhite && !whitesDiffer(*earlierWhite, linear)) {
+          seen = "the white reference of the modules before";
+          continue;
+        }
+        *whiteGeometry = *g;
+      } else if (kind == Kind::kBlack) {
+        if (!looksBlack(linear, geometry, layout, prediction)) {
+          seen = "not the black reference: the band or the patterns are lit";
+          continue;
+        }
+      } else {
+        const SyncReading reading = readSyncCode(linear, geometry, layout);
+        if (reading.code != code) {
+          seen = fmt::format("{}, expected code {}", reading.describe(), code);
+          continue;
+        }
+        if (measureExposure && reading.exposure > 0.0) linear /= reading.exposure;
+      }
+      settleMs.push_back(std::chrono::duration<double, std::milli>(Clock::now() - shown).count());
+      return linear;
+    }
+  };
+
+  // One axis' patterns for one group at one station into `out`. With the sync code, the white
+  // reference is taken again at the end, until a picture agrees with the first (the first was
+  // whole) or two agree with each other and not with it (the first was torn: a module still
+  // on the frame before, which no later picture was checked against): false, to take the
+  // axis again.
+  const auto takeAxis = [&](const std::vector<int>& group, const std::vector<cv::Mat>& patterns,
+                            const std::string& axis, int station, const SyncPrediction& prediction,
+                            const cv::Mat* earlierWhite, std::vector<cv::Mat>* out,
+                            std::string* torn) {
+    out->clear();
+    SyncGeometry geometry;
+    for (size_t f = 0; f < patterns.size(); ++f) {
+      if (cancel && cancel->load()) throw CalibrationCancelled();
+      const std::string what = fmt::format("station {}, {} pattern {}", station, axis, f);
+      // makePatternFrames' order: white, black, then the coded frames.
+      const Kind kind = f == 0 ? Kind::kWhite : f == 1 ? Kind::kBlack : Kind::kCoded;
+      const int code = sequence % SyncCodeLayout::kCodes;
+      cv::Mat pattern = patterns[f].clone();
+      if (sync) {
+        drawSyncCode(&pattern, kind == Kind::kCoded ? std::optional<int>(code) : std::nullopt,
+                     layout);
+      }
+      show(group, moduleFrame(pattern, format), what);
+      out->push_back(take(what, kind, code, prediction, geometry, &geometry, earlierWhite));
+      if (progress) progress(done + static_cast<int>(out->size()), total);
+    }
+    if (!sync) return true;
+    const std::string what = fmt::format("station {}, {} white reference again", station, axis);
+    cv::Mat white = patterns[0].clone();
+    drawSyncCode(&white, std::nullopt, layout);
+    show(group, moduleFrame(white, format), what);
+    cv::Mat previous;
+    for (int attempt = 0;; ++attempt) {
+      SyncGeometry unused;
+      const cv::Mat again = take(what, Kind::kWhite, 0, prediction, geometry, &unused, nullptr);
+      const std::optional<std::string> differs = whitesDiffer(out->front(), again);
+      if (!differs) break;
+      if (!previous.empty() && !whitesDiffer(previous, again)) {
+        *torn = *differs;
+        return false;
+      }
+      if (attempt > 0) ++retaken;
+      if (attempt >= 50) {
+        throw std::runtime_error(fmt::format(
+            "{}: the camera's pictures of the white reference keep changing ({})", what, *differs));
+      }
+      previous = again;
+    }
+    // The modules leave on their white with the band lit, taken like a coded frame: the
+    // pictures of the next white reference that still show one of these modules show it lit,
+    // never as a stripe of the group after.
+    const int code = sequence % SyncCodeLayout::kCodes;
+    drawSyncCode(&white, code, layout);
+    const std::string closing = fmt::format("station {}, {} patterns done", station, axis);
+    show(group, moduleFrame(white, format), closing);
+    take(closing, Kind::kCoded, code, prediction, geometry, nullptr, nullptr);
+    return true;
+  };
+
+  cv::Mat lastWhite;
   for (int station : stations) {
     if (options.beforeStation) options.beforeStation(station);
     camera.setStation(station);
@@ -185,85 +308,34 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
       StationCaptures set;
       set.station = station;
       set.group = group;
-      SyncGeometry geometry;
       for (auto [patterns, out, axis] : {std::tuple{&columnPatterns, &set.columnFrames, "column"},
                                          std::tuple{&rowPatterns, &set.rowFrames, "row"}}) {
-        for (size_t f = 0; f < patterns->size(); ++f) {
-          if (cancel && cancel->load()) throw CalibrationCancelled();
-          const std::string what = fmt::format("station {}, {} pattern {}", station, axis, f);
-          // makePatternFrames' order: white, black, then the coded frames.
-          const bool white = f == 0, black = f == 1;
-          const int code = sequence % SyncCodeLayout::kCodes;
-          cv::Mat pattern = (*patterns)[f].clone();
-          if (sync)
-            drawSyncCode(&pattern, white || black ? std::nullopt : std::optional<int>(code),
-                         layout);
-          show(group, moduleFrame(pattern, format), what);
-          const auto shown = Clock::now();
-          std::string seen;
-          cv::Mat linear;
-          for (int attempt = 0;; ++attempt) {
-            if (attempt > 0) {
-              ++retaken;
-              if (std::chrono::duration<double>(Clock::now() - shown).count() >
-                  options.settleTimeoutS) {
-                throw std::runtime_error(fmt::format(
-                    "{}: after {:g} s the camera still gives pictures of something else ({}); "
-                    "is it aimed at the screen, with the top edge in view?",
-                    what, options.settleTimeoutS, seen));
-              }
-              if (cancel && cancel->load()) throw CalibrationCancelled();
-            }
-            std::string error;
-            const Image picture = camera.capture(&error);
-            if (picture.empty()) throw std::runtime_error(fmt::format("{}: {}", what, error));
-            if (picture.width != metadata.intrinsics.width ||
-                picture.height != metadata.intrinsics.height) {
-              throw std::runtime_error(fmt::format(
-                  "station {}: the camera gave a {}x{} picture, its metadata says {}x{}", station,
-                  picture.width, picture.height, metadata.intrinsics.width,
-                  metadata.intrinsics.height));
-            }
-            linear = linearPicture(picture, metadata.responseGamma);
-            if (!sync) {
-              // Too small for a code, and a camera whose pictures are never late: as taken.
-            } else if (white) {
-              std::string why;
-              const std::optional<SyncGeometry> g =
-                  syncGeometryFromWhite(linear, layout, prediction, &why);
-              if (!g) {
-                seen = "not the white reference: " + why;
-                continue;
-              }
-              geometry = *g;
-            } else if (black) {
-              if (!looksBlack(linear, geometry, layout, prediction)) {
-                seen = "not the black reference: the band or the patterns are lit";
-                continue;
-              }
-            } else {
-              const SyncReading reading = readSyncCode(linear, geometry, layout);
-              if (reading.code != code) {
-                seen = fmt::format("{}, expected code {}", reading.describe(), code);
-                continue;
-              }
-              if (measureExposure && reading.exposure > 0.0) linear /= reading.exposure;
-            }
-            settleMs.push_back(
-                std::chrono::duration<double, std::milli>(Clock::now() - shown).count());
-            break;
+        // A new group's first white reference must not be a late picture of the last one.
+        const cv::Mat* earlierWhite =
+            patterns == &columnPatterns && !lastWhite.empty() ? &lastWhite : nullptr;
+        std::string torn;
+        for (int pass = 0;
+             !takeAxis(group, *patterns, axis, station, prediction, earlierWhite, out, &torn);
+             ++pass) {
+          ++tornWhites;
+          if (pass == 2) {
+            throw std::runtime_error(fmt::format(
+                "station {}, {} patterns: the white reference was torn three times ({}): a "
+                "module keeps changing while the camera takes it",
+                station, axis, torn));
           }
-          out->push_back(std::move(linear));
-          ++done;
-          if (progress) progress(done, total);
         }
+        done += static_cast<int>(patterns->size());
+        if (sync) lastWhite = out->front();
       }
+
       captures.stations.push_back(std::move(set));
     }
   }
   if (stats) {
     stats->pictures = static_cast<int>(settleMs.size());
     stats->retaken = retaken;
+    stats->tornWhites = tornWhites;
     if (!settleMs.empty()) {
       std::vector<double> sorted = settleMs;
       std::sort(sorted.begin(), sorted.end());

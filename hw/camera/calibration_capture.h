@@ -47,8 +47,9 @@ struct CalibrationCaptureOptions {
 
 // How the camera kept up: every picture is checked against the frame shown (sync_code.h).
 struct CaptureSyncStats {
-  int pictures = 0;  // accepted
-  int retaken = 0;   // pictures of another frame (late, torn), taken again
+  int pictures = 0;    // accepted
+  int retaken = 0;     // pictures of another frame (late, torn), taken again
+  int tornWhites = 0;  // pattern sets taken again: their white reference proved torn
   // From the frame's delivery to the modules to its first accepted picture.
   double settleMedianMs = 0.0, settleMaxMs = 0.0;
   double seconds = 0.0;          // the whole session

@@ -381,7 +381,8 @@ bool LinkClient::reconnect(const std::string& why) {
 }
 
 bool LinkClient::request(PacketType type, uint16_t module, std::span<const uint8_t> body,
-                         std::initializer_list<PacketType> answers, ReceivedPacket* reply) {
+                         std::initializer_list<PacketType> answers, ReceivedPacket* reply,
+                         int timeoutMs) {
   // A link that drops under a request (a disconnect fault firing, a device replugged) gets one
   // reconnect and one more try; a request that simply goes unanswered does not.
   for (int attempt = 0; attempt < 2; ++attempt) {
@@ -394,7 +395,8 @@ bool LinkClient::request(PacketType type, uint16_t module, std::span<const uint8
       if (!reconnect("sending a request failed")) return false;
       continue;
     }
-    const auto deadline = Clock::now() + std::chrono::milliseconds(options_.ackTimeoutMs);
+    const auto deadline =
+        Clock::now() + std::chrono::milliseconds(timeoutMs > 0 ? timeoutMs : options_.ackTimeoutMs);
     bool dropped = false;
     while (!dropped) {
       for (auto it = inbox_.begin(); it != inbox_.end(); ++it) {
@@ -452,7 +454,7 @@ Image LinkClient::capture(int viewModule, const CaptureRequest& settings) {
   const std::vector<uint8_t> body = encodeCaptureRequest(r);
   ReceivedPacket reply;
   if (!request(PacketType::kCaptureRequest, kCameraModule, body,
-               {PacketType::kCaptureReply, PacketType::kAck}, &reply) ||
+               {PacketType::kCaptureReply, PacketType::kAck}, &reply, options_.captureTimeoutMs) ||
       reply.header.type != PacketType::kCaptureReply) {
     return {};
   }

@@ -31,8 +31,11 @@ struct LinkOptions {
   uint32_t chunkSize = 1u << 20;  // clamped to what the device accepts
   int windowFrames = 8;           // frames sent but not yet acknowledged
   int ackTimeoutMs = 2000;        // per attempt
-  int maxRetries = 3;             // attempts = 1 + maxRetries
-  int keepAliveMs = 1000;         // idle time after which the link is probed before sending
+  // A camera picture takes the camera's time (a DSLR exposes for seconds; the simulator first
+  // builds its view from a new station): its reply is waited for this long.
+  int captureTimeoutMs = 30000;
+  int maxRetries = 3;      // attempts = 1 + maxRetries
+  int keepAliveMs = 1000;  // idle time after which the link is probed before sending
   int reconnectAttempts = 5;
   int reconnectDelayMs = 50;  // doubled after each failed attempt
   // After reconnecting failed, frames fail at once ("link down") for this long before the
@@ -142,8 +145,9 @@ class LinkClient {
   void prune();
   // Sends a small control packet and waits for a packet of one of `answers` types with the
   // same sequence number.
+  // Waits `timeoutMs` for the answer (0: ackTimeoutMs).
   bool request(PacketType type, uint16_t module, std::span<const uint8_t> body,
-               std::initializer_list<PacketType> answers, ReceivedPacket* reply);
+               std::initializer_list<PacketType> answers, ReceivedPacket* reply, int timeoutMs = 0);
   uint32_t nextSequence() { return ++sequence_; }
 
   std::unique_ptr<LinkTransport> transport_;

@@ -4,10 +4,14 @@
 // without auto exposure. Every late picture is retaken, none recorded as the frame after it;
 // with auto exposure each coded picture is brought to the white reference's exposure.
 
+#include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <deque>
+#include <mutex>
+#include <opencv2/imgproc.hpp>
 
 #include "calibration/display/display_presets.h"
 #include "calibration/simulation/ground_truth.h"
@@ -121,6 +125,96 @@ TEST(PictureSync, LatePicturesAreRetakenNeverRecordedAsTheNextFrame) {
   EXPECT_GT(meanAbsDifference(reference.stations[0].columnFrames[3],
                               reference.stations[0].columnFrames[4]),
             0.02);
+}
+
+// A camera that photographs the modules while they change: the link updates them one at a
+// time, and this camera exposes after each single module's update, so its pictures show every
+// intermediate state (some modules on the new frame, the rest still on the old one) in order
+// before the complete one. A real camera does this whenever its exposure straddles the
+// modules' updates.
+class TornCamera : public Camera {
+ public:
+  // With `tear` false, every picture shows the screen as it is now (the reference).
+  TornCamera(SimulatedHardware& hardware, const SmallSession& s, bool tear)
+      : hardware_(hardware), physics_(s.truth, s.rig.truth), tear_(tear) {
+    hardware_.setOnShown([this] {  // the server's thread, after each module's frame
+      std::vector<Image> state;
+      for (int m = 0; m < hardware_.moduleCount(); ++m) state.push_back(hardware_.shownFrame(m));
+      std::lock_guard<std::mutex> lock(mutex_);
+      states_.push_back(std::move(state));
+    });
+  }
+  ~TornCamera() override { hardware_.setOnShown({}); }
+  std::string name() const override { return "torn camera"; }
+  CameraLockResult lock(const CameraSettings&) override { return {true, {}}; }
+  void unlock() override {}
+  Image capture(std::string* error) override {
+    std::vector<Image> state;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (states_.empty()) {
+        *error = "nothing shown yet";
+        return {};
+      }
+      if (!tear_) states_.erase(states_.begin(), states_.end() - 1);
+      state = states_.front();
+      if (states_.size() > 1) states_.pop_front();  // the newest stays: what the screen shows
+    }
+    std::vector<const Image*> frames;
+    for (const Image& f : state) frames.push_back(f.empty() ? nullptr : &f);
+    return physics_.render(frames, 0, station(), CameraSettings{});
+  }
+
+ private:
+  SimulatedHardware& hardware_;
+  CalibrationPhysics physics_;
+  bool tear_;
+  std::mutex mutex_;
+  std::deque<std::vector<Image>> states_;
+};
+
+// The share of the pixels the decoder uses (lit in the reference's white, dark in its black)
+// that differ from the reference's by more than the sensor's noise does after a little blur: a
+// module showing another frame lights or darkens a whole stripe. (The sync band is left out:
+// the decoder never reads it, and a set taken again carries other codes there.)
+double differingShare(const cv::Mat& got, const cv::Mat& want, const std::vector<cv::Mat>& set) {
+  const cv::Mat used = set[0] - set[1] > 0.1;
+  cv::Mat difference;
+  cv::GaussianBlur(got - want, difference, cv::Size(7, 7), 0.0);
+  const cv::Mat differs = (cv::abs(difference) > 0.15) & used;
+  return static_cast<double>(cv::countNonZero(differs)) / std::max(1, cv::countNonZero(used));
+}
+
+CalibrationCaptures captureTorn(const SmallSession& s, bool tear, CaptureSyncStats* stats) {
+  InProcessSimhw sim(modulesOf(s.truth),
+                     std::make_unique<CalibrationPhysics>(s.truth, s.rig.truth));
+  TornCamera camera(sim.hardware(), s, tear);
+  LinkClient link(std::make_unique<SocketTransport>(sim.path()));
+  return captureCalibration(link, camera, s.nominal, s.rig.metadata, {}, {}, nullptr, stats);
+}
+
+TEST(PictureSync, PicturesOfModulesStillChangingAreRetakenForEveryModule) {
+  const SmallSession s = session();
+  CaptureSyncStats onTime, stats;
+  const CalibrationCaptures reference = captureTorn(s, false, &onTime);
+  EXPECT_EQ(onTime.retaken, 0);
+  const CalibrationCaptures torn = captureTorn(s, true, &stats);
+  // Most frames change several modules at once, so most were photographed half-changed first.
+  EXPECT_GE(stats.retaken, stats.pictures / 2);
+  ASSERT_EQ(torn.stations.size(), reference.stations.size());
+  for (size_t i = 0; i < torn.stations.size(); ++i) {
+    for (auto [got, want, axis] :
+         {std::tuple{&torn.stations[i].columnFrames, &reference.stations[i].columnFrames, "column"},
+          std::tuple{&torn.stations[i].rowFrames, &reference.stations[i].rowFrames, "row"}}) {
+      ASSERT_EQ(got->size(), want->size());
+      for (size_t f = 0; f < want->size(); ++f) {
+        EXPECT_LT(differingShare((*got)[f], (*want)[f], *want), 0.001)
+            << "set " << i << " (modules "
+            << fmt::format("{}", fmt::join(torn.stations[i].group, ",")) << "), " << axis
+            << " frame " << f;
+      }
+    }
+  }
 }
 
 TEST(PictureSync, AutoExposureIsRefusedUnlessAllowedThenMeasuredInEachPicture) {

@@ -361,24 +361,28 @@ bool looksBlack(const cv::Mat& linear, const SyncGeometry& geometry, const SyncC
   int litColumns = 0;
   for (size_t i = 0; i < geometry.columns.size(); ++i) {
     const double white = geometry.whiteTop[i];
-    // The band's cells, then the pattern area in eight slices from its top to its bottom: a
-    // column is lit when most of its band or most of its pattern area is (a fiducial or a glint
-    // lights a spot, a module still on the white reference all of it).
-    int litCells = 0, litSlices = 0;
+    // The pattern area in eight slices from its top to its bottom, each against the band (dark
+    // in the black and the white reference alike, so an automatic exposure's ambient light
+    // cancels): a column is lit when most of its pattern area is (a module still on the white
+    // reference lights all of it, a fiducial or a glint a spot).
+    double band = 0.0;
     for (int c = 0; c < layout.codeCells(); ++c) {
       const auto [y0, y1] = cellRange(geometry, i, layout, c);
-      if (columnMean(linear, geometry.columns[i], y0, y1) >= fraction * white) ++litCells;
+      band += columnMean(linear, geometry.columns[i], y0, y1) / layout.codeCells();
     }
     const double top = geometry.bandTop[i] + layout.bandRows() * geometry.pxPerRow[i];
     const double slice = prediction.patternPx[static_cast<size_t>(geometry.columns[i])] / 8.0;
+    int litSlices = 0;
     for (int s = 0; s < 8; ++s) {
       if (columnMean(linear, geometry.columns[i], top + (s + 0.25) * slice,
-                     top + (s + 0.75) * slice) >= fraction * white)
+                     top + (s + 0.75) * slice) -
+              band >=
+          fraction * white)
         ++litSlices;
     }
     const size_t stripe = static_cast<size_t>(geometry.stripe[i]);
     ++size[stripe];
-    if (2 * litCells > layout.codeCells() || litSlices > 4) {
+    if (litSlices > 4) {
       ++lit[stripe];
       ++litColumns;
     }

@@ -123,9 +123,9 @@ SyncReading readSyncCode(const cv::Mat& linear, const SyncGeometry& geometry,
                          const SyncCodeLayout& layout);
 
 // True when the picture shows the black reference: the band and the pattern area dark next to
-// the white reference (below `fraction` of it): at most 10% of the columns lit, and under a
-// third of any stripe's (a column is lit when most of its band or pattern area is: fiducials
-// and glints are spots).
+// the white reference (above the band by under `fraction` of it): at most 10% of the columns
+// lit, and under a third of any stripe's (a column is lit when most of its pattern area is:
+// fiducials and glints are spots).
 bool looksBlack(const cv::Mat& linear, const SyncGeometry& geometry, const SyncCodeLayout& layout,
                 const SyncPrediction& prediction, double fraction = 0.3);
 

@@ -2,6 +2,7 @@
 
 #include <immintrin.h>
 
+#include <Eigen/LU>
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -26,6 +27,10 @@ ModuleEncoder::ModuleEncoder(const ModuleColourCorrection& correction, int width
     : correction_(correction), width_(width), height_(height), useAvx2_(allowAvx2) {
   correction_.validate();
   PARALLAX_CHECK(width > 0 && height > 0);
+  // A singular matrix has no content to go back to: decode shows black there (the fit never
+  // gives one; a hand-made file might).
+  const Eigen::FullPivLU<Eigen::Matrix3f> lu(correction_.driveFromContent);
+  contentFromDrive_ = lu.isInvertible() ? Eigen::Matrix3f(lu.inverse()) : Eigen::Matrix3f::Zero();
   // Nearest code in light: code k wins from halfway between its light and the previous code's.
   thresholds_.assign(3 * kStride, std::numeric_limits<float>::infinity());
   for (int c = 0; c < 3; ++c) {
@@ -306,6 +311,29 @@ std::vector<std::uint8_t> ModuleEncoder::encode(const Frame& frame) const {
         o[3 * i + 2] =
             static_cast<std::uint8_t>(blue + (drive[2][i] >= thresholds[2 * kStride + blue + 1]));
       }
+    }
+  }
+  return out;
+}
+
+Frame ModuleEncoder::decode(const std::vector<std::uint8_t>& bytes) const {
+  PARALLAX_CHECK_OP(bytes.size(), ==,
+                    static_cast<size_t>(width_) * static_cast<size_t>(height_) * 3);
+  Frame out(width_, height_);
+  for (int y = 0; y < height_; ++y) {
+    const RowGain g = rowGain(y);
+    for (int x = 0; x < width_; ++x) {
+      const size_t p =
+          static_cast<size_t>(y) * static_cast<size_t>(width_) + static_cast<size_t>(x);
+      Eigen::Vector3f drive;
+      for (int c = 0; c < 3; ++c)
+        drive[c] =
+            correction_.response[static_cast<size_t>(c)][bytes[3 * p + static_cast<size_t>(c)]];
+      // drive = (M · content + lift) · gain − black  ⇒  content = M⁻¹ ((drive + black) / gain −
+      // lift)
+      const Eigen::Vector3f content =
+          contentFromDrive_ * ((drive + correction_.blackDrive) / g.at(x) - correction_.lift);
+      out.pixels[p] = content.cwiseMax(0.0f);
     }
   }
   return out;

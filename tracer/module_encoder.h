@@ -30,6 +30,12 @@ class ModuleEncoder {
   // The same bytes by the definition (nearest code by search, no tables): the test's reference.
   std::vector<std::uint8_t> encodeReference(const Frame& frame) const;
 
+  // The content (target space) the module shows for `bytes` as the correction models it: each
+  // code's drive, the gain and the colour matrix undone. What a viewer sees of a corrected
+  // module when the calibration is right (the daemon's `view`); content the module could not
+  // reach comes back as what it shows instead.
+  Frame decode(const std::vector<std::uint8_t>& bytes) const;
+
   int width() const { return width_; }
   int height() const { return height_; }
 
@@ -49,6 +55,7 @@ class ModuleEncoder {
   int codeOf(int channel, float drive) const;  // by search
 
   ModuleColourCorrection correction_;
+  Eigen::Matrix3f contentFromDrive_;
   int width_, height_;
   bool useAvx2_;
   std::vector<float> gainRows_;  // gainHeight rows of width floats

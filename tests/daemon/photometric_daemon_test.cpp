@@ -128,6 +128,7 @@ class PhotometricDaemon : public ::testing::Test {
 
 TEST_F(PhotometricDaemon, CalibratedColoursAreInstalledReportedAppliedAndRolledBack) {
   start();
+  int frames = waitForFrames(0);
   const json frameBefore =
       ask({{"request", "frame"}, {"module", 1}, {"path", (folder_ / "before.png").string()}});
   ASSERT_EQ(frameBefore["ok"], true) << frameBefore.dump();

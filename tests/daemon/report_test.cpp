@@ -203,12 +203,17 @@ TEST(SvgPlot, SeriesDifferInMarkerShapeAndColour) {
 }
 
 TEST(Provenance, CoresComeFromTheAffinityMask) {
-  // What `taskset -c 0` does: the thread may run on one CPU, whatever the machine has.
+  // What `taskset -c N` does: the thread may run on one CPU (the first it may use now),
+  // whatever the machine has.
   int inside = -1;
   std::thread pinned([&] {
-    cpu_set_t one;
+    cpu_set_t allowed, one;
+    CPU_ZERO(&allowed);
     CPU_ZERO(&one);
-    CPU_SET(0, &one);
+    if (sched_getaffinity(0, sizeof allowed, &allowed) != 0) return;
+    int first = 0;
+    while (first < CPU_SETSIZE && !CPU_ISSET(first, &allowed)) ++first;
+    CPU_SET(first, &one);
     if (sched_setaffinity(0, sizeof one, &one) == 0) inside = affinityCoreCount();
   });
   pinned.join();

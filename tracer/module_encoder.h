@@ -1,6 +1,7 @@
 #pragma once
 // A module frame's bytes with its photometric correction applied (calibration/display/
-// colour_correction.h): the colour matrix, the black lift, the spatial gain map and the module's
+// colour_correction.h): the content clipped to the display's range (0..1, as the plain sRGB
+// encode clips it), the colour matrix, the black lift, the spatial gain map and the module's
 // own response curve, fused with the 8-bit encoding that Frame::toSrgb8 does for an ideal
 // module. Built once per module when a correction is installed; encode() runs per frame.
 //

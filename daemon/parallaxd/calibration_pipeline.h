@@ -52,7 +52,9 @@ struct CalibrationSettings {
   // moving it, or a prompt); "{station}" is replaced by the station number.
   std::string stationCommand;
   PhotometricMode photometric = PhotometricMode::kOff;
-  FlatFieldOptions flatFields;
+  // Flat-field samples only near each lobe's peak, where the fitted geometry's small angle
+  // errors change the lobe weight least (its slope is steepest near 0.6).
+  FlatFieldOptions flatFields{.minLobeWeight = 0.85};
   PhotometricFitOptions photometricFit;
 
   // Throws InputError naming the field (`prefix` + name: "--" for flags, "calibration." for

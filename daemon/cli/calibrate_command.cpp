@@ -40,7 +40,7 @@
 #include "calibration/fit/fit_report.h"
 #include "calibration/simulation/camera_truth.h"
 #include "common/input_error.h"
-#include "common/progress_bar.h"
+#include "daemon/cli/calibrate_progress.h"
 #include "daemon/cli/commands.h"
 #include "daemon/parallaxd/calibration_pipeline.h"
 #include "daemon/parallaxd/calibration_store.h"
@@ -151,10 +151,19 @@ void requireModulesOfNominal(const std::set<int>& shown, const DisplayModel& nom
 }
 
 // The observations of the session and the file to blame for bad data in them.
+// The stages `parallax calibrate` will go through, for CalibrateProgress's count.
+int stagesOf(const CalibrateArgs& args) {
+  namespace fs = std::filesystem;
+  if (args.captures.empty()) return args.saveCaptures.empty() ? 3 : 4;  // capture, (save,) ...
+  if (!fs::exists(args.captures + "/patterns.json") && fs::exists(args.captures + "/decoded.json"))
+    return 2;                                                              // load, fit
+  return fs::exists(args.captures + "/" + kCheckerboardFileName) ? 4 : 3;  // load, (camera,) ...
+}
+
 // Through the link, the link stays open in `link` for the photometric stage.
 CalibrationObservations sessionObservations(const CalibrateArgs& args, const DisplayModel& nominal,
                                             const CameraIntrinsics* cameraTruth,
-                                            std::string* source,
+                                            CalibrateProgress& stages, std::string* source,
                                             std::unique_ptr<hw::LinkClient>* link,
                                             daemon::PipelineProgress* linkProgress) {
   namespace fs = std::filesystem;
@@ -162,14 +171,16 @@ CalibrationObservations sessionObservations(const CalibrateArgs& args, const Dis
     if (!fs::exists(args.captures + "/patterns.json") &&
         fs::exists(args.captures + "/decoded.json")) {
       *source = args.captures + "/decoded.json";
-      std::cout << "decoded correspondences from " << *source << " (no pictures)\n";
+      stages.plain("load the decoded correspondences (no pictures): " + *source);
       CalibrationObservations observations = loadObservations(args.captures);
+      stages.end();
       std::set<int> shown;
       for (const Correspondence& c : observations.correspondences) shown.insert(c.module);
       requireModulesOfNominal(shown, nominal, *source, "correspondences");
       return observations;
     }
     *source = args.captures + "/patterns.json";
+    stages.plain("load the pictures: " + args.captures);
     CalibrationCaptures captures = loadCaptures(args.captures);
     std::set<int> shown;
     for (const StationCaptures& station : captures.stations)
@@ -177,18 +188,20 @@ CalibrationObservations sessionObservations(const CalibrateArgs& args, const Dis
     requireModulesOfNominal(shown, nominal, *source, "stations[].group");
     if (captures.checkerboard) {
       try {
+        stages.plain(fmt::format("camera intrinsics: {} checkerboard pictures",
+                                 captures.checkerboard->pictures.size()));
         const CheckerboardCalibration camera = calibrateCapturesCamera(&captures);
+        stages.end();
         std::cout << formatCheckerboardCalibration(camera, cameraTruth);
       } catch (const InputError& e) {
         throw e.location().file.empty() ? e.inFile(args.captures + "/" + kCheckerboardFileName) : e;
       }
     } else {
+      stages.end();
       std::cout << "camera intrinsics from camera.json (no checkerboard pictures)\n";
     }
-    std::cout << fmt::format("decoding {} picture sets from {}\n", captures.stations.size(),
-                             args.captures);
     try {
-      return daemon::decodePictures(captures, nominal, args.settings);
+      return daemon::decodePictures(captures, nominal, args.settings, stages.decode());
     } catch (const InputError& e) {
       throw e.location().file.empty() ? e.inFile(*source) : e;
     }
@@ -201,28 +214,24 @@ CalibrationObservations sessionObservations(const CalibrateArgs& args, const Dis
   hw::SelectedLink chosen = hw::selectLink(selection);
   std::cout << chosen.note << "\n";
   *link = std::make_unique<hw::LinkClient>(std::move(chosen.transport));
-  std::optional<ProgressBar> bar;
-  daemon::PipelineProgress progress;
-  progress.pictures = [&bar](int done, int total) {
-    if (!bar) bar.emplace("capture", total);
-    if (done > 0) bar->advance();
-  };
+  daemon::PipelineProgress progress = stages.capture();
   progress.note = [](const std::string& line) { std::cerr << line << "\n"; };
   progress.moveCamera = [camera](int station) { promptForStation(camera, station); };
   // What the photometric stage needs after this function (the rest refers to its locals).
   linkProgress->note = progress.note;
   linkProgress->moveCamera = progress.moveCamera;
-  progress.captured = [&bar, &args](const hw::CaptureSyncStats& stats) {
-    if (bar) bar->finish();
+  progress.captured = [&stages, &args](const hw::CaptureSyncStats& stats) {
+    stages.end();
     std::cout << args.settings.camera << ": " << stats.describe() << "\n";
   };
   const CalibrationCaptures captures = daemon::capturePictures(
       **link, nominal, args.settings, progress, [] { return gInterrupted.load(); });
   if (!args.saveCaptures.empty()) {
+    stages.plain("save the pictures: " + args.saveCaptures);
     saveCaptures(captures, args.saveCaptures);
-    std::cout << "pictures saved to " << args.saveCaptures << "\n";
+    stages.end();
   }
-  return daemon::decodePictures(captures, nominal, args.settings);
+  return daemon::decodePictures(captures, nominal, args.settings, stages.decode());
 }
 
 void runCalibrate(CalibrateArgs args) {
@@ -272,10 +281,12 @@ void runCalibrate(CalibrateArgs args) {
   }
   if (!cameraTruthPath.empty()) cameraTruth = loadCameraTruth(cameraTruthPath).intrinsics;
   std::string source;
+  CalibrateProgress stages(stagesOf(args));
   std::unique_ptr<hw::LinkClient> link;
   daemon::PipelineProgress linkProgress;
   const CalibrationObservations observations = sessionObservations(
-      args, nominal, cameraTruth ? &*cameraTruth : nullptr, &source, &link, &linkProgress);
+      args, nominal, cameraTruth ? &*cameraTruth : nullptr, stages, &source, &link, &linkProgress);
+  stages.end();
   std::cout << fmt::format("{} correspondences, {} stripe centres, {} fiducial sightings\n",
                            observations.correspondences.size(), observations.stripes.size(),
                            observations.fiducialSightings.size());
@@ -286,18 +297,14 @@ void runCalibrate(CalibrateArgs args) {
       throw InputError({"", "--transfer", 0}, "must be conical or linear");
     settings.transfer = transfer;
   }
-  // Three solves of up to maxIterations each; the bar counts iterations and finishes early.
-  ProgressBar progress("calibrate", 3L * FitOptions{}.maxIterations);
-  daemon::PipelineProgress fitProgress;
-  fitProgress.iteration = [&progress](int) { progress.advance(); };
   FitResult result;
   try {
-    result = daemon::fitObservations(start, observations, settings, std::nullopt, fitProgress,
+    result = daemon::fitObservations(start, observations, settings, std::nullopt, stages.fit(),
                                      [] { return gInterrupted.load(); });
   } catch (const InputError& e) {
     throw e.location().file.empty() ? e.inFile(source) : e;
   }
-  progress.finish();
+  stages.end();
   if (result.stopped)
     throw std::runtime_error(
         fmt::format("interrupted during the fit; {} was left untouched", args.out));

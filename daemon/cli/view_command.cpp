@@ -33,7 +33,7 @@ struct ViewArgs {
   std::string frames;
   double x = 0.0;
   std::optional<double> y, z;
-  std::string out = "view.png";
+  std::string out = "parallax-view/view.png";  // never the current folder itself (README)
   std::string size = "640x360";
   std::string tracedScene;
   std::string photometricTruth;
@@ -103,6 +103,14 @@ void runView(const ViewArgs& args) {
     for (size_t i = 0; i < frames.size(); ++i)
       frames[i] = lightOf(truth, static_cast<int>(i), frames[i]);
   }
+  const std::filesystem::path parent = std::filesystem::path(args.out).parent_path();
+  if (!parent.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(parent, ec);
+    if (ec)
+      throw InputError({parent.string(), "", 0},
+                       "cannot create the output folder: " + ec.message());
+  }
   std::vector<float> coverage;
   const Frame view = synthesizeObserverView(model, frames, viewer, options, &coverage);
   writePng(view, args.out);
@@ -111,7 +119,8 @@ void runView(const ViewArgs& args) {
   std::cout << fmt::format(
       "view from ({:.3f}, {:.3f}, {:.3f}) m written to {} ({}x{}); the modules light {:.1f}% "
       "of the screen for this viewer\n",
-      viewer.x(), viewer.y(), viewer.z(), args.out, options.width, options.height,
+      viewer.x(), viewer.y(), viewer.z(), std::filesystem::absolute(args.out).string(),
+      options.width, options.height,
       100.0 * static_cast<double>(covered) / static_cast<double>(coverage.size()));
   if (!args.tracedScene.empty()) {
     const PhysicalScene scene(loadSceneArgument(args.tracedScene, {}, 0.0), model.displayableBox);
@@ -138,7 +147,7 @@ void addViewCommand(CLI::App& app) {
   command->add_option("--x", args->x, "viewer position along the observer line (m)")->required();
   command->add_option("--y", args->y, "viewer height (m); default: the observer line's");
   command->add_option("--z", args->z, "viewer distance (m); default: the observer line's");
-  command->add_option("--out", args->out, "output PNG");
+  command->add_option("--out", args->out, "output PNG (default: parallax-view/view.png)");
   command->add_option("--size", args->size, "view resolution WIDTHxHEIGHT (spans the screen)");
   command->add_option("--traced-scene", args->tracedScene,
                       "also trace this scene directly and print the PSNR");

@@ -148,10 +148,13 @@ CalibrationCaptures capturePictures(hw::LinkClient& link, const DisplayModel& no
 
 CalibrationObservations decodePictures(const CalibrationCaptures& captures,
                                        const DisplayModel& nominal,
-                                       const CalibrationSettings& settings) {
+                                       const CalibrationSettings& settings,
+                                       const PipelineProgress& progress) {
   CaptureDecoderOptions decoder;
   decoder.patterns = captures.patterns;
   decoder.pixelStep = settings.pixelStep;
+  decoder.onPictureSet = progress.decoded;
+  if (progress.decoded) progress.decoded(0, static_cast<int>(captures.stations.size()));
   return decodeCaptures(captures, nominal, decoder);
 }
 
@@ -166,6 +169,7 @@ FitResult fitObservations(const DisplayModel& start, const CalibrationObservatio
   fit.stopRequested = cancelled;
   if (progress.iteration)
     fit.onIteration = [&](int iteration, double) { progress.iteration(iteration); };
+  fit.onStep = progress.fitStep;
   if (settings.photometric == PhotometricMode::kOnly) {
     // Only where the camera stood: every module and the screen stay as installed.
     for (int m = 0; m < static_cast<int>(start.modules.size()); ++m) fit.heldModules.push_back(m);
@@ -281,12 +285,21 @@ CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& no
     if (cancelled()) throw hw::CalibrationCancelled();
   };
   stopIfCancelled();
-  stage("decoding the pictures");
-  const CalibrationObservations observations = decodePictures(captures, nominal, settings);
-  stage(fmt::format("fitting ({} correspondences)", observations.correspondences.size()));
+  PipelineProgress decoding = progress;
+  decoding.decoded = [&](int done, int total) {
+    if (progress.decoded) progress.decoded(done, total);
+    stage(fmt::format("decoding: picture set {} of {}", done, total));
+  };
+  const CalibrationObservations observations =
+      decodePictures(captures, nominal, settings, decoding);
   stopIfCancelled();
+  PipelineProgress fitting = progress;
+  fitting.fitStep = [&](const FitStep& step) {
+    if (progress.fitStep) progress.fitStep(step);
+    stage(fmt::format("fitting: step {} of {}, {}", step.index, step.total, step.what));
+  };
   const FitResult result =
-      fitObservations(start, observations, settings, onlyModule, progress, cancelled);
+      fitObservations(start, observations, settings, onlyModule, fitting, cancelled);
   stopIfCancelled();
   const bool colourOnly = settings.photometric == PhotometricMode::kOnly;
   CalibrationRun run{colourOnly ? start : result.model, formatFitSummary(result),

@@ -66,10 +66,16 @@ struct CalibrationSettings {
 // simulator parallaxd started with photometric variation (what "auto" turns on for).
 CalibrationSettings settingsOf(const CalibrationConfig& config, bool simulatorPhotometric = false);
 
+// What the pipeline reports as it goes, in its order: the pictures (capture), the picture sets
+// decoded (decode), the fit's steps and their solver iterations (fit). Every member optional.
 struct PipelineProgress {
-  std::function<void(const std::string& stage)> stage;        // "decoding the pictures", ...
+  // calibrateThroughLink: one line for a status, at each of the counts below ("pictures: 3 of
+  // 96", "decoding: picture set 2 of 4", "fitting: step 3 of 9, conical: final solve").
+  std::function<void(const std::string& stage)> stage;
   std::function<void(int done, int total)> pictures;          // during the capture
-  std::function<void(int iteration)> iteration;               // during the fit
+  std::function<void(int done, int total)> decoded;           // picture sets, during the decode
+  std::function<void(const FitStep& step)> fitStep;           // as each fit step starts
+  std::function<void(int iteration)> iteration;               // during each fit step's solve
   std::function<void(const std::string& line)> note;          // warnings and facts for the log
   std::function<void(const hw::CaptureSyncStats&)> captured;  // how the camera kept up
   // Asks the operator to move a camera that is not behind the link to `station` and returns
@@ -87,10 +93,11 @@ CalibrationCaptures capturePictures(hw::LinkClient& link, const DisplayModel& no
                                     const PipelineProgress& progress,
                                     const std::function<bool()>& cancelled);
 
-// Decoding with the settings' pixel step.
+// Decoding with the settings' pixel step; progress.decoded after each picture set.
 CalibrationObservations decodePictures(const CalibrationCaptures& captures,
                                        const DisplayModel& nominal,
-                                       const CalibrationSettings& settings);
+                                       const CalibrationSettings& settings,
+                                       const PipelineProgress& progress);
 
 // The fit from `start` (the nominal, or the current calibration when refitting `onlyModule`
 // with every other module and the curvature held) with the settings' solver and gate.

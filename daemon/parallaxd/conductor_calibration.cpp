@@ -44,8 +44,8 @@ PipelineProgress Conductor::calibrationProgress() {
   PipelineProgress progress;
   progress.stage = [this](const std::string& stage) {
     state_.setStage(stage);
-    if (options_.onHeartbeat) options_.onHeartbeat();
     publish();
+    if (options_.onHeartbeat) options_.onHeartbeat();
   };
   progress.note = [](const std::string& line) { spdlog::info("{}", line); };
   return progress;
@@ -137,6 +137,7 @@ Conductor::StageResult Conductor::regenerate(const DisplayModel& model) {
     std::vector<RayTextures> textures =
         cache_.texturesFor(model, &stats, [this](int done, int total) {
           state_.setStage(fmt::format("ray textures: module {} of {}", done, total));
+          publish();                                         // `status` says how far it got
           if (options_.onHeartbeat) options_.onHeartbeat();  // a long stage is not a hang
         });
     textures_ = std::move(textures);

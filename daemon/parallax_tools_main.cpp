@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   parallax::cli::addBenchLinkCommand(app);
   parallax::cli::addSimulateCommand(app);
   parallax::cli::addCalibrateCommand(app);
+  parallax::cli::addCameraCommand(app);
   parallax::cli::addSceneApiCommand(app);
   std::string commandLine = "parallax";
   for (int i = 1; i < argc; ++i) commandLine += std::string(" ") + argv[i];

@@ -7,7 +7,10 @@
 #      calibration report), regenerate the ray textures and play scripts/scenes/cornell.lua;
 #   3. asks it, over its control socket (`parallax ctl`), for every module's frame, for what
 #      viewers at x = -0.5, 0 and 0.5 m see, and for its status and timings;
-#   4. shuts it down; the simulator saves what its modules actually received.
+#   4. calibrates the modules' colours too (`parallax ctl calibrate --photometric only`: the
+#      simulated modules differ in response, colour, brightness and vignetting) and asks for the
+#      frames again: a viewer's before/after pair (geometric only, geometric + photometric);
+#   5. shuts it down; the simulator saves what its modules actually received.
 # Pass an output folder as the first argument (default: out/demo).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -18,10 +21,12 @@ parallaxd=$build/daemon/parallaxd
 
 "$root/tools/setup.sh"
 rm -rf "$out"
-mkdir -p "$out/frames" "$out/shown"
+mkdir -p "$out/frames" "$out/frames_geometric_only" "$out/shown"
 run=$(mktemp -d /tmp/parallax-demo.XXXXXX)
 socket=$run/parallaxd.sock
 ctl() { "$parallax" ctl --socket "$socket" "$@"; }
+cache=${XDG_CACHE_HOME:-$HOME/.cache}/parallax
+simulated=$cache/simulated-display/seed-7
 
 cat >"$out/parallax.toml" <<EOC
 # The configuration this demo ran parallaxd with.
@@ -31,14 +36,17 @@ preset = "demo"
 kind = "sim"
 seed = 7
 dump = "$out/shown"
+photometric_variation = true
 [calibration]
 file = "$out/calibration.json"
 auto = true
+# Geometry first; the colours in step 4, so that the demo shows the difference they make.
+photometric = "off"
 [scene]
 script = "cornell"
 [daemon]
 socket = "$socket"
-cache_dir = "${XDG_CACHE_HOME:-$HOME/.cache}/parallax"
+cache_dir = "$cache"
 EOC
 
 echo "== 1. parallaxd on the simulated demo display (log: $out/parallaxd.log)"
@@ -76,7 +84,28 @@ for x in -0.5 0 0.5; do
 done
 ctl stats | tee "$out/timings.json" | grep '"summary"'
 
-echo "== 4. shut down"
+echo "== 4. the modules' colours: photometric calibration, then the frames again"
+for m in $(seq 0 15); do
+  cp "$out/frames/$(printf 'module_%03d.png' "$m")" "$out/frames_geometric_only/"
+done
+ctl calibrate --photometric only | tee "$out/photometric_calibration.json" | grep -E '"(delta_e_mean|non_uniformity)"' | head -2
+ctl status >"$out/status.json"
+mv "$out/calibration.json.report.txt" "$out/photometric_report.txt"
+for m in $(seq 0 15); do
+  ctl frame "$m" --path "$out/frames/$(printf 'module_%03d.png' "$m")" >/dev/null
+done
+# What a viewer of this simulated display sees: the frames' codes through its modules' true
+# response, colours and vignetting, on its true geometry.
+for x in -0.5 0 0.5; do
+  for kind in geometric_only photometric; do
+    frames=$out/frames
+    [ "$kind" = geometric_only ] && frames=$out/frames_geometric_only
+    "$parallax" view --display "$simulated/ground_truth.json" --frames "$frames" --x "$x" \
+      --photometric-truth "$simulated/photometric_truth.json" --out "$out/seen_x${x}_$kind.png" >/dev/null
+  done
+done
+
+echo "== 5. shut down"
 ctl shutdown >/dev/null
 wait "$daemon"
 trap - EXIT
@@ -87,8 +116,17 @@ cat <<EON
 Everything is in $out:
   frames/module_NNN.png        what parallaxd pushed to each of the 16 modules (cornell.lua)
   shown/module_NNN.png         what the simulated modules actually showed when it stopped
-  view_x-0.5.png view_x0.png view_x0.5.png   what viewers on the observer line see
+  view_x-0.5.png view_x0.png view_x0.5.png   what viewers on the observer line see (the daemon's
+                               view, before the colours were calibrated)
+  seen_x*_geometric_only.png   the before/after pair: what viewers at x = -0.5, 0, 0.5 m see on
+  seen_x*_photometric.png      the simulated display (its modules' true colours), geometric
+                               calibration only / geometric + photometric
+  frames_geometric_only/       the module frames before the photometric calibration
+  photometric_calibration.json the photometric calibration's reply (per module scale, ΔE)
   calibration_report.txt       the calibration (or why the nominal model was used)
+  photometric_report.txt       the photometric calibration: per module gamma, white, black,
+                               falloff, reach; what is left (CIEDE2000, non-uniformity)
   timings.json                 render / encode / push / end-to-end timings and frame counts
-  status.json, parallaxd.log, parallax.toml   the daemon's state, its log and its configuration
+  status.json, parallaxd.log, parallax.toml   the daemon's state (photometry included), its log
+                               and its configuration
 EON

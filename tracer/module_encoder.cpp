@@ -2,6 +2,7 @@
 
 #include <immintrin.h>
 
+#include <Eigen/LU>
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -26,6 +27,10 @@ ModuleEncoder::ModuleEncoder(const ModuleColourCorrection& correction, int width
     : correction_(correction), width_(width), height_(height), useAvx2_(allowAvx2) {
   correction_.validate();
   PARALLAX_CHECK(width > 0 && height > 0);
+  // A singular matrix has no content to go back to: decode shows black there (the fit never
+  // gives one; a hand-made file might).
+  const Eigen::FullPivLU<Eigen::Matrix3f> lu(correction_.driveFromContent);
+  contentFromDrive_ = lu.isInvertible() ? Eigen::Matrix3f(lu.inverse()) : Eigen::Matrix3f::Zero();
   // Nearest code in light: code k wins from halfway between its light and the previous code's.
   thresholds_.assign(3 * kStride, std::numeric_limits<float>::infinity());
   for (int c = 0; c < 3; ++c) {
@@ -104,11 +109,18 @@ ModuleEncoder::RowGain ModuleEncoder::rowGain(int row) const {
 
 void ModuleEncoder::driveOf(const Rgb& content, float gain, float drive[3]) const {
   const Eigen::Matrix3f& a = correction_.driveFromContent;
+  // Content beyond the display's range (0..1, the target's black to its white) is clipped first,
+  // as the plain sRGB encode clips it: a module's headroom above the target must not show.
+  float in[3];
+  for (int c = 0; c < 3; ++c) {
+    const float v = content[c] > 0.0f ? content[c] : 0.0f;  // NaN → 0, like maxps
+    in[c] = v < 1.0f ? v : 1.0f;
+  }
   for (int c = 0; c < 3; ++c) {
     // Same operations in the same order as the SIMD path: bit-identical drives.
-    float d = a(c, 0) * content[0];
-    d = d + a(c, 1) * content[1];
-    d = d + a(c, 2) * content[2];
+    float d = a(c, 0) * in[0];
+    d = d + a(c, 1) * in[1];
+    d = d + a(c, 2) * in[2];
     d = d + correction_.lift[c];
     d = d * gain - correction_.blackDrive[c];
     d = d > kMinDrive ? d : kMinDrive;  // NaN → black, like maxps with the bound second
@@ -165,20 +177,22 @@ int kernelSse2(const KernelConstants& k, const float* in, const float* above, co
     black[r] = _mm_set1_ps(k.black[r]);
     binBase[r] = _mm_set1_epi32(k.binBase[r]);
   }
-  const __m128 lo = _mm_set1_ps(kMinDrive), hi = _mm_set1_ps(1.0f), f = _mm_set1_ps(fraction);
+  const __m128 lo = _mm_set1_ps(kMinDrive), hi = _mm_set1_ps(1.0f), f = _mm_set1_ps(fraction),
+               zero = _mm_setzero_ps();
   const __m128i shift = _mm_cvtsi32_si128(k.shift);
   int j = start;
   for (; j + 4 <= n; j += 4) {
     const float* p = in + 3 * j;
     const __m128 a0 = _mm_loadu_ps(p), a1 = _mm_loadu_ps(p + 4), a2 = _mm_loadu_ps(p + 8);
-    const __m128 rb = _mm_shuffle_ps(a1, a2, _MM_SHUFFLE(1, 1, 2, 2));         // r2 r2 r3 r3
-    const __m128 gb = _mm_shuffle_ps(a0, a1, _MM_SHUFFLE(3, 0, 1, 1));         // g0 g0 g1 g2
-    const __m128 ga = _mm_shuffle_ps(a1, a2, _MM_SHUFFLE(2, 2, 3, 3));         // g2 g2 g3 g3
-    const __m128 bb = _mm_shuffle_ps(a0, a1, _MM_SHUFFLE(1, 1, 2, 2));         // b0 b0 b1 b1
-    const __m128 bg = _mm_shuffle_ps(a2, a2, _MM_SHUFFLE(3, 2, 0, 0));         // b2 b2 g3 b3
-    const __m128 chan[3] = {_mm_shuffle_ps(a0, rb, _MM_SHUFFLE(2, 0, 3, 0)),   // r0 r1 r2 r3
-                            _mm_shuffle_ps(gb, ga, _MM_SHUFFLE(2, 0, 2, 0)),   // g0 g1 g2 g3
-                            _mm_shuffle_ps(bb, bg, _MM_SHUFFLE(3, 0, 2, 0))};  // b0 b1 b2 b3
+    const __m128 rb = _mm_shuffle_ps(a1, a2, _MM_SHUFFLE(1, 1, 2, 2));   // r2 r2 r3 r3
+    const __m128 gb = _mm_shuffle_ps(a0, a1, _MM_SHUFFLE(3, 0, 1, 1));   // g0 g0 g1 g2
+    const __m128 ga = _mm_shuffle_ps(a1, a2, _MM_SHUFFLE(2, 2, 3, 3));   // g2 g2 g3 g3
+    const __m128 bb = _mm_shuffle_ps(a0, a1, _MM_SHUFFLE(1, 1, 2, 2));   // b0 b0 b1 b1
+    const __m128 bg = _mm_shuffle_ps(a2, a2, _MM_SHUFFLE(3, 2, 0, 0));   // b2 b2 g3 b3
+    __m128 chan[3] = {_mm_shuffle_ps(a0, rb, _MM_SHUFFLE(2, 0, 3, 0)),   // r0 r1 r2 r3
+                      _mm_shuffle_ps(gb, ga, _MM_SHUFFLE(2, 0, 2, 0)),   // g0 g1 g2 g3
+                      _mm_shuffle_ps(bb, bg, _MM_SHUFFLE(3, 0, 2, 0))};  // b0 b1 b2 b3
+    for (__m128& v : chan) v = _mm_min_ps(_mm_max_ps(v, zero), hi);      // the display's range
     const __m128 up = _mm_loadu_ps(above + j);
     const __m128 g = _mm_add_ps(up, _mm_mul_ps(f, _mm_sub_ps(_mm_loadu_ps(below + j), up)));
     for (int c = 0; c < 3; ++c) {
@@ -211,7 +225,7 @@ __attribute__((target("avx2"))) int kernelAvx2(const KernelConstants& k, const f
     binBase[r] = _mm256_set1_epi32(k.binBase[r]);
   }
   const __m256 lo = _mm256_set1_ps(kMinDrive), hi = _mm256_set1_ps(1.0f),
-               f = _mm256_set1_ps(fraction);
+               f = _mm256_set1_ps(fraction), zero = _mm256_setzero_ps();
   const __m128i shift = _mm_cvtsi32_si128(k.shift);
   int j = 0;
   for (; j + 8 <= n; j += 8) {
@@ -227,9 +241,10 @@ __attribute__((target("avx2"))) int kernelAvx2(const KernelConstants& k, const f
     const __m256 ga = _mm256_shuffle_ps(a1, a2, _MM_SHUFFLE(2, 2, 3, 3));
     const __m256 bb = _mm256_shuffle_ps(a0, a1, _MM_SHUFFLE(1, 1, 2, 2));
     const __m256 bg = _mm256_shuffle_ps(a2, a2, _MM_SHUFFLE(3, 2, 0, 0));
-    const __m256 chan[3] = {_mm256_shuffle_ps(a0, rb, _MM_SHUFFLE(2, 0, 3, 0)),
-                            _mm256_shuffle_ps(gb, ga, _MM_SHUFFLE(2, 0, 2, 0)),
-                            _mm256_shuffle_ps(bb, bg, _MM_SHUFFLE(3, 0, 2, 0))};
+    __m256 chan[3] = {_mm256_shuffle_ps(a0, rb, _MM_SHUFFLE(2, 0, 3, 0)),
+                      _mm256_shuffle_ps(gb, ga, _MM_SHUFFLE(2, 0, 2, 0)),
+                      _mm256_shuffle_ps(bb, bg, _MM_SHUFFLE(3, 0, 2, 0))};
+    for (__m256& v : chan) v = _mm256_min_ps(_mm256_max_ps(v, zero), hi);
     const __m256 up = _mm256_loadu_ps(above + j);
     const __m256 g =
         _mm256_add_ps(up, _mm256_mul_ps(f, _mm256_sub_ps(_mm256_loadu_ps(below + j), up)));
@@ -306,6 +321,29 @@ std::vector<std::uint8_t> ModuleEncoder::encode(const Frame& frame) const {
         o[3 * i + 2] =
             static_cast<std::uint8_t>(blue + (drive[2][i] >= thresholds[2 * kStride + blue + 1]));
       }
+    }
+  }
+  return out;
+}
+
+Frame ModuleEncoder::decode(const std::vector<std::uint8_t>& bytes) const {
+  PARALLAX_CHECK_OP(bytes.size(), ==,
+                    static_cast<size_t>(width_) * static_cast<size_t>(height_) * 3);
+  Frame out(width_, height_);
+  for (int y = 0; y < height_; ++y) {
+    const RowGain g = rowGain(y);
+    for (int x = 0; x < width_; ++x) {
+      const size_t p =
+          static_cast<size_t>(y) * static_cast<size_t>(width_) + static_cast<size_t>(x);
+      Eigen::Vector3f drive;
+      for (int c = 0; c < 3; ++c)
+        drive[c] =
+            correction_.response[static_cast<size_t>(c)][bytes[3 * p + static_cast<size_t>(c)]];
+      // drive = (M · content + lift) · gain − black  ⇒  content = M⁻¹ ((drive + black) / gain −
+      // lift)
+      const Eigen::Vector3f content =
+          contentFromDrive_ * ((drive + correction_.blackDrive) / g.at(x) - correction_.lift);
+      out.pixels[p] = content.cwiseMax(0.0f);
     }
   }
   return out;

@@ -1,6 +1,7 @@
 #pragma once
 // A module frame's bytes with its photometric correction applied (calibration/display/
-// colour_correction.h): the colour matrix, the black lift, the spatial gain map and the module's
+// colour_correction.h): the content clipped to the display's range (0..1, as the plain sRGB
+// encode clips it), the colour matrix, the black lift, the spatial gain map and the module's
 // own response curve, fused with the 8-bit encoding that Frame::toSrgb8 does for an ideal
 // module. Built once per module when a correction is installed; encode() runs per frame.
 //
@@ -30,6 +31,12 @@ class ModuleEncoder {
   // The same bytes by the definition (nearest code by search, no tables): the test's reference.
   std::vector<std::uint8_t> encodeReference(const Frame& frame) const;
 
+  // The content (target space) the module shows for `bytes` as the correction models it: each
+  // code's drive, the gain and the colour matrix undone. What a viewer sees of a corrected
+  // module when the calibration is right (the daemon's `view`); content the module could not
+  // reach comes back as what it shows instead.
+  Frame decode(const std::vector<std::uint8_t>& bytes) const;
+
   int width() const { return width_; }
   int height() const { return height_; }
 
@@ -49,6 +56,7 @@ class ModuleEncoder {
   int codeOf(int channel, float drive) const;  // by search
 
   ModuleColourCorrection correction_;
+  Eigen::Matrix3f contentFromDrive_;
   int width_, height_;
   bool useAvx2_;
   std::vector<float> gainRows_;  // gainHeight rows of width floats

@@ -145,10 +145,13 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
     detectFiducials(s.columnFrames[1], nominal.screen, s.station, FiducialDetectorOptions{}, &obs);
     poses[static_cast<size_t>(s.station)] = poseFromFiducials(obs, nominal.screen, s.station);
   }
-  for (const StationCaptures& s : captures.stations) {
+  const int sets = static_cast<int>(captures.stations.size());
+  for (int i = 0; i < sets; ++i) {
+    const StationCaptures& s = captures.stations[static_cast<size_t>(i)];
     const auto& pose = poses[static_cast<size_t>(s.station)];
     decodeStation(s.columnFrames, s.rowFrames, s.group, nominal, s.station, decoder, &obs,
                   pose ? &*pose : nullptr);
+    if (options.onPictureSet) options.onPictureSet(i + 1, sets);
   }
   return obs;
 }

@@ -13,6 +13,7 @@
 // Stripe centre: the peak of the module's lobe along a camera row (white − black contrast),
 // found in the predicted exit angle (stripe_peak.h), not the pixels' centroid.
 
+#include <functional>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -34,6 +35,9 @@ struct CaptureDecoderOptions {
   // its longer unclipped flank) and out of the correspondences when a phase frame clipped (the
   // phase of a clipped sinusoid is biased).
   double saturatedLinear = 1.0;
+  // decodeCaptures calls it after each picture set (a station's group) is decoded, optional:
+  // the sets cost alike, so the count is an honest measure of the work left.
+  std::function<void(int done, int total)> onPictureSet;
 
   void validate() const;
 };

@@ -8,10 +8,14 @@
 #include <opencv2/calib3d.hpp>
 
 #include "calibration/display/conventions.h"
+#include "common/check.h"
 #include "common/input_error.h"
 
 namespace parallax {
 namespace {
+
+// Three views: the least for fx, fy, cx, cy and a pose each.
+constexpr int kMinViews = 3;
 
 double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -27,16 +31,9 @@ CheckerboardCalibration calibrateFromCheckerboard(const std::vector<Checkerboard
   if (width < 16 || height < 16)
     throw InputError({"", "intrinsics.width", 0},
                      "the camera's pictures must be at least 16 px a side");
-  CheckerboardCalibration result;
-  std::vector<std::vector<cv::Point3f>> objectPoints;
-  std::vector<std::vector<cv::Point2f>> imagePoints;
-  std::vector<cv::Point3f> object;
-  for (const Eigen::Vector3d& p : board.cornerPoints()) {
-    object.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()),
-                        static_cast<float>(p.z()));
-  }
   const auto detectStart = std::chrono::steady_clock::now();
-  std::vector<std::string> usedNames;
+  std::vector<std::string> usedNames, skipped;
+  std::vector<BoardView> views;
   for (const CheckerboardPicture& picture : pictures) {
     if (picture.recorded.empty() || picture.recorded.depth() != CV_8U ||
         (picture.recorded.channels() != 1 && picture.recorded.channels() != 3)) {
@@ -50,28 +47,55 @@ CheckerboardCalibration calibrateFromCheckerboard(const std::vector<Checkerboard
     }
     const auto corners = findCheckerboardCorners(picture.recorded, board);
     if (!corners) {
-      result.skipped.push_back(picture.name);
+      skipped.push_back(picture.name);
       continue;
     }
-    std::vector<cv::Point2f> image;
-    for (const Eigen::Vector2d& c : *corners) {
-      const Eigen::Vector2d opencv = openCvFromPixel(c);
-      image.emplace_back(static_cast<float>(opencv.x()), static_cast<float>(opencv.y()));
-    }
-    imagePoints.push_back(std::move(image));
-    objectPoints.push_back(object);
+    views.push_back({board.cornerPoints(), *corners});
     usedNames.push_back(picture.name);
   }
-  result.detectSeconds = secondsSince(detectStart);
-  const int minimum = std::max(options.minPictures,
-                               3);  // three views: the least for fx, fy, cx, cy and a pose each
-  if (static_cast<int>(imagePoints.size()) < minimum) {
+  const double detectSeconds = secondsSince(detectStart);
+  const int minimum = std::max(options.minPictures, kMinViews);
+  if (static_cast<int>(views.size()) < minimum) {
+    throw InputError(
+        {"", "pictures", 0},
+        fmt::format("the board ({}x{} inner corners) was found in {} of {} pictures; "
+                    "the camera's intrinsics "
+                    "need at least {}",
+                    board.innerColumns, board.innerRows, views.size(), pictures.size(), minimum));
+  }
+  CheckerboardCalibration result = calibrateFromViews(usedNames, views, width, height, options);
+  result.skipped = std::move(skipped);
+  result.detectSeconds = detectSeconds;
+  return result;
+}
+
+CheckerboardCalibration calibrateFromViews(const std::vector<std::string>& names,
+                                           const std::vector<BoardView>& views, int width,
+                                           int height,
+                                           const CheckerboardCalibrationOptions& options) {
+  PARALLAX_CHECK_OP(names.size(), ==, views.size());
+  const int minimum = std::max(options.minPictures, kMinViews);
+  if (static_cast<int>(views.size()) < minimum) {
     throw InputError({"", "pictures", 0},
-                     fmt::format("the board ({}x{} inner corners) was found in {} of {} pictures; "
-                                 "the camera's intrinsics "
-                                 "need at least {}",
-                                 board.innerColumns, board.innerRows, imagePoints.size(),
-                                 pictures.size(), minimum));
+                     fmt::format("{} views of the board; the camera's intrinsics need at least {}",
+                                 views.size(), minimum));
+  }
+  CheckerboardCalibration result;
+  std::vector<std::vector<cv::Point3f>> objectPoints;
+  std::vector<std::vector<cv::Point2f>> imagePoints;
+  for (const BoardView& view : views) {
+    PARALLAX_CHECK_OP(view.board.size(), ==, view.pixels.size());
+    std::vector<cv::Point3f> object;
+    std::vector<cv::Point2f> image;
+    for (size_t i = 0; i < view.board.size(); ++i) {
+      const Eigen::Vector3d& p = view.board[i];
+      object.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()),
+                          static_cast<float>(p.z()));
+      const Eigen::Vector2d opencv = openCvFromPixel(view.pixels[i]);
+      image.emplace_back(static_cast<float>(opencv.x()), static_cast<float>(opencv.y()));
+    }
+    objectPoints.push_back(std::move(object));
+    imagePoints.push_back(std::move(image));
   }
 
   const auto solveStart = std::chrono::steady_clock::now();
@@ -107,9 +131,9 @@ CheckerboardCalibration calibrateFromCheckerboard(const std::vector<Checkerboard
   result.sigmaCy = sigma(3);
   result.sigmaK1 = sigma(4);
   result.sigmaK2 = sigma(5);
-  for (size_t i = 0; i < usedNames.size(); ++i) {
+  for (size_t i = 0; i < names.size(); ++i) {
     result.used.push_back(
-        {usedNames[i], perView.total() > i ? perView.at<double>(static_cast<int>(i)) : 0.0});
+        {names[i], perView.total() > i ? perView.at<double>(static_cast<int>(i)) : 0.0});
   }
 
   const bool finite = std::isfinite(rms) && std::isfinite(in.fx) && std::isfinite(in.fy) &&

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "calibration/camera/calibration_camera.h"
+#include "calibration/capture/calibration_board.h"
 #include "calibration/capture/checkerboard.h"
 
 namespace parallax {
@@ -45,6 +46,13 @@ struct CheckerboardCalibration {
 CheckerboardCalibration calibrateFromCheckerboard(
     const std::vector<CheckerboardPicture>& pictures, const CheckerboardBoard& board, int width,
     int height, const CheckerboardCalibrationOptions& options = {});
+
+// The same from views already found (calibration_board.h's detectBoard; ChArUco's may each
+// hold different corners), named for the report. Throws InputError ("pictures") as above.
+CheckerboardCalibration calibrateFromViews(const std::vector<std::string>& names,
+                                           const std::vector<BoardView>& views, int width,
+                                           int height,
+                                           const CheckerboardCalibrationOptions& options = {});
 
 // The report: fx, fy, cx, cy, k1, k2 with their σ, the RMS and the worst pictures, the skipped
 // ones; with `truth`, each value's error against it.

@@ -9,6 +9,7 @@
 #include "calibration/display/json_file.h"
 #include "calibration/display/srgb_transfer.h"
 #include "common/atomic_file.h"
+#include "common/content_checksum.h"
 #include "common/input_error.h"
 
 namespace parallax {
@@ -27,6 +28,57 @@ json vectorJson(const Eigen::Vector3f& v) { return {v.x(), v.y(), v.z()}; }
 Eigen::Vector3d vectorFrom(const json& j, const std::string& field) {
   const std::vector<double> n = jsonfield::numbers(j, field, 3);
   return {n[0], n[1], n[2]};
+}
+
+constexpr const char* kChecksumField = "checksum";
+
+// As the calibration files': the document without its own field, in canonical compact form.
+std::string checksumOfDocument(json document) {
+  document.erase(kChecksumField);
+  return contentChecksum(document.dump());
+}
+
+json summaryJson(const PhotometricSummary& s) {
+  json modules = json::array();
+  for (const ModulePhotometricSummary& m : s.modules) {
+    modules.push_back({{"excluded", m.excluded},
+                       {"reason", m.reason},
+                       {"scale", m.scale},
+                       {"gain_max", m.gainMax},
+                       {"delta_e_mean", m.deltaEMean},
+                       {"delta_e_worst", m.deltaEWorst}});
+  }
+  return {{"delta_e_mean", s.deltaEMean},
+          {"delta_e_worst", s.deltaEWorst},
+          {"non_uniformity", s.nonUniformity},
+          {"modules", modules}};
+}
+
+PhotometricSummary summaryFrom(const json& j, size_t moduleCount) {
+  PhotometricSummary s;
+  s.deltaEMean = jsonfield::number(member(j, "delta_e_mean", "summary"), "summary.delta_e_mean");
+  s.deltaEWorst = jsonfield::number(member(j, "delta_e_worst", "summary"), "summary.delta_e_worst");
+  s.nonUniformity =
+      jsonfield::number(member(j, "non_uniformity", "summary"), "summary.non_uniformity");
+  const json& modules =
+      jsonfield::array(member(j, "modules", "summary"), "summary.modules", moduleCount);
+  for (size_t i = 0; i < modules.size(); ++i) {
+    const std::string at = fmt::format("summary.modules[{}]", i);
+    const json& mj = modules[i];
+    ModulePhotometricSummary m;
+    const json& excluded = member(mj, "excluded", at);
+    if (!excluded.is_boolean()) fail(at + ".excluded", "must be true or false");
+    m.excluded = excluded.get<bool>();
+    const json& reason = member(mj, "reason", at);
+    if (!reason.is_string()) fail(at + ".reason", "must be a string");
+    m.reason = reason.get<std::string>();
+    m.scale = jsonfield::number(member(mj, "scale", at), at + ".scale");
+    m.gainMax = jsonfield::number(member(mj, "gain_max", at), at + ".gain_max");
+    m.deltaEMean = jsonfield::number(member(mj, "delta_e_mean", at), at + ".delta_e_mean");
+    m.deltaEWorst = jsonfield::number(member(mj, "delta_e_worst", at), at + ".delta_e_worst");
+    s.modules.push_back(std::move(m));
+  }
+  return s;
 }
 
 }  // namespace
@@ -111,14 +163,29 @@ void saveColourCorrection(const DisplayColourCorrection& correction, const std::
                             {"gain", m.gain},
                             {"response", response}});
   }
+  j["geometry"] = correction.geometry;
+  j["summary"] = summaryJson(correction.summary);
+  j[kChecksumField] = checksumOfDocument(j);
   writeFileAtomically(path, j.dump() + "\n");
 }
 
 DisplayColourCorrection loadColourCorrection(const std::string& path) {
   try {
-    const json j = readJsonFile(path);
+    json j = readJsonFile(path);
     jsonfield::requireFormat(j, kFormatName, kFormatVersion);
+    if (j.contains(kChecksumField)) {
+      const json& stored = j[kChecksumField];
+      if (!stored.is_string() || stored.get<std::string>() != checksumOfDocument(j)) {
+        fail(kChecksumField,
+             "does not match the content: the file is damaged or was edited (remove the checksum "
+             "field to accept a hand edit)");
+      }
+    }
     DisplayColourCorrection out;
+    if (j.contains("geometry")) {
+      if (!j["geometry"].is_string()) fail("geometry", "must be a string (a calibration's hash)");
+      out.geometry = j["geometry"].get<std::string>();
+    }
     const json& target = member(j, "target");
     out.target.primaries.col(0) = vectorFrom(member(target, "red", "target"), "target.red");
     out.target.primaries.col(1) = vectorFrom(member(target, "green", "target"), "target.green");
@@ -165,6 +232,7 @@ DisplayColourCorrection loadColourCorrection(const std::string& path) {
       }
       out.modules.push_back(std::move(m));
     }
+    if (j.contains("summary")) out.summary = summaryFrom(j["summary"], out.modules.size());
     return out;
   } catch (const InputError& e) {
     throw e.inFile(path);

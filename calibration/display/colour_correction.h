@@ -14,9 +14,15 @@
 //
 // JSON (photometry.json, beside the geometric calibration):
 //   {"format": "parallax-photometry", "version": 1, "target": {...figures...},
+//    "geometry": "<hash of the geometric calibration it was fitted with>",
 //    "modules": [{"index": i, "drive_from_content": [9 numbers, row-major], "lift": [3],
 //                 "black_drive": [3], "gain_grid": [gw, gh], "gain": [gw·gh numbers, row-major],
-//                 "response": [[256 numbers] × 3]}]}
+//                 "response": [[256 numbers] × 3]}],
+//    "summary": {...what the calibration measured, for `status`...},
+//    "checksum": "fnv1a64:..."}
+// The checksum (as the calibration files', delete it to accept a hand edit) and the geometry
+// hash let the calibration store refuse a damaged file, or one that belongs to another
+// geometric calibration, instead of applying it.
 
 #include <Eigen/Core>
 #include <array>
@@ -54,9 +60,30 @@ struct ColourTarget {
   Eigen::Vector3d black = Eigen::Vector3d::Zero();
 };
 
+// What the photometric calibration found, per module and for the display, kept with the
+// correction for `status` and the report. ΔE is CIEDE2000 against the target's colour, the
+// non-uniformity (brightest − darkest) / mean luminance; both from the flat-field pictures
+// (photometry/photometric_residual.h).
+struct ModulePhotometricSummary {
+  bool excluded = false;
+  std::string reason;       // why it was excluded
+  double scale = 1.0;       // the target's white over the module's own (< 1: dimmed to match)
+  double gainMax = 1.0;     // the largest node of its gain map (vignetting made up for)
+  double deltaEMean = 0.0;  // a flat grey through the correction, over its image
+  double deltaEWorst = 0.0;
+};
+
+struct PhotometricSummary {
+  double deltaEMean = 0.0, deltaEWorst = 0.0;  // over every included module
+  double nonUniformity = 0.0;
+  std::vector<ModulePhotometricSummary> modules;  // per module index (empty: none recorded)
+};
+
 struct DisplayColourCorrection {
   ColourTarget target;
   std::vector<ModuleColourCorrection> modules;  // per module index
+  std::string geometry;  // the geometric calibration's content hash ("": not recorded)
+  PhotometricSummary summary;
 };
 
 void saveColourCorrection(const DisplayColourCorrection& correction, const std::string& path);

@@ -19,6 +19,27 @@ namespace {
 // start); the final one uses all.
 constexpr size_t kStartCorrespondences = 40000;
 
+bool finalSolveFollows(const FitOptions& options) {
+  return options.residualInCameraPx || options.reestimateNoise;
+}
+
+// Numbers the fit's steps for FitOptions::onStep across both transfers and the gate, so the
+// caller's count is exact before the first step starts.
+class FitSteps {
+ public:
+  explicit FitSteps(const FitOptions& options)
+      : onStep_(options.onStep),
+        total_((options.tryOtherTransfer ? 2 : 1) * (finalSolveFollows(options) ? 4 : 3) + 1) {}
+  void begin(const std::string& what) {
+    if (onStep_) onStep_(FitStep{++index_, total_, what});
+  }
+
+ private:
+  const std::function<void(const FitStep&)>& onStep_;
+  int total_;
+  int index_ = 0;
+};
+
 void validateObservations(const DisplayModel& nominal, const CalibrationObservations& obs) {
   const int modules = static_cast<int>(nominal.modules.size());
   const int cameras = static_cast<int>(obs.stations.size());
@@ -61,7 +82,8 @@ void validateObservations(const DisplayModel& nominal, const CalibrationObservat
 // The fit under one transfer: the stages in order, each building its own problem from what the
 // previous ones found (fit_problem.h), then the statistics and the uncertainty of the answer.
 FitResult runStages(const DisplayModel& nominal, const CalibrationObservations& obs,
-                    const FitOptions& options, ScreenTransfer transfer) {
+                    const FitOptions& options, ScreenTransfer transfer, FitSteps& steps) {
+  const std::string name = transferName(transfer);
   const auto start = std::chrono::steady_clock::now();
   const fit::FitInputs in(nominal, obs, options, transfer);
   fit::FitState state = fit::startingState(in);
@@ -78,6 +100,7 @@ FitResult runStages(const DisplayModel& nominal, const CalibrationObservations& 
   // Stage 0: camera poses (and k) from fiducials and tape alone, so the full problem starts
   // with cameras that see the screen where it is.
   {
+    steps.begin(name + ": camera poses");
     fit::FitProblem cameras = fit::buildProblem(in, sigmas, fit::CameraPlacementStage{}, &state);
     solve(cameras, /*costTolerance=*/0.0);
   }
@@ -89,16 +112,16 @@ FitResult runStages(const DisplayModel& nominal, const CalibrationObservations& 
   // (the camera noise sits inside the model) but close, and it finds the outliers and σ.
   // When a final solve follows, this is a start: it needs no more than
   // kStartCorrespondences.
-  const bool finalSolveFollows = options.residualInCameraPx || options.reestimateNoise;
+  const bool finalFollows = finalSolveFollows(options);
+  steps.begin(name + ": first solve");
   fit::CorrespondenceForm form;  // module px
   fit::ModuleStage stage1;
   stage1.form = &form;
-  stage1.stride = finalSolveFollows
-                      ? std::max<size_t>(1, obs.correspondences.size() / kStartCorrespondences)
-                      : 1;
+  stage1.stride =
+      finalFollows ? std::max<size_t>(1, obs.correspondences.size() / kStartCorrespondences) : 1;
   stage1.fiducialOutliers = &fiducialOutliers;
   fit::FitProblem problem = fit::buildProblem(in, sigmas, stage1, &state);
-  solve(problem, finalSolveFollows ? fit::kStartCostTolerance : fit::kFinalCostTolerance);
+  solve(problem, finalFollows ? fit::kStartCostTolerance : fit::kFinalCostTolerance);
   if (result.stopped) return result;
   if (options.reestimateNoise) sigmas = fit::reestimateNoise(in, state, form, sigmas);
 
@@ -109,7 +132,8 @@ FitResult runStages(const DisplayModel& nominal, const CalibrationObservations& 
   stage2.fiducialOutliers = &fiducialOutliers;
   if (options.residualInCameraPx) form = fit::cameraPxForm(in, state, sigmas);
   stage2.form = &form;
-  if (options.residualInCameraPx || options.reestimateNoise) {
+  if (finalFollows) {
+    steps.begin(name + ": final solve");
     problem = {};  // the previous problem's blocks go before the new one is built
     problem = fit::buildProblem(in, sigmas, stage2, &state);
     solve(problem, fit::kFinalCostTolerance);
@@ -122,6 +146,7 @@ FitResult runStages(const DisplayModel& nominal, const CalibrationObservations& 
   result.solveSeconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
+  steps.begin(name + ": uncertainty");
   const auto diagnosticsStart = std::chrono::steady_clock::now();
   fit::summarizeResiduals(in, state, form, sigmas, &result);
   fit::diagnoseUncertainty(in, state, sigmas, problem, &result);
@@ -174,18 +199,22 @@ FitResult fitDisplay(const DisplayModel& nominal, const CalibrationObservations&
     }
   }
   const ScreenTransfer transfer = options.transfer.value_or(nominal.screen.transfer);
-  FitResult result = runStages(nominal, observations, options, transfer);
+  FitSteps steps(options);
+  FitResult result = runStages(nominal, observations, options, transfer, steps);
   if (options.tryOtherTransfer && !result.stopped) {
     FitOptions other = options;
     other.tryOtherTransfer = false;
     other.transfer =
         transfer == ScreenTransfer::kConical ? ScreenTransfer::kLinear : ScreenTransfer::kConical;
-    FitResult alt = runStages(nominal, observations, other, *other.transfer);
+    FitResult alt = runStages(nominal, observations, other, *other.transfer, steps);
     if (alt.stopped) return alt;
     result = selectTransfer(std::move(result), std::move(alt), options.gate);
   }
   result.heldModules = options.heldModules;
-  if (!result.stopped) applyGate(nominal, options.gate, options.rayGrid, &result);
+  if (!result.stopped) {
+    steps.begin("quality gate");
+    applyGate(nominal, options.gate, options.rayGrid, &result);
+  }
   return result;
 }
 

@@ -37,6 +37,15 @@
 
 namespace parallax {
 
+// Where a fit is, for FitOptions::onStep: step `index` (1-based) of `total`, named ("conical:
+// final solve"). Under each transfer tried: the camera poses, the first solve, the final
+// solve (when one follows) and the uncertainty; then the quality gate.
+struct FitStep {
+  int index = 0;
+  int total = 0;
+  std::string what;
+};
+
 struct FitOptions {
   std::optional<ScreenTransfer> transfer;  // assumed transfer; default: the nominal model's
   double correspondenceSigmaPx = 0.3;      // module px, first guess (re-estimated)
@@ -71,6 +80,7 @@ struct FitOptions {
   // hold the curvature too (fitCurvature = false) when the screen did not change.
   std::vector<int> heldModules;
   std::function<void(int iteration, double cost)> onIteration;  // progress, optional
+  std::function<void(const FitStep&)> onStep;                   // as each step starts, optional
   // Polled at every solver iteration, optional: true ends the fit there (FitResult::stopped).
   // A daemon's `cancel` need not wait for a solve of many modules to finish.
   std::function<bool()> stopRequested;

@@ -40,7 +40,7 @@
 #include "calibration/fit/fit_report.h"
 #include "calibration/simulation/camera_truth.h"
 #include "common/input_error.h"
-#include "common/progress_bar.h"
+#include "daemon/cli/calibrate_progress.h"
 #include "daemon/cli/commands.h"
 #include "daemon/parallaxd/calibration_pipeline.h"
 #include "daemon/parallaxd/calibration_store.h"
@@ -88,6 +88,7 @@ struct CalibrateArgs {
   std::string truth;
   std::string cameraTruth;
   std::string transfer;
+  std::string photometric = "off";  // --photometric (only), --photometric=on
   // The pipeline's own defaults, changed by the flags.
   daemon::CalibrationSettings settings;
 };
@@ -150,22 +151,36 @@ void requireModulesOfNominal(const std::set<int>& shown, const DisplayModel& nom
 }
 
 // The observations of the session and the file to blame for bad data in them.
+// The stages `parallax calibrate` will go through, for CalibrateProgress's count.
+int stagesOf(const CalibrateArgs& args) {
+  namespace fs = std::filesystem;
+  if (args.captures.empty()) return args.saveCaptures.empty() ? 3 : 4;  // capture, (save,) ...
+  if (!fs::exists(args.captures + "/patterns.json") && fs::exists(args.captures + "/decoded.json"))
+    return 2;                                                              // load, fit
+  return fs::exists(args.captures + "/" + kCheckerboardFileName) ? 4 : 3;  // load, (camera,) ...
+}
+
+// Through the link, the link stays open in `link` for the photometric stage.
 CalibrationObservations sessionObservations(const CalibrateArgs& args, const DisplayModel& nominal,
                                             const CameraIntrinsics* cameraTruth,
-                                            std::string* source) {
+                                            CalibrateProgress& stages, std::string* source,
+                                            std::unique_ptr<hw::LinkClient>* link,
+                                            daemon::PipelineProgress* linkProgress) {
   namespace fs = std::filesystem;
   if (!args.captures.empty()) {
     if (!fs::exists(args.captures + "/patterns.json") &&
         fs::exists(args.captures + "/decoded.json")) {
       *source = args.captures + "/decoded.json";
-      std::cout << "decoded correspondences from " << *source << " (no pictures)\n";
+      stages.plain("load the decoded correspondences (no pictures): " + *source);
       CalibrationObservations observations = loadObservations(args.captures);
+      stages.end();
       std::set<int> shown;
       for (const Correspondence& c : observations.correspondences) shown.insert(c.module);
       requireModulesOfNominal(shown, nominal, *source, "correspondences");
       return observations;
     }
     *source = args.captures + "/patterns.json";
+    stages.plain("load the pictures: " + args.captures);
     CalibrationCaptures captures = loadCaptures(args.captures);
     std::set<int> shown;
     for (const StationCaptures& station : captures.stations)
@@ -173,18 +188,20 @@ CalibrationObservations sessionObservations(const CalibrateArgs& args, const Dis
     requireModulesOfNominal(shown, nominal, *source, "stations[].group");
     if (captures.checkerboard) {
       try {
+        stages.plain(fmt::format("camera intrinsics: {} checkerboard pictures",
+                                 captures.checkerboard->pictures.size()));
         const CheckerboardCalibration camera = calibrateCapturesCamera(&captures);
+        stages.end();
         std::cout << formatCheckerboardCalibration(camera, cameraTruth);
       } catch (const InputError& e) {
         throw e.location().file.empty() ? e.inFile(args.captures + "/" + kCheckerboardFileName) : e;
       }
     } else {
+      stages.end();
       std::cout << "camera intrinsics from camera.json (no checkerboard pictures)\n";
     }
-    std::cout << fmt::format("decoding {} picture sets from {}\n", captures.stations.size(),
-                             args.captures);
     try {
-      return daemon::decodePictures(captures, nominal, args.settings);
+      return daemon::decodePictures(captures, nominal, args.settings, stages.decode());
     } catch (const InputError& e) {
       throw e.location().file.empty() ? e.inFile(*source) : e;
     }
@@ -196,26 +213,25 @@ CalibrationObservations sessionObservations(const CalibrateArgs& args, const Dis
   selection.spec = args.link;
   hw::SelectedLink chosen = hw::selectLink(selection);
   std::cout << chosen.note << "\n";
-  hw::LinkClient link(std::move(chosen.transport));
-  std::optional<ProgressBar> bar;
-  daemon::PipelineProgress progress;
-  progress.pictures = [&bar](int done, int total) {
-    if (!bar) bar.emplace("capture", total);
-    if (done > 0) bar->advance();
-  };
+  *link = std::make_unique<hw::LinkClient>(std::move(chosen.transport));
+  daemon::PipelineProgress progress = stages.capture();
   progress.note = [](const std::string& line) { std::cerr << line << "\n"; };
-  progress.moveCamera = [&camera](int station) { promptForStation(camera, station); };
-  progress.captured = [&bar, &args](const hw::CaptureSyncStats& stats) {
-    if (bar) bar->finish();
+  progress.moveCamera = [camera](int station) { promptForStation(camera, station); };
+  // What the photometric stage needs after this function (the rest refers to its locals).
+  linkProgress->note = progress.note;
+  linkProgress->moveCamera = progress.moveCamera;
+  progress.captured = [&stages, &args](const hw::CaptureSyncStats& stats) {
+    stages.end();
     std::cout << args.settings.camera << ": " << stats.describe() << "\n";
   };
   const CalibrationCaptures captures = daemon::capturePictures(
-      link, nominal, args.settings, progress, [] { return gInterrupted.load(); });
+      **link, nominal, args.settings, progress, [] { return gInterrupted.load(); });
   if (!args.saveCaptures.empty()) {
+    stages.plain("save the pictures: " + args.saveCaptures);
     saveCaptures(captures, args.saveCaptures);
-    std::cout << "pictures saved to " << args.saveCaptures << "\n";
+    stages.end();
   }
-  return daemon::decodePictures(captures, nominal, args.settings);
+  return daemon::decodePictures(captures, nominal, args.settings, stages.decode());
 }
 
 void runCalibrate(CalibrateArgs args) {
@@ -228,8 +244,26 @@ void runCalibrate(CalibrateArgs args) {
     throw InputError({"", "--camera-metadata", 0},
                      "--link needs the camera's metadata (camera.json: intrinsics, stations)");
   }
+  args.settings.photometric = daemon::parsePhotometricMode(args.photometric, "--photometric");
+  if (args.settings.photometric != daemon::PhotometricMode::kOff && args.link.empty()) {
+    throw InputError({"", "--photometric", 0},
+                     "needs --link: the flat fields are shown by the modules and photographed now");
+  }
   args.settings.validate("--");
   const DisplayModel nominal = resolveDisplay(args.nominal);
+  // Colours only: the installed geometry stays and only the camera is placed again.
+  const bool colourOnly = args.settings.photometric == daemon::PhotometricMode::kOnly;
+  DisplayModel start = nominal;
+  if (colourOnly) {
+    const std::optional<daemon::StoredCalibration> installed =
+        daemon::CalibrationStore(args.out).loadFor(nominal);
+    if (!installed) {
+      throw InputError({args.out, "", 0},
+                       "--photometric (colours only) keeps the installed geometric calibration, "
+                       "and there is none: calibrate the geometry first (or --photometric=on)");
+    }
+    start = installed->model;
+  }
   std::optional<DisplayModel> truth;
   if (!args.truth.empty()) {
     truth = loadDisplayModel(args.truth);
@@ -247,8 +281,12 @@ void runCalibrate(CalibrateArgs args) {
   }
   if (!cameraTruthPath.empty()) cameraTruth = loadCameraTruth(cameraTruthPath).intrinsics;
   std::string source;
-  const CalibrationObservations observations =
-      sessionObservations(args, nominal, cameraTruth ? &*cameraTruth : nullptr, &source);
+  CalibrateProgress stages(stagesOf(args));
+  std::unique_ptr<hw::LinkClient> link;
+  daemon::PipelineProgress linkProgress;
+  const CalibrationObservations observations = sessionObservations(
+      args, nominal, cameraTruth ? &*cameraTruth : nullptr, stages, &source, &link, &linkProgress);
+  stages.end();
   std::cout << fmt::format("{} correspondences, {} stripe centres, {} fiducial sightings\n",
                            observations.correspondences.size(), observations.stripes.size(),
                            observations.fiducialSightings.size());
@@ -259,36 +297,67 @@ void runCalibrate(CalibrateArgs args) {
       throw InputError({"", "--transfer", 0}, "must be conical or linear");
     settings.transfer = transfer;
   }
-  // Three solves of up to maxIterations each; the bar counts iterations and finishes early.
-  ProgressBar progress("calibrate", 3L * FitOptions{}.maxIterations);
-  daemon::PipelineProgress fitProgress;
-  fitProgress.iteration = [&progress](int) { progress.advance(); };
   FitResult result;
   try {
-    result = daemon::fitObservations(nominal, observations, settings, std::nullopt, fitProgress,
+    result = daemon::fitObservations(start, observations, settings, std::nullopt, stages.fit(),
                                      [] { return gInterrupted.load(); });
   } catch (const InputError& e) {
     throw e.location().file.empty() ? e.inFile(source) : e;
   }
-  progress.finish();
+  stages.end();
   if (result.stopped)
     throw std::runtime_error(
         fmt::format("interrupted during the fit; {} was left untouched", args.out));
 
   std::cout << formatFitSummary(result);
-  if (args.report) std::cout << formatFitReport(result, truth ? &*truth : nullptr);
-  if (truth) std::cout << formatTruthHeadline(result, *truth, nominal);
+  if (args.report && !colourOnly) std::cout << formatFitReport(result, truth ? &*truth : nullptr);
+  if (truth && !colourOnly) std::cout << formatTruthHeadline(result, *truth, nominal);
   if (!result.passesQualityChecks()) {
     throw std::runtime_error(
         fmt::format("the calibration failed its quality checks; {} was left untouched", args.out));
   }
-  // The daemon's store: the old file becomes .previous only if it verifies, and the new one is
-  // reported installed only once it is on disk.
-  daemon::CalibrationStore(args.out).install(result.model);
+  const DisplayModel model = colourOnly ? start : result.model;
+  // The photometric stage, on the geometry just fitted (or kept), with the camera where the
+  // fit placed it; a failure installs nothing, the geometry included.
+  std::optional<daemon::PhotometricRun> photometry;
+  if (settings.photometric != daemon::PhotometricMode::kOff) {
+    const std::vector<int> stations = daemon::photographedStations(observations);
+    std::optional<ProgressBar> bar;
+    daemon::PipelineProgress flat = linkProgress;
+    flat.pictures = [&bar](int done, int total) {
+      if (!bar) bar.emplace("flat fields", total);
+      if (done > 0) bar->advance();
+    };
+    try {
+      photometry =
+          daemon::calibratePhotometry(*link, model, stations, daemon::fittedPoses(result, stations),
+                                      settings, flat, [] { return gInterrupted.load(); });
+    } catch (const hw::CalibrationCancelled&) {
+      throw std::runtime_error(
+          fmt::format("interrupted during the flat fields; {} was left untouched", args.out));
+    } catch (const std::exception& e) {
+      throw std::runtime_error(fmt::format("{}; {} was left untouched", e.what(), args.out));
+    }
+    if (bar) bar->finish();
+    std::cout << photometry->summary << "\n";
+    if (args.report) std::cout << photometry->report;
+  }
+  // The daemon's store: the old files become .previous only if they verify, and the new ones
+  // are reported installed only once they are on disk.
+  const daemon::CalibrationStore store(args.out);
+  const daemon::StoredCalibration installed =
+      photometry ? store.install(model, daemon::CalibrationStore::Photometry::kReplace,
+                                 photometry->calibration.correction)
+                 : store.install(model);
   std::cout << fmt::format("calibration installed: {}{}\n", args.out,
                            fs::exists(args.out + ".previous")
                                ? fmt::format(" (previous kept as {}.previous)", args.out)
                                : "");
+  if (installed.photometry) {
+    std::cout << fmt::format("photometric correction {}: {}\n",
+                             photometry ? "installed" : "kept (carried over to the new geometry)",
+                             installed.photometrySource);
+  }
 }
 
 }  // namespace
@@ -326,6 +395,10 @@ void addCalibrateCommand(CLI::App& app) {
   command->add_option("--nominal", args->nominal, "nominal display: JSON file or built-in name");
   command->add_option("--out", args->out, "calibrated display JSON to write")->required();
   command->add_flag("--report", args->report, "print the per-module table");
+  command->add_flag("--photometric{only}", args->photometric,
+                    "with --link: calibrate the modules' colours (flat fields) on the installed "
+                    "geometry (--photometric), or the geometry and the colours "
+                    "(--photometric=on); the correction goes beside --out");
   command->add_option(
       "--truth", args->truth,
       "ground truth JSON: adds error columns to the report (never used by the fit)");

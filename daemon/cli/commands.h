@@ -16,6 +16,7 @@ void addRenderCommand(CLI::App& app);
 void addViewCommand(CLI::App& app);
 void addSimulateCommand(CLI::App& app);
 void addCalibrateCommand(CLI::App& app);
+void addCameraCommand(CLI::App& app);  // camera board, camera calibrate
 void addSceneApiCommand(CLI::App& app);
 // `commandLine`: how parallax was invoked, recorded in the report.
 void addReportCommand(CLI::App& app, const std::string& commandLine);

@@ -4,6 +4,9 @@
 // module frames in DIR (module_NNN.png or .exr, as `parallax render` writes them) through the
 // display physics. With --traced-scene it also traces the same view directly and prints the
 // PSNR between the two over the part of the screen the modules light for that viewer.
+// With --photometric-truth (a simulated display's photometric_truth.json) the frames' 8-bit
+// codes become the light those modules send (their response, colours, black and vignetting)
+// instead of an ideal sRGB module's: what a viewer of that simulated display sees.
 
 #include <fmt/format.h>
 
@@ -13,6 +16,7 @@
 #include <memory>
 
 #include "calibration/display/display_presets.h"
+#include "calibration/simulation/photometric_truth.h"
 #include "common/input_error.h"
 #include "common/width_height.h"
 #include "daemon/cli/commands.h"
@@ -29,10 +33,24 @@ struct ViewArgs {
   std::string frames;
   double x = 0.0;
   std::optional<double> y, z;
-  std::string out = "view.png";
+  std::string out = "parallax-view/view.png";  // never the current folder itself (README)
   std::string size = "640x360";
   std::string tracedScene;
+  std::string photometricTruth;
 };
+
+// The light module i sends for the 8-bit codes of `frame`, by the photometric truth.
+Frame lightOf(const PhotometricTruth& truth, int module, const Frame& frame) {
+  const std::vector<std::uint8_t> codes = frame.toSrgb8();  // the PNG's bytes again
+  const cv::Mat light = truth.emittedLight(module, frame.width, frame.height, codes.data());
+  Frame out(frame.width, frame.height);
+  for (int y = 0; y < frame.height; ++y)
+    for (int x = 0; x < frame.width; ++x) {
+      const cv::Vec3f v = light.at<cv::Vec3f>(y, x);
+      out.at(x, y) = Rgb(v[0], v[1], v[2]);
+    }
+  return out;
+}
 
 std::vector<Frame> readModuleFrames(const DisplayModel& model, const std::string& directory) {
   std::vector<Frame> frames;
@@ -74,7 +92,25 @@ void runView(const ViewArgs& args) {
   if (!(viewer.z() > 0.0)) {
     throw InputError({"", "--z", 0}, "the viewer must stand in front of the screen (z > 0)");
   }
-  const std::vector<Frame> frames = readModuleFrames(model, args.frames);
+  std::vector<Frame> frames = readModuleFrames(model, args.frames);
+  if (!args.photometricTruth.empty()) {
+    const PhotometricTruth truth = loadPhotometricTruth(args.photometricTruth);
+    if (truth.modules.size() != model.modules.size()) {
+      throw InputError({args.photometricTruth, "modules", 0},
+                       fmt::format("has {} modules; the display has {}", truth.modules.size(),
+                                   model.modules.size()));
+    }
+    for (size_t i = 0; i < frames.size(); ++i)
+      frames[i] = lightOf(truth, static_cast<int>(i), frames[i]);
+  }
+  const std::filesystem::path parent = std::filesystem::path(args.out).parent_path();
+  if (!parent.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(parent, ec);
+    if (ec)
+      throw InputError({parent.string(), "", 0},
+                       "cannot create the output folder: " + ec.message());
+  }
   std::vector<float> coverage;
   const Frame view = synthesizeObserverView(model, frames, viewer, options, &coverage);
   writePng(view, args.out);
@@ -83,7 +119,8 @@ void runView(const ViewArgs& args) {
   std::cout << fmt::format(
       "view from ({:.3f}, {:.3f}, {:.3f}) m written to {} ({}x{}); the modules light {:.1f}% "
       "of the screen for this viewer\n",
-      viewer.x(), viewer.y(), viewer.z(), args.out, options.width, options.height,
+      viewer.x(), viewer.y(), viewer.z(), std::filesystem::absolute(args.out).string(),
+      options.width, options.height,
       100.0 * static_cast<double>(covered) / static_cast<double>(coverage.size()));
   if (!args.tracedScene.empty()) {
     const PhysicalScene scene(loadSceneArgument(args.tracedScene, {}, 0.0), model.displayableBox);
@@ -110,10 +147,13 @@ void addViewCommand(CLI::App& app) {
   command->add_option("--x", args->x, "viewer position along the observer line (m)")->required();
   command->add_option("--y", args->y, "viewer height (m); default: the observer line's");
   command->add_option("--z", args->z, "viewer distance (m); default: the observer line's");
-  command->add_option("--out", args->out, "output PNG");
+  command->add_option("--out", args->out, "output PNG (default: parallax-view/view.png)");
   command->add_option("--size", args->size, "view resolution WIDTHxHEIGHT (spans the screen)");
   command->add_option("--traced-scene", args->tracedScene,
                       "also trace this scene directly and print the PSNR");
+  command->add_option("--photometric-truth", args->photometricTruth,
+                      "a simulated display's photometric_truth.json: the frames' codes shown by "
+                      "those modules (8-bit PNG frames)");
   command->callback([args] { runView(*args); });
 }
 

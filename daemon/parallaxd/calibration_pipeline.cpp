@@ -9,10 +9,13 @@
 #include <stdexcept>
 
 #include "calibration/fit/fit_report.h"
+#include "calibration/photometry/photometric_residual.h"
+#include "common/check.h"
 #include "common/input_error.h"
 #include "hw/camera/calibration_capture.h"
 #include "hw/camera/camera.h"
 #include "hw/camera/camera_name.h"
+#include "hw/camera/flat_field_session.h"
 
 namespace parallax::daemon {
 namespace {
@@ -33,6 +36,28 @@ void runStationCommand(const std::string& command, int station) {
 
 }  // namespace
 
+PhotometricMode parsePhotometricMode(const std::string& text, const std::string& field) {
+  if (text == "off") return PhotometricMode::kOff;
+  if (text == "on") return PhotometricMode::kOn;
+  if (text == "only") return PhotometricMode::kOnly;
+  throw InputError({"", field, 0},
+                   fmt::format("must be off, on (geometry and colours) or only (colours), got "
+                               "\"{}\"",
+                               text));
+}
+
+std::string_view photometricModeName(PhotometricMode mode) {
+  switch (mode) {
+    case PhotometricMode::kOff:
+      return "off";
+    case PhotometricMode::kOn:
+      return "on";
+    case PhotometricMode::kOnly:
+      return "only";
+  }
+  return "off";
+}
+
 void CalibrationSettings::validate(const std::string& prefix) const {
   // Flags spell the config's keys with dashes.
   const auto field = [&prefix](std::string key) {
@@ -48,10 +73,16 @@ void CalibrationSettings::validate(const std::string& prefix) const {
     if (!(std::isfinite(value) && value > 0.0))
       throw InputError({"", field(name), 0}, fmt::format("must be > 0, got {}", value));
   }
+  flatFields.validate();
+  photometricFit.validate();
 }
 
-CalibrationSettings settingsOf(const CalibrationConfig& config) {
+CalibrationSettings settingsOf(const CalibrationConfig& config, bool simulatorPhotometric) {
   CalibrationSettings settings;
+  settings.photometric =
+      config.photometric == "on" || (config.photometric == "auto" && simulatorPhotometric)
+          ? PhotometricMode::kOn
+          : PhotometricMode::kOff;
   settings.camera = config.cameraName;
   settings.cameraMetadata = config.cameraMetadata;
   if (config.pixelStep) settings.pixelStep = *config.pixelStep;
@@ -117,10 +148,13 @@ CalibrationCaptures capturePictures(hw::LinkClient& link, const DisplayModel& no
 
 CalibrationObservations decodePictures(const CalibrationCaptures& captures,
                                        const DisplayModel& nominal,
-                                       const CalibrationSettings& settings) {
+                                       const CalibrationSettings& settings,
+                                       const PipelineProgress& progress) {
   CaptureDecoderOptions decoder;
   decoder.patterns = captures.patterns;
   decoder.pixelStep = settings.pixelStep;
+  decoder.onPictureSet = progress.decoded;
+  if (progress.decoded) progress.decoded(0, static_cast<int>(captures.stations.size()));
   return decodeCaptures(captures, nominal, decoder);
 }
 
@@ -135,7 +169,12 @@ FitResult fitObservations(const DisplayModel& start, const CalibrationObservatio
   fit.stopRequested = cancelled;
   if (progress.iteration)
     fit.onIteration = [&](int iteration, double) { progress.iteration(iteration); };
-  if (onlyModule) {
+  fit.onStep = progress.fitStep;
+  if (settings.photometric == PhotometricMode::kOnly) {
+    // Only where the camera stood: every module and the screen stay as installed.
+    for (int m = 0; m < static_cast<int>(start.modules.size()); ++m) fit.heldModules.push_back(m);
+    fit.fitCurvature = false;
+  } else if (onlyModule) {
     // One replaced module: the others and the screen stay as calibrated.
     for (int m = 0; m < static_cast<int>(start.modules.size()); ++m) {
       if (m != *onlyModule) fit.heldModules.push_back(m);
@@ -143,6 +182,84 @@ FitResult fitObservations(const DisplayModel& start, const CalibrationObservatio
     fit.fitCurvature = false;
   }
   return fitDisplay(start, observations, fit);
+}
+
+std::vector<int> photographedStations(const CalibrationObservations& observations) {
+  std::vector<int> stations;
+  for (const Correspondence& c : observations.correspondences)
+    if (std::find(stations.begin(), stations.end(), c.camera) == stations.end())
+      stations.push_back(c.camera);
+  std::sort(stations.begin(), stations.end());
+  return stations;
+}
+
+std::vector<CameraPose> fittedPoses(const FitResult& result, const std::vector<int>& stations) {
+  std::vector<CameraPose> poses;
+  for (int station : stations) {
+    const auto fitted = std::find_if(result.cameras.begin(), result.cameras.end(),
+                                     [station](const CameraFit& c) { return c.camera == station; });
+    if (fitted == result.cameras.end())
+      throw std::runtime_error(fmt::format("the fit placed no camera at station {}", station));
+    poses.push_back(fitted->pose);
+  }
+  return poses;
+}
+
+PhotometricRun calibratePhotometry(hw::LinkClient& link, const DisplayModel& geometry,
+                                   const std::vector<int>& stations,
+                                   const std::vector<CameraPose>& poses,
+                                   const CalibrationSettings& settings,
+                                   const PipelineProgress& progress,
+                                   const std::function<bool()>& cancelled) {
+  PARALLAX_CHECK_OP(stations.size(), ==, poses.size());
+  const CameraMetadata metadata = loadCameraMetadata(settings.cameraMetadata);
+  const hw::CameraName name = hw::parseCameraName(settings.camera, "camera");
+  std::unique_ptr<hw::Camera> camera = hw::openCamera(name, link);
+  PhotometricRun run;
+  FlatFieldCaptures captures;
+  {
+    // Locks the camera (colour) and puts the modules in pattern mode until it ends.
+    hw::FlatFieldSession session(link, *camera, settings.cameraSettings);
+    const int total = static_cast<int>(stations.size()) * settings.flatFields.groupStride *
+                      (1 + 3 * static_cast<int>(settings.flatFields.levels.size()));
+    int taken = 0, standing = -1;
+    const FlatFieldCamera take = [&](int index, const std::vector<const std::uint8_t*>& frames,
+                                     double exposure) {
+      if (cancelled()) throw hw::CalibrationCancelled();
+      const int station = stations[static_cast<size_t>(index)];
+      if (station != standing && name.kind != hw::CameraKind::kLink) {
+        // A camera not behind the link goes back to each station (it was left at the last).
+        if (!settings.stationCommand.empty()) {
+          runStationCommand(settings.stationCommand, station);
+        } else if (progress.moveCamera) {
+          progress.moveCamera(station);
+        }
+      }
+      standing = station;
+      if (progress.pictures) progress.pictures(++taken, total);
+      return session.take(station, frames, exposure);
+    };
+    captures = captureFlatFields(geometry, metadata.intrinsics, poses, metadata.responseGamma, take,
+                                 settings.flatFields);
+  }
+  if (progress.stage) progress.stage("fitting the modules' colours");
+  run.calibration = fitPhotometry(captures, settings.photometricFit);
+  run.calibration.correction.summary = measurePhotometricResidual(captures, run.calibration);
+  run.pictures = captures.pictures;
+  run.retakes = captures.retakes;
+  run.seconds = captures.captureSeconds;
+  const PhotometricSummary& summary = run.calibration.correction.summary;
+  std::string excluded;
+  for (const ModulePhotometricFigures& m : run.calibration.modules)
+    if (m.excluded) excluded += fmt::format("; module {} excluded: {}", m.module, m.reason);
+  run.summary = fmt::format(
+      "photometric calibration: {} flat-field pictures ({} retaken) in {:.1f} s; a flat grey "
+      "through the correction, on the pictures: CIEDE2000 mean {:.2f}, worst {:.2f}, brightness "
+      "non-uniformity {:.1f}%; target white {:.3f} (an ideal module's = 1){}",
+      run.pictures, run.retakes, run.seconds, summary.deltaEMean, summary.deltaEWorst,
+      100.0 * summary.nonUniformity, run.calibration.targetWhiteLuminance, excluded);
+  run.report = run.calibration.describe();
+  return run;
 }
 
 CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& nominal,
@@ -168,18 +285,41 @@ CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& no
     if (cancelled()) throw hw::CalibrationCancelled();
   };
   stopIfCancelled();
-  stage("decoding the pictures");
-  const CalibrationObservations observations = decodePictures(captures, nominal, settings);
-  stage(fmt::format("fitting ({} correspondences)", observations.correspondences.size()));
+  PipelineProgress decoding = progress;
+  decoding.decoded = [&](int done, int total) {
+    if (progress.decoded) progress.decoded(done, total);
+    stage(fmt::format("decoding: picture set {} of {}", done, total));
+  };
+  const CalibrationObservations observations =
+      decodePictures(captures, nominal, settings, decoding);
   stopIfCancelled();
+  PipelineProgress fitting = progress;
+  fitting.fitStep = [&](const FitStep& step) {
+    if (progress.fitStep) progress.fitStep(step);
+    stage(fmt::format("fitting: step {} of {}, {}", step.index, step.total, step.what));
+  };
   const FitResult result =
-      fitObservations(start, observations, settings, onlyModule, progress, cancelled);
+      fitObservations(start, observations, settings, onlyModule, fitting, cancelled);
   stopIfCancelled();
-  CalibrationRun run{result.model, formatFitSummary(result), formatFitReport(result)};
+  const bool colourOnly = settings.photometric == PhotometricMode::kOnly;
+  CalibrationRun run{colourOnly ? start : result.model, formatFitSummary(result),
+                     formatFitReport(result), std::nullopt};
   if (!result.passesQualityChecks()) {
-    throw std::runtime_error("the fit failed its quality checks, nothing installed: " +
-                             run.summary);
+    throw std::runtime_error(fmt::format("the {} failed its quality checks, nothing installed: {}",
+                                         colourOnly ? "camera's placement" : "fit", run.summary));
   }
+  if (settings.photometric == PhotometricMode::kOff) return run;
+  // The camera where the fit placed it at every station it photographed from.
+  const std::vector<int> stations = photographedStations(observations);
+  const std::vector<CameraPose> poses = fittedPoses(result, stations);
+  stage("photometric: flat fields");
+  PipelineProgress flat = progress;
+  flat.pictures = [&](int done, int total) {
+    if (progress.pictures) progress.pictures(done, total);
+    stage(fmt::format("photometric: flat fields: {} of {}", done, total));
+  };
+  run.photometry = calibratePhotometry(link, run.model, stations, poses, settings, flat, cancelled);
+  if (progress.note) progress.note(run.photometry->summary);
   return run;
 }
 

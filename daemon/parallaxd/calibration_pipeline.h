@@ -16,12 +16,22 @@
 #include "calibration/display/display_model.h"
 #include "calibration/display/screen_transfer.h"
 #include "calibration/fit/display_fit.h"
+#include "calibration/photometry/flat_field_capture.h"
+#include "calibration/photometry/photometric_fit.h"
 #include "daemon/parallaxd/daemon_config.h"
 #include "hw/camera/calibration_capture.h"
 #include "hw/link/camera_settings.h"
 #include "hw/link/link_client.h"
 
 namespace parallax::daemon {
+
+// What a calibration calibrates: the geometry only, the geometry and the modules' colours, or
+// the colours only (the installed geometry kept; the pictures of the patterns are still taken,
+// to find where the camera stands, with every module held).
+enum class PhotometricMode { kOff, kOn, kOnly };
+// "off", "on", "only"; InputError naming `field` otherwise.
+PhotometricMode parsePhotometricMode(const std::string& text, const std::string& field);
+std::string_view photometricModeName(PhotometricMode mode);
 
 struct CalibrationSettings {
   std::string camera = "link";  // camera_name.h
@@ -41,19 +51,31 @@ struct CalibrationSettings {
   // Run before the pictures of each station with a camera that is not behind the link (a rig
   // moving it, or a prompt); "{station}" is replaced by the station number.
   std::string stationCommand;
+  PhotometricMode photometric = PhotometricMode::kOff;
+  // Flat-field samples only near each lobe's peak, where the fitted geometry's small angle
+  // errors change the lobe weight least (its slope is steepest near 0.6).
+  FlatFieldOptions flatFields{.minLobeWeight = 0.85};
+  PhotometricFitOptions photometricFit;
 
   // Throws InputError naming the field (`prefix` + name: "--" for flags, "calibration." for
   // the config).
   void validate(const std::string& prefix) const;
 };
 
-// The pipeline's settings with the config's changes.
-CalibrationSettings settingsOf(const CalibrationConfig& config);
+// The pipeline's settings with the config's changes; `simulatorPhotometric`: the display is a
+// simulator parallaxd started with photometric variation (what "auto" turns on for).
+CalibrationSettings settingsOf(const CalibrationConfig& config, bool simulatorPhotometric = false);
 
+// What the pipeline reports as it goes, in its order: the pictures (capture), the picture sets
+// decoded (decode), the fit's steps and their solver iterations (fit). Every member optional.
 struct PipelineProgress {
-  std::function<void(const std::string& stage)> stage;        // "decoding the pictures", ...
+  // calibrateThroughLink: one line for a status, at each of the counts below ("pictures: 3 of
+  // 96", "decoding: picture set 2 of 4", "fitting: step 3 of 9, conical: final solve").
+  std::function<void(const std::string& stage)> stage;
   std::function<void(int done, int total)> pictures;          // during the capture
-  std::function<void(int iteration)> iteration;               // during the fit
+  std::function<void(int done, int total)> decoded;           // picture sets, during the decode
+  std::function<void(const FitStep& step)> fitStep;           // as each fit step starts
+  std::function<void(int iteration)> iteration;               // during each fit step's solve
   std::function<void(const std::string& line)> note;          // warnings and facts for the log
   std::function<void(const hw::CaptureSyncStats&)> captured;  // how the camera kept up
   // Asks the operator to move a camera that is not behind the link to `station` and returns
@@ -71,10 +93,11 @@ CalibrationCaptures capturePictures(hw::LinkClient& link, const DisplayModel& no
                                     const PipelineProgress& progress,
                                     const std::function<bool()>& cancelled);
 
-// Decoding with the settings' pixel step.
+// Decoding with the settings' pixel step; progress.decoded after each picture set.
 CalibrationObservations decodePictures(const CalibrationCaptures& captures,
                                        const DisplayModel& nominal,
-                                       const CalibrationSettings& settings);
+                                       const CalibrationSettings& settings,
+                                       const PipelineProgress& progress);
 
 // The fit from `start` (the nominal, or the current calibration when refitting `onlyModule`
 // with every other module and the curvature held) with the settings' solver and gate.
@@ -84,16 +107,46 @@ FitResult fitObservations(const DisplayModel& start, const CalibrationObservatio
                           const CalibrationSettings& settings, std::optional<int> onlyModule,
                           const PipelineProgress& progress, const std::function<bool()>& cancelled);
 
+struct PhotometricRun {
+  // The correction (its summary filled in: photometric_residual.h), the per-module figures and
+  // exclusions.
+  PhotometricCalibration calibration;
+  int pictures = 0, retakes = 0;
+  double seconds = 0.0;
+  std::string summary;  // one paragraph: pictures, exclusions, ΔE, non-uniformity
+  std::string report;   // PhotometricCalibration::describe
+};
+
+// The photometric stage through the link, on the geometric calibration `geometry`: flat fields
+// from `stations` (station numbers) with the camera at `poses` (the fit's, one a station).
+// Throws PhotometricCaptureError for a camera that saturates or gives black pictures or when no
+// module can be calibrated, std::runtime_error for a camera that does not lock, InputError for
+// bad metadata, hw::CalibrationCancelled once `cancelled()`. Modules that cannot join (dead,
+// unseen, a gamut far outside) are excluded and named in the result, not refused.
+PhotometricRun calibratePhotometry(hw::LinkClient& link, const DisplayModel& geometry,
+                                   const std::vector<int>& stations,
+                                   const std::vector<CameraPose>& poses,
+                                   const CalibrationSettings& settings,
+                                   const PipelineProgress& progress,
+                                   const std::function<bool()>& cancelled);
+
+// The stations a session photographed from (those with correspondences), and the camera's
+// pose the fit found at each; std::runtime_error when the fit placed none at one of them.
+std::vector<int> photographedStations(const CalibrationObservations& observations);
+std::vector<CameraPose> fittedPoses(const FitResult& result, const std::vector<int>& stations);
+
 struct CalibrationRun {
-  DisplayModel model;   // the fitted display
+  DisplayModel model;   // the fitted display (kOnly: the installed one, unchanged)
   std::string summary;  // formatFitSummary
   std::string report;   // formatFitReport (per module)
+  std::optional<PhotometricRun> photometry;  // with the photometric stage
 };
 
 // The whole pipeline through the link, as the daemon runs it: capturePictures, decodePictures,
-// fitObservations, and the gate. Returns a fit that passed, or throws with the reason
-// (hw::CalibrationCancelled when cancelled: asked between pictures, between stages and at
-// every solver iteration).
+// fitObservations, and the gate, then (settings.photometric) calibratePhotometry — whose
+// failure fails the whole run: nothing is half installed. Returns a fit that passed, or throws with
+// the reason (hw::CalibrationCancelled when cancelled: asked between pictures, between stages and
+// at every solver iteration).
 CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& nominal,
                                     const DisplayModel& start, const CalibrationSettings& settings,
                                     std::optional<int> onlyModule, const PipelineProgress& progress,

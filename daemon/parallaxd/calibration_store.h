@@ -1,6 +1,11 @@
 #pragma once
-// The installed calibration of a display and the one before it (for `rollback`): two files,
-// <file> and <file>.previous, the same pair `parallax calibrate --out` maintains.
+// The installed calibration of a display and the one before it (for `rollback`): the geometric
+// calibration <file> and its photometric correction <stem>.photometry.json beside it
+// (calibration/display/colour_correction.h), each with its .previous — the same files
+// `parallax calibrate --out` maintains. The two are one version: installed together, rolled
+// back together; a photometry file names the geometric calibration it belongs to (its content
+// hash), so a pair torn apart (a crash between the two writes, a file copied by hand) is seen
+// and its photometry left out, with the reason.
 //
 // Durability rules (issue 18): every file is written with a checksum, atomically and flushed
 // to disk (temporary file, fsync, rename, fsync of the folder), and read back and verified
@@ -13,6 +18,7 @@
 #include <optional>
 #include <string>
 
+#include "calibration/display/colour_correction.h"
 #include "calibration/display/display_model.h"
 
 namespace parallax::daemon {
@@ -21,6 +27,11 @@ struct StoredCalibration {
   DisplayModel model;
   std::string source;   // the file it was read from: the current one, or .previous
   std::string refused;  // why the current file was passed over for .previous; empty if it was not
+  // The photometric correction of the same version, when there is one that verifies and
+  // belongs to `model`; else `photometryRefused` says why a file that was there is not used.
+  std::optional<DisplayColourCorrection> photometry;
+  std::string photometrySource;
+  std::string photometryRefused;
 };
 
 class CalibrationStore {
@@ -29,24 +40,40 @@ class CalibrationStore {
 
   const std::string& path() const { return path_; }
   std::string previousPath() const { return path_ + ".previous"; }
+  // <folder>/<stem>.photometry.json: calibration.json → calibration.photometry.json.
+  std::string photometryPath() const;
+  std::string previousPhotometryPath() const { return photometryPath() + ".previous"; }
 
   // The installed calibration when it verifies and fits `nominal`, else .previous when that
   // does (logged, `refused` says why); nullopt when there is no current file. Throws
-  // InputError (file, field) when the current file is bad and no good .previous exists.
+  // InputError (file, field) when the current file is bad and no good .previous exists. The
+  // photometry is that of the same version; a bad one is left out (photometryRefused), never
+  // applied, and the geometry still loads.
   std::optional<StoredCalibration> loadFor(const DisplayModel& nominal) const;
-  // Makes `model` the installed calibration: the current file (only if it verifies) becomes
-  // .previous, then `model` is written durably and read back. Returns once it is on disk;
-  // throws InputError naming the file and the system's reason otherwise (a full disk), with
-  // the old calibration still installed and no partial .previous.
-  void install(const DisplayModel& model) const;
-  // Swaps the current and previous calibrations; returns the one now installed. Throws
-  // InputError when there is no previous calibration (or it does not verify or fit `nominal`).
-  // A current file that does not verify is dropped, not kept as .previous.
-  DisplayModel rollback(const DisplayModel& nominal) const;
+
+  enum class Photometry { kKeep, kReplace };
+  // Makes `model` (and, with kReplace, `photometry`: a correction, or none) the installed
+  // version: the current files (only those that verify) become .previous, then the new ones
+  // are written durably and read back. kKeep carries the current photometric correction over
+  // to the new geometry (a geometric recalibration does not change the modules' colours).
+  // Returns what is now installed once it is on disk; throws InputError naming the file and
+  // the reason otherwise (a full disk), with no partial .previous.
+  StoredCalibration install(const DisplayModel& model, Photometry mode = Photometry::kKeep,
+                            const std::optional<DisplayColourCorrection>& photometry = {}) const;
+  // Swaps the current and previous versions, geometry and photometry together; returns the one
+  // now installed. Throws InputError when there is no previous calibration, or when it (or
+  // its photometry) does not verify or fit `nominal` — with nothing changed. A current file
+  // that does not verify is dropped, not kept as .previous.
+  StoredCalibration rollback(const DisplayModel& nominal) const;
 
   // InputError unless `candidate` has the nominal's module count and resolutions.
   static void requireSameDisplay(const DisplayModel& nominal, const DisplayModel& candidate,
                                  const std::string& file);
+  // InputError naming `file` and the field unless `photometry` has a module for each of the
+  // nominal's and was fitted with `geometry` (when it records one).
+  static void requireMatchingPhotometry(const DisplayModel& nominal, const DisplayModel& geometry,
+                                        const DisplayColourCorrection& photometry,
+                                        const std::string& file);
 
  private:
   std::string path_;

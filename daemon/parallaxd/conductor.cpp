@@ -75,6 +75,16 @@ void Conductor::startUp() {
       calibrationSource_ = installed->source;
       haveCalibration = true;
       spdlog::info("calibration: {}", installed->source);
+      photometryRefused_ = installed->photometryRefused;
+      try {
+        applyPhotometry(installed->photometry, installed->photometrySource);
+      } catch (const InputError& e) {
+        photometryRefused_ = e.what();
+      }
+      if (!photometryRefused_.empty())
+        state_.fail("loading the calibration",
+                    "photometric correction refused: " + photometryRefused_,
+                    DaemonState::kStarting);
       if (!installed->refused.empty())
         state_.fail("loading the calibration", installed->refused + "; using " + installed->source,
                     DaemonState::kStarting);
@@ -95,8 +105,37 @@ void Conductor::startUp() {
   publish();
 }
 
+void Conductor::applyPhotometry(const std::optional<DisplayColourCorrection>& photometry,
+                                const std::string& source) {
+  std::vector<ModuleEncoder> encoders;
+  if (photometry) {
+    if (photometry->modules.size() != nominal_.modules.size()) {
+      throw InputError({source, "modules", 0},
+                       fmt::format("has {} modules; this display has {}",
+                                   photometry->modules.size(), nominal_.modules.size()));
+    }
+    encoders.reserve(nominal_.modules.size());
+    for (size_t i = 0; i < nominal_.modules.size(); ++i) {
+      try {
+        encoders.emplace_back(photometry->modules[i], nominal_.modules[i].width,
+                              nominal_.modules[i].height);
+      } catch (const InputError& e) {
+        throw InputError({source, fmt::format("modules[{}].{}", i, e.location().field), 0},
+                         e.reason());
+      }
+    }
+  }
+  photometry_ = photometry;
+  encoders_ = std::move(encoders);
+  photometrySource_ = photometry ? source : "";
+  // Frames already shown were encoded with the old correction: render them again.
+  renderedTexturesVersion_ = 0;
+  if (photometry) spdlog::info("photometric correction: {}", source);
+}
+
 CalibrationSettings Conductor::calibrationSettings() const {
-  CalibrationSettings settings = settingsOf(options_.config.calibration);
+  CalibrationSettings settings =
+      settingsOf(options_.config.calibration, options_.simulatorPhotometric);
   if (settings.cameraMetadata.empty()) settings.cameraMetadata = options_.simulatorCamera;
   return settings;
 }

@@ -37,6 +37,7 @@
 #include "hw/link/link_client.h"
 #include "scripts/scripted_scene.h"
 #include "tracer/frame.h"
+#include "tracer/module_encoder.h"
 #include "tracer/physical_scene.h"
 #include "tracer/whitted_integrator.h"
 
@@ -50,6 +51,9 @@ struct ConductorOptions {
   // The camera metadata of a simulator parallaxd started itself: used when the config names no
   // camera (calibration.camera), also after a reload of a config that does not name one.
   std::string simulatorCamera;
+  // That simulator shows a photometric truth: `[calibration] photometric = "auto"` calibrates
+  // the modules' colours too.
+  bool simulatorPhotometric = false;
   int connectTimeoutMs = 10000;  // at start (a simulator we started may take a moment)
   int keepAliveMs = 1000;        // idle link probe: how soon a reconnect is noticed
   // Called from the conductor thread: once when the first stage sequence has finished (with
@@ -127,7 +131,12 @@ class Conductor {
   // Stages (conductor thread; conductor.cpp, conductor_calibration.cpp).
   void startUp();
   bool connectLink(int timeoutMs);
-  StageResult calibrate(std::optional<int> onlyModule);
+  StageResult calibrate(std::optional<int> onlyModule,
+                        std::optional<PhotometricMode> photometric = std::nullopt);
+  // Makes `photometry` (or none) the correction every frame is encoded with; throws
+  // InputError (the file, the field) for one that does not fit the display, changing nothing.
+  void applyPhotometry(const std::optional<DisplayColourCorrection>& photometry,
+                       const std::string& source);
   StageResult regenerate(const DisplayModel& model);
   StageResult loadScene(const std::string& script, const std::map<std::string, double>& parameters);
   // Where a stage returns to: what the modules show (playing or paused), `starting` during
@@ -135,6 +144,7 @@ class Conductor {
   DaemonState restingState() const;
   bool stopAsked() const;  // SIGTERM/SIGINT (run's flag) or a `shutdown` request
   CalibrationSettings calibrationSettings() const;
+  nlohmann::json photometryJson() const;  // status
   PipelineProgress calibrationProgress();
 
   // Render loop (conductor_render_loop.cpp).
@@ -184,6 +194,11 @@ class Conductor {
   DisplayModel calibration_;  // the installed calibration, or the nominal when there is none
   std::string calibrationSource_;
   CalibrationStore store_;
+  // The installed photometric correction and its encoders (one a module; empty: plain sRGB).
+  std::optional<DisplayColourCorrection> photometry_;
+  std::vector<ModuleEncoder> encoders_;
+  std::string photometrySource_;
+  std::string photometryRefused_;  // why a photometry file beside the calibration is not used
   RayTextureCache cache_;
   RayTextureCacheStats cacheStats_;
   std::vector<RayTextures> textures_;

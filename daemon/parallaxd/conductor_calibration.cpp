@@ -44,42 +44,65 @@ PipelineProgress Conductor::calibrationProgress() {
   PipelineProgress progress;
   progress.stage = [this](const std::string& stage) {
     state_.setStage(stage);
-    if (options_.onHeartbeat) options_.onHeartbeat();
     publish();
+    if (options_.onHeartbeat) options_.onHeartbeat();
   };
   progress.note = [](const std::string& line) { spdlog::info("{}", line); };
   return progress;
 }
 
-Conductor::StageResult Conductor::calibrate(std::optional<int> onlyModule) {
+Conductor::StageResult Conductor::calibrate(std::optional<int> onlyModule,
+                                            std::optional<PhotometricMode> photometric) {
   const DaemonState back = restingState();
+  CalibrationSettings settings = calibrationSettings();
+  if (photometric) settings.photometric = *photometric;
+  // One module's geometry is refitted alone; its colours need the whole display's target.
+  if (onlyModule && settings.photometric == PhotometricMode::kOn)
+    settings.photometric = PhotometricMode::kOff;
   // Reset before the state says "calibrating", which is when a `cancel` is accepted.
   cancel_ = false;
   state_.enter(DaemonState::kCalibrating,
-               onlyModule ? fmt::format("module {}", *onlyModule) : "all modules");
+               settings.photometric == PhotometricMode::kOnly
+                   ? "the modules' colours"
+                   : (onlyModule ? fmt::format("module {}", *onlyModule) : "all modules"));
   publish();
   StageResult result;
   try {
     if (!link_) throw std::runtime_error("no link to the modules: " + linkError_);
+    const bool colourOnly = settings.photometric == PhotometricMode::kOnly;
+    if (colourOnly && calibrationSource_ == "nominal (uncalibrated)")
+      throw std::runtime_error(
+          "no geometric calibration installed: calibrate the geometry first (photometric only "
+          "keeps the installed one)");
     const CalibrationRun run = calibrateThroughLink(
-        *link_, nominal_, onlyModule ? calibration_ : nominal_, calibrationSettings(), onlyModule,
+        *link_, nominal_, onlyModule || colourOnly ? calibration_ : nominal_, settings, onlyModule,
         calibrationProgress(), [this] { return cancel_.load() || stopAsked(); });
     // Textures first: if they cannot be made, the old calibration stays installed.
     const StageResult textures = regenerate(run.model);
     if (textures.done()) {
+      StoredCalibration installed;
       try {
-        store_.install(run.model);  // returns only once the calibration is on disk
+        // Returns only once the calibration (and its photometry) is on disk.
+        installed = run.photometry
+                        ? store_.install(run.model, CalibrationStore::Photometry::kReplace,
+                                         run.photometry->calibration.correction)
+                        : store_.install(run.model);
+        applyPhotometry(installed.photometry, installed.photometrySource);
       } catch (const std::exception&) {
         regenerate(calibration_);  // not kept, so not shown: back to the installed one
         throw;
       }
       calibration_ = run.model;
       calibrationSource_ = store_.path();
+      photometryRefused_.clear();
       // The fit's report beside the calibration it describes, for the installer.
-      writeFileAtomically(store_.path() + ".report.txt", run.summary + "\n" + run.report);
+      std::string report = run.summary + "\n" + run.report;
+      if (run.photometry) report += "\n" + run.photometry->summary + "\n" + run.photometry->report;
+      writeFileAtomically(store_.path() + ".report.txt", report);
       spdlog::info("calibration installed: {} (report: {}.report.txt)\n{}", store_.path(),
                    store_.path(), run.summary);
       result.summary = run.summary;
+      if (run.photometry) result.summary += "\n" + run.photometry->summary;
       state_.succeeded(kCalibrating);
     } else {
       result = textures;
@@ -114,6 +137,7 @@ Conductor::StageResult Conductor::regenerate(const DisplayModel& model) {
     std::vector<RayTextures> textures =
         cache_.texturesFor(model, &stats, [this](int done, int total) {
           state_.setStage(fmt::format("ray textures: module {} of {}", done, total));
+          publish();                                         // `status` says how far it got
           if (options_.onHeartbeat) options_.onHeartbeat();  // a long stage is not a hang
         });
     textures_ = std::move(textures);

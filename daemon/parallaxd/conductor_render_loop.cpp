@@ -61,7 +61,7 @@ void Conductor::renderAndPush() {
   const auto started = Clock::now();
   try {
     const PhysicalScene physical(script_->scene(), calibration_.displayableBox);
-    DisplayFrame frame = renderDisplayFrame(physical, textures_, options_.render);
+    DisplayFrame frame = renderDisplayFrame(physical, textures_, options_.render, encoders_);
     stats_.render.add(frame.renderMs);
     stats_.encode.add(frame.encodeMs);
     ++stats_.displayFrames;

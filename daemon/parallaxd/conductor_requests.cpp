@@ -120,20 +120,29 @@ Reply Conductor::answerCancel(const RequestArgs&) {
 // ---- queued to the conductor thread ---------------------------------------------------------
 
 Reply Conductor::answerCalibrate(const RequestArgs& args) {
-  const StageResult result = calibrate(args.module("module"));
+  std::optional<PhotometricMode> photometric;
+  if (args.has("photometric"))
+    photometric = parsePhotometricMode(args.string("photometric"), "photometric");
+  const StageResult result = calibrate(args.module("module"), photometric);
   if (!result.done()) return refused(result.error);
   return ok({{"calibration", calibrationSource_},
              {"hash", hashHex(texturesHash_)},
-             {"summary", result.summary}});
+             {"summary", result.summary},
+             {"photometry", photometryJson()}});
 }
 
 Reply Conductor::answerRollback(const RequestArgs&) {
-  const DisplayModel previous = store_.rollback(nominal_);
-  const StageResult result = regenerate(previous);
+  // The previous version, geometry and photometry, is checked before anything changes.
+  const StoredCalibration previous = store_.rollback(nominal_);
+  const StageResult result = regenerate(previous.model);
   if (!result.done()) return refused(result.error);
-  calibration_ = previous;
+  calibration_ = previous.model;
   calibrationSource_ = store_.path() + " (rolled back)";
-  return ok({{"calibration", calibrationSource_}, {"hash", hashHex(texturesHash_)}});
+  applyPhotometry(previous.photometry, previous.photometrySource);
+  photometryRefused_.clear();
+  return ok({{"calibration", calibrationSource_},
+             {"hash", hashHex(texturesHash_)},
+             {"photometry", photometryJson()}});
 }
 
 Reply Conductor::answerLoad(const RequestArgs& args) {
@@ -206,9 +215,16 @@ Reply Conductor::answerView(const RequestArgs& args) {
   }
   const Eigen::Vector3d viewer(x, calibration_.observer.y, calibration_.observer.z);
   // From what the modules show (8-bit), back in linear light: the view includes quantisation.
+  // Through a photometric correction, as its model says the corrected module shows it.
   std::vector<Frame> shown;
   shown.reserve(currentImages_.size());
-  for (const auto& image : currentImages_) shown.push_back(frameShownBy(*image));
+  for (size_t i = 0; i < currentImages_.size(); ++i) {
+    const hw::Image& image = *currentImages_[i];
+    const bool corrected = i < encoders_.size() && overlay_.empty() &&
+                           image.width == encoders_[i].width() &&
+                           image.height == encoders_[i].height();
+    shown.push_back(corrected ? encoders_[i].decode(image.pixels) : frameShownBy(image));
+  }
   const Frame view = synthesizeObserverView(calibration_, shown, viewer, vo);
   writeOutputFile(path, "path", [&](const std::string& file) { writePng(view, file); });
   return ok({{"path", path}, {"x", x}});

@@ -26,6 +26,7 @@ nlohmann::json Conductor::statusJson() const {
       {"seconds_in_state", s.secondsInState},
       {"display", {{"name", nominal_.name}, {"modules", nominal_.modules.size()}}},
       {"calibration", {{"source", calibrationSource_}, {"hash", hashHex(texturesHash_)}}},
+      {"photometry", photometryJson()},
       {"ray_textures", {{"from_cache", cacheStats_.loaded}, {"generated", cacheStats_.generated}}},
       {"link",
        {{"up", link_ != nullptr && linkHealth_ == LinkHealth::kUp},
@@ -66,6 +67,31 @@ nlohmann::json Conductor::statsJson() const {
                  {"sessions", link_->sessions()}};
   }
   return j;
+}
+
+nlohmann::json Conductor::photometryJson() const {
+  if (!photometry_) {
+    nlohmann::json none = "none";
+    if (!photometryRefused_.empty()) none = {{"state", "none"}, {"refused", photometryRefused_}};
+    return none;
+  }
+  const PhotometricSummary& s = photometry_->summary;
+  nlohmann::json modules = nlohmann::json::array();
+  for (size_t i = 0; i < s.modules.size(); ++i) {
+    const ModulePhotometricSummary& m = s.modules[i];
+    nlohmann::json j = {{"module", i},
+                        {"scale", m.scale},
+                        {"gain_max", m.gainMax},
+                        {"delta_e_mean", m.deltaEMean},
+                        {"delta_e_worst", m.deltaEWorst}};
+    if (m.excluded) j["excluded"] = m.reason;
+    modules.push_back(std::move(j));
+  }
+  return {{"source", photometrySource_},
+          {"delta_e_mean", s.deltaEMean},
+          {"delta_e_worst", s.deltaEWorst},
+          {"non_uniformity", s.nonUniformity},
+          {"modules", modules}};
 }
 
 void Conductor::publish() {

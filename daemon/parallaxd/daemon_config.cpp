@@ -127,6 +127,7 @@ void readHardware(TableReader& r, HardwareConfig* h) {
   r.readString("socket", &h->socket);
   r.readInt("seed", &h->seed, 0, 2147483647);
   r.readString("dump", &h->dump);
+  r.readBool("photometric_variation", &h->photometricVariation);
   if (const toml::node* n = r.find("faults")) {
     const toml::array* a = n->as_array();
     if (!a) r.fail(*n, "faults", "must be an array of strings such as \"2:disconnect\"");
@@ -156,7 +157,7 @@ void readHardware(TableReader& r, HardwareConfig* h) {
     h->file = r.file();
   }
   const char* usbOnly[] = {"vid", "pid", "modules"};
-  const char* simOnly[] = {"socket", "seed", "faults", "dump"};
+  const char* simOnly[] = {"socket", "seed", "faults", "dump", "photometric_variation"};
   for (const char* key : h->kind == "sim" ? std::span<const char* const>(usbOnly)
                                           : std::span<const char* const>(simOnly)) {
     if (const toml::node* n = r.find(key))
@@ -194,6 +195,12 @@ void readCalibration(TableReader& r, CalibrationConfig* c) {
   r.readBool("allow_auto_exposure", &c->allowAutoExposure);
   r.readString("station_command", &c->stationCommand);
   r.readBool("auto", &c->autoCalibrate);
+  r.readString("photometric", &c->photometric);
+  if (const toml::node* n = r.find("photometric");
+      n && c->photometric != "auto" && c->photometric != "on" && c->photometric != "off") {
+    r.fail(*n, "photometric",
+           fmt::format("must be \"auto\", \"on\" or \"off\", got \"{}\"", c->photometric));
+  }
   r.refuseUnknownKeys();
 }
 
@@ -337,6 +344,7 @@ void copyInPlaceFields(const DaemonConfig& from, DaemonConfig* to) {
   to->calibration.allowAutoExposure = from.calibration.allowAutoExposure;
   to->calibration.stationCommand = from.calibration.stationCommand;
   to->calibration.autoCalibrate = from.calibration.autoCalibrate;
+  to->calibration.photometric = from.calibration.photometric;
   to->logLevel = from.logLevel;
 }
 

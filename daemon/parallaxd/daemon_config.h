@@ -7,13 +7,18 @@
 //   [hardware]     kind = "sim" | "usb"
 //                  sim: socket = "/path"  (a running parallax-simhw; omitted → parallaxd starts
 //                       its own with a seeded ground truth: seed = 7; for tests also
-//                       faults = ["2:disconnect"], dump = "dir" (frames the modules showed))
+//                       faults = ["2:disconnect"], dump = "dir" (frames the modules showed);
+//                       photometric_variation = true: its modules differ in response, colour,
+//                       brightness and vignetting, seeded — calibration/simulation/
+//                       photometric_truth.h)
 //                  usb: vid = 0x1d50, pid = 0x6150, [hardware.modules] "SERIAL" = index
 //   [calibration]  file = "calibration.json", auto = true,
 //                  camera = "link" | "opencv:SPEC"   (hw/camera/camera_name.h; default link)
 //                  camera_metadata = "camera.json"   (intrinsics, tape-measured stations)
 //                  pixel_step = 4, allow_auto_exposure = false,
 //                  station_command = "move-rig {station}"   (a camera not behind the link)
+//                  photometric = "auto" | "on" | "off"  (calibrate the modules' colours too;
+//                       auto: when our own simulator has photometric variation)
 //                  (camera = "x.json", the old form, is read as camera_metadata)
 //   [scene]        script = "cornell" | "scene.lua", fps = 30, [scene.parameters] name = value
 //   [daemon]       socket = "...", cache_dir = "...", log_level = "info"
@@ -38,12 +43,13 @@ struct DisplayConfig {
 };
 
 struct HardwareConfig {
-  std::string kind = "sim";         // "sim" or "usb"
-  std::string socket;               // sim: empty → start our own parallax-simhw
-  int seed = 7;                     // our own simulator's ground-truth seed
-  std::vector<std::string> faults;  // our own simulator: parallax-simhw --fault specs (tests)
-  std::string dump;                 // our own simulator: where it saves what the modules show
-  int vid = 0, pid = 0;             // usb
+  std::string kind = "sim";           // "sim" or "usb"
+  std::string socket;                 // sim: empty → start our own parallax-simhw
+  int seed = 7;                       // our own simulator's ground-truth seed
+  std::vector<std::string> faults;    // our own simulator: parallax-simhw --fault specs (tests)
+  std::string dump;                   // our own simulator: where it saves what the modules show
+  bool photometricVariation = false;  // our own simulator: a seeded photometric truth
+  int vid = 0, pid = 0;               // usb
   std::map<std::string, int> serialToModule;  // usb
   // Where the config wrote each serial's mapping, so errors found once the display's module
   // count is known still name the file and line.
@@ -62,6 +68,9 @@ struct CalibrationConfig {
   bool allowAutoExposure = false;
   std::string stationCommand;
   bool autoCalibrate = true;  // calibrate at start when there is no valid calibration
+  // "on": `calibrate` also calibrates the modules' colours (photometric), "off": geometry only,
+  // "auto": on when the display is our own simulator with photometric variation.
+  std::string photometric = "auto";
   bool operator==(const CalibrationConfig&) const = default;
 };
 

@@ -18,6 +18,15 @@ std::shared_ptr<const hw::Image> encodeForLink(const Frame& frame) {
   return image;
 }
 
+std::shared_ptr<const hw::Image> encodeForLink(const Frame& frame, const ModuleEncoder& encoder) {
+  auto image = std::make_shared<hw::Image>();
+  image->width = frame.width;
+  image->height = frame.height;
+  image->format = hw::PixelFormat::kRgb8;
+  image->pixels = encoder.encode(frame);
+  return image;
+}
+
 Frame frameShownBy(const hw::Image& image) {
   if (image.format != hw::PixelFormat::kRgb8)
     throw std::invalid_argument("frameShownBy: not an RGB8 image");
@@ -26,10 +35,13 @@ Frame frameShownBy(const hw::Image& image) {
 
 DisplayFrame renderDisplayFrame(const PhysicalScene& scene,
                                 const std::vector<RayTextures>& textures,
-                                const RenderOptions& options) {
+                                const RenderOptions& options,
+                                const std::vector<ModuleEncoder>& encoders) {
   using Clock = std::chrono::steady_clock;
   DisplayFrame out;
   const size_t n = textures.size();
+  if (!encoders.empty() && encoders.size() != n)
+    throw std::invalid_argument("renderDisplayFrame: one encoder a module, or none");
   out.images.resize(n);
   std::vector<RenderCounters> counters(n);
   std::atomic<long long> renderNs{0}, encodeNs{0};
@@ -44,7 +56,8 @@ DisplayFrame renderDisplayFrame(const PhysicalScene& scene,
       const auto t0 = Clock::now();
       renderFrameInto(scene, textures[i], options, &scratch, &counters[i]);
       const auto t1 = Clock::now();
-      out.images[i] = encodeForLink(scratch);
+      out.images[i] =
+          encoders.empty() ? encodeForLink(scratch) : encodeForLink(scratch, encoders[i]);
       const auto t2 = Clock::now();
       renderNs += std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count();
       encodeNs += std::chrono::duration_cast<std::chrono::nanoseconds>(t2 - t1).count();

@@ -9,6 +9,7 @@
 #include "calibration/display/ray_textures.h"
 #include "hw/link/image.h"
 #include "tracer/frame.h"
+#include "tracer/module_encoder.h"
 #include "tracer/physical_scene.h"
 #include "tracer/whitted_integrator.h"
 
@@ -23,8 +24,10 @@ struct DisplayFrame {
   double encodeMs = 0.0;
 };
 
-// The 8-bit image of a frame as a module takes it (RGB8, rows top to bottom).
+// The 8-bit image of a frame as a module takes it (RGB8, rows top to bottom): plain sRGB, or
+// through the module's photometric correction (module_encoder.h).
 std::shared_ptr<const hw::Image> encodeForLink(const Frame& frame);
+std::shared_ptr<const hw::Image> encodeForLink(const Frame& frame, const ModuleEncoder& encoder);
 
 // What a module shows, back in linear light (for observer views).
 Frame frameShownBy(const hw::Image& image);
@@ -32,8 +35,11 @@ Frame frameShownBy(const hw::Image& image);
 // A module's float frame lives only in a worker's scratch buffer until it is encoded: the
 // display keeps one 8-bit image per module. On `default` (72 modules of 1024×768) that is
 // 170 MB where keeping the float frames too held another 680 MB.
+// `encoders`: one per module when a photometric correction is installed, else empty (every
+// module encoded as an ideal sRGB module, as without photometric calibration).
 DisplayFrame renderDisplayFrame(const PhysicalScene& scene,
                                 const std::vector<RayTextures>& textures,
-                                const RenderOptions& options);
+                                const RenderOptions& options,
+                                const std::vector<ModuleEncoder>& encoders = {});
 
 }  // namespace parallax::daemon

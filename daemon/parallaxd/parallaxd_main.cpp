@@ -106,6 +106,7 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
   options.config = config;
   options.linkSpec = linkSpec;
   options.simulatorCamera = simulatorCamera;
+  options.simulatorPhotometric = simulator != nullptr && config.hardware.photometricVariation;
   options.onReady = [&notifier] {
     notifier.ready();
     spdlog::info("parallaxd ready");

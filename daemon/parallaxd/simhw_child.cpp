@@ -24,6 +24,7 @@
 #include "calibration/display/display_model_json.h"
 #include "calibration/simulation/camera_truth.h"
 #include "calibration/simulation/ground_truth.h"
+#include "calibration/simulation/photometric_truth.h"
 #include "calibration/simulation/simulated_session.h"
 #include "common/private_folder.h"
 
@@ -98,6 +99,15 @@ SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardwa
   for (const std::string& fault : hardware.faults) {
     arguments_.push_back("--fault");
     arguments_.push_back(fault);
+  }
+  if (hardware.photometricVariation) {
+    // Seeded with the ground truth's seed; for tests and reports only, as the ground truth.
+    PhotometricTruthOptions photometric;
+    photometric.seed = static_cast<std::uint64_t>(hardware.seed);
+    savePhotometricTruth(makePhotometricTruth(static_cast<int>(truth.modules.size()), photometric),
+                         photometricTruthPath());
+    arguments_.push_back("--photometric-truth");
+    arguments_.push_back(photometricTruthPath());
   }
   if (!hardware.dump.empty()) {
     arguments_.push_back("--dump");

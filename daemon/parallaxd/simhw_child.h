@@ -8,6 +8,8 @@
 // tests and reports:
 //   <cache_dir>/simulated-display/seed-N/{ground_truth,camera_truth,camera,checkerboard}.json
 //   <cache_dir>/simulated-display/seed-N/checkerboard/board_NN.png
+//   <cache_dir>/simulated-display/seed-N/photometric_truth.json   ([hardware]
+//       photometric_variation: its modules differ in response, colour, brightness, vignetting)
 // If it dies (a crash fault, a kill), it is
 // started again on the same socket — the simulated equivalent of a module rebooting — and the
 // link reconnects by itself. Stopped with SIGTERM (then SIGKILL after a grace period).
@@ -35,6 +37,7 @@ class SimhwChild {
   // The camera metadata a calibration of this simulated display starts from.
   std::string cameraMetadataPath() const { return folder_ + "/camera.json"; }
   std::string groundTruthPath() const { return folder_ + "/ground_truth.json"; }
+  std::string photometricTruthPath() const { return folder_ + "/photometric_truth.json"; }
   static std::string folderFor(const std::string& cacheDir, int seed);
   std::string linkSpec() const { return "simhw:" + socketPath_; }
   pid_t pid() const { return pid_; }

@@ -25,7 +25,7 @@ struct Row {
   double ms = 0.0;
   PositionError error;
   long triangles = 0, failedVertices = 0;
-  double projectMs = 0.0;  // rasterizer: the forward-map part of ms (last run)
+  double projectMs = 0.0, scanMs = 0.0;  // rasterizer: parts of ms, from the same runs
 };
 
 std::vector<std::string> cells(const Row& r) {
@@ -34,6 +34,7 @@ std::vector<std::string> cells(const Row& r) {
           r.level < 0 ? "" : std::to_string(r.level),
           fixed(r.ms, 2),
           r.level < 0 ? "" : fixed(r.projectMs, 2),
+          r.level < 0 ? "" : fixed(r.scanMs, 2),
           general(r.error.rmsMm),
           general(r.error.maxMm),
           general(r.error.rmsPx),
@@ -56,8 +57,8 @@ void writeErrorVsTimeSection(Report& report) {
   const long triangleBudget = quick ? 40000 : 3000000;
   const std::vector<std::string> names = {"xyz", "cornell", "shapes", "statue"};
 
-  report.md() << fmt::format(
-      "\n## Error against run time\n\n"
+  report.heading("Error against run time");
+  report.text(fmt::format(
       "Module {} of `{}`. Error: world position of what each pixel shows against the exact answer "
       "(the pixel "
       "centre's ray from the ray function in double precision, met with the plane of the triangle "
@@ -66,18 +67,16 @@ void writeErrorVsTimeSection(Report& report) {
       "the shown "
       "point against the pixel centre; taken on up to 20,000 pixels a frame). `coverage mismatch` "
       "counts pixels "
-      "that show a surface in one and not the other (silhouettes). Time: wall-clock ms for one "
-      "frame, best of "
-      "up to 5 runs, on all cores: the rasterizer's includes projecting every vertex through the "
-      "forward map "
-      "(a Newton solve per vertex under `conical`), scan conversion and its direct shading (`of "
-      "which projection ms`: the projection alone, last run); the tracer's is the "
+      "that show a surface in one and not the other (silhouettes). Time: ms for one frame; the "
+      "rasterizer's includes projecting every vertex through the forward map (a Newton solve per "
+      "vertex under `conical`), scan conversion and its direct shading (the projection and the "
+      "scan conversion alone are its parts, from the same runs); the tracer's is the "
       "full Whitted frame (`renderFrame`) and, as `tracer (depth 1)`, primary rays with shadow "
       "rays only. The "
       "rasterizer cannot trace mirrors and glass (direct shading only), so times compare unequal "
       "work: the "
-      "tracer does more.\n",
-      module, report.options().display);
+      "tracer does more. In the plots, L0–L5 label the rasterizer's tessellation levels.",
+      module, report.options().display));
 
   const RayTextures textures = generateRayTextures(display, module);
   const ForwardMap forwardMap(display, module);
@@ -108,13 +107,14 @@ void writeErrorVsTimeSection(Report& report) {
     tracer.method = "tracer";
     tracer.error = positionError(*scene, traced, exact, forwardMap);
     tracer.triangles = sourceTriangles;
-    tracer.ms = timeMs([&] { renderFrame(*scene, textures, RenderOptions{}); });
+    tracer.ms =
+        timeMedianMs(report.timing(), [&] { renderFrame(*scene, textures, RenderOptions{}); });
     progress.advance();
     Row shallow = tracer;
     shallow.method = "tracer (depth 1)";
     RenderOptions depthOne;
     depthOne.maxDepth = 1;
-    shallow.ms = timeMs([&] { renderFrame(*scene, textures, depthOne); });
+    shallow.ms = timeMedianMs(report.timing(), [&] { renderFrame(*scene, textures, depthOne); });
     progress.advance();
     for (Interpolation mode : {Interpolation::kLinear, Interpolation::kPerspective}) {
       for (int level = 0; level <= maxLevel; ++level) {
@@ -135,15 +135,17 @@ void writeErrorVsTimeSection(Report& report) {
         row.level = level;
         RasterCounters counters;
         VisibilityBuffer visibility;
-        row.ms = timeMs(
-            [&] {
-              visibility = rasterizer.rasterize(*scene, textures, options, &counters);
-              shadeDirect(*scene, visibility, textures);
-            },
-            quick ? 100.0 : 300.0, quick ? 3 : 5);
+        const MedianTimes times = timeMedian(report.timing(), 2, [&](std::vector<double>& parts) {
+          visibility = rasterizer.rasterize(*scene, textures, options, &counters);
+          parts[0] += counters.projectMs;
+          parts[1] += counters.rasterMs;
+          shadeDirect(*scene, visibility, textures);
+        });
+        row.ms = times.ms;
+        row.projectMs = times.partsMs[0];
+        row.scanMs = times.partsMs[1];
         row.error = positionError(*scene, visibility, exact, forwardMap);
         row.triangles = counters.drawnTriangles;
-        row.projectMs = counters.projectMs;
         row.failedVertices = counters.failedVertices;
         rows.push_back(row);
       }
@@ -167,19 +169,21 @@ void writeErrorVsTimeSection(Report& report) {
         s.x.push_back(r.ms);
         // The tracer's error is float rounding (~1e-7 m); a log axis shows it as it is.
         s.y.push_back(r.error.rmsMm);
+        if (r.level >= 0) s.pointLabels.push_back(fmt::format("L{}", r.level));
       }
       plot.series.push_back(s);
     }
     report.figure("error_vs_time_" + name, plot);
   }
   progress.finish();
-  Table table{{"scene", "method", "level", "ms/frame", "of which projection ms", "RMS mm", "max mm",
-               "RMS px", "max px", "pixels compared", "coverage mismatch", "triangles drawn",
-               "failed vertices"},
-              {}};
+  Table table{{"scene", "method", "level", "ms/frame", partOf("projection ms", "ms/frame"),
+               partOf("scan conversion ms", "ms/frame"), "RMS mm", "max mm", "RMS px", "max px",
+               "pixels compared", "coverage mismatch", "triangles drawn", "failed vertices"},
+              {},
+              report.timing().describe()};
   for (const Row& r : rows) table.rows.push_back(cells(r));
   report.table("error_vs_time", table);
-  for (const std::string& n : notes) report.md() << "- " << n << "\n";
+  for (const std::string& n : notes) report.bullet(n);
 }
 
 }  // namespace parallax::report

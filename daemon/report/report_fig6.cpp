@@ -18,8 +18,8 @@ void writeFig6Section(Report& report) {
   const RayTextures textures = generateRayTextures(display, module);
   const Frame traced = renderFrame(scene, textures, RenderOptions{});
   const Rasterizer rasterizer(display, module);
-  report.md() << fmt::format(
-      "\n## Fig. 6: the xyz triangle, rasterized and ray traced\n\n"
+  report.heading("Fig. 6: the xyz triangle, rasterized and ray traced");
+  report.text(fmt::format(
       "The triangle (1,0,0), (0,1,0), (0,0,1) with its world position as colour, on module {} of "
       "`{}`. "
       "Rasterized: vertices through the forward map, colours interpolated linearly in the module "
@@ -28,8 +28,8 @@ void writeFig6Section(Report& report) {
       "(linear RGB, "
       "written as sRGB): dark where the two agree. Traced colours are exact to 1e-5 "
       "(tests/tracer); the "
-      "rasterized ones bend with the double perspective.\n",
-      module, report.options().display);
+      "rasterized ones bend with the double perspective.",
+      module, report.options().display));
   Table table{{"image", "interpolation", "max |difference| (world units)", "mean |difference|"},
               {}};
   for (Interpolation mode : {Interpolation::kLinear, Interpolation::kPerspective}) {
@@ -56,13 +56,11 @@ void writeFig6Section(Report& report) {
                           general(count ? sum / static_cast<double>(count) : 0.0)});
   }
   writePng(traced, report.path("fig6_xyz_traced.png"));
-  report.md() << "\n| rasterized (linear) | ray traced | difference ×4 (linear) | difference ×4 "
-                 "(perspective-correct) |\n"
-                 "|---|---|---|---|\n"
-                 "| ![](fig6_xyz_rasterized_linear.png) | ![](fig6_xyz_traced.png) | "
-                 "![](fig6_xyz_difference_x4_linear.png) | "
-                 "![](fig6_xyz_difference_x4_perspective.png) |\n\n"
-              << report.stamp() << "\n";
+  report.images(
+      {{"fig6_xyz_rasterized_linear.png", "rasterized (linear)"},
+       {"fig6_xyz_traced.png", "ray traced"},
+       {"fig6_xyz_difference_x4_linear.png", "difference ×4 (linear)"},
+       {"fig6_xyz_difference_x4_perspective.png", "difference ×4 (perspective-correct)"}});
   report.table("fig6_xyz_difference", table);
 }
 

@@ -106,7 +106,10 @@ void writePhotometrySection(Report& report) {
   };
   const std::vector<std::string> header = {
       "", "pictures", "capture s", "fit s", "non-uniformity %", "ΔE00 mean", "ΔE00 worst"};
-  Table byLevels{header, {}};
+  const char* const rule =
+      "one capture and one fit a row (not repeated): the simulated camera's rendering time, and "
+      "the wall clock of `fitPhotometry`";
+  Table byLevels{header, {}, rule};
   byLevels.header[0] = "levels per channel";
   PlotSeries levelCurve{"non-uniformity %", {}, {}, true};
   FlatFieldCaptures richest;
@@ -119,10 +122,12 @@ void writePhotometrySection(Report& report) {
         cells(fmt::format("{} ({})", levels.size(), fmt::join(levels, " ")), row));
     levelCurve.x.push_back(row.captureSeconds);
     levelCurve.y.push_back(100.0 * row.seen.nonUniformity);
+    levelCurve.pointLabels.push_back(
+        fmt::format("{} level{}", levels.size(), levels.size() == 1 ? "" : "s"));
     richest = std::move(captures);
     progress.advance();
   }
-  Table byGrid{header, {}};
+  Table byGrid{header, {}, rule};
   byGrid.header[0] = "gain map nodes";
   PlotSeries gridCurve{"non-uniformity %", {}, {}, true};
   PhotometricCalibration finest;
@@ -151,16 +156,16 @@ void writePhotometrySection(Report& report) {
       synthesizeObserverView(rig.geometry(), emitted(rig, card, &finest.correction), centre, view),
       report.path("photometry_after.png"));
 
-  report.md() << fmt::format(
-      "\n## Photometric calibration: non-uniformity against capture count and gain map\n\n"
+  report.heading("Photometric calibration: non-uniformity against capture count and gain map");
+  report.text(fmt::format(
       "The simulated `demo` display ({} modules) with a seeded photometric truth (gamma 1.8–2.6, "
       "gains, blacks, mixed primaries, 10–30% vignetting, a weak and a tinted module), flat "
       "fields photographed by the colour camera binned to {}x{} from {} stations "
       "(calibration/photometry). A flat grey on every module through the fitted correction, "
       "seen by {} viewers along the observer line: brightness non-uniformity (brightest − "
       "darkest over the mean) and CIEDE2000 against the target grey. The gain map is fitted at "
-      "the capture's richest level set. Capture time is the simulated camera's rendering time.\n",
-      rig.geometry().modules.size(), 240, 135, 5, viewers.size());
+      "the capture's richest level set. Capture time is the simulated camera's rendering time.",
+      rig.geometry().modules.size(), 240, 135, 5, viewers.size()));
   report.table("photometry_levels", byLevels);
   report.table("photometry_gain_map", byGrid);
   SvgPlot a;
@@ -173,15 +178,16 @@ void writePhotometrySection(Report& report) {
   SvgPlot b;
   b.title = "photometry: non-uniformity against gain-map nodes across";
   b.xLabel = "gain map nodes across";
+  b.integerX = true;
   b.yLabel = "non-uniformity %";
   b.logY = true;
   b.series = {gridCurve};
   report.figure("photometry_gain_map", b);
-  report.image("photometry_before.png",
-               "a viewer at x = 0: colour bars and a grey ramp on every module (in module image "
-               "coordinates, not traced: the bars' slanted edges are the modules' own), geometric "
-               "calibration only");
-  report.image("photometry_after.png", "the same with the photometric correction");
+  report.images({{"photometry_before.png",
+                  "a viewer at x = 0: colour bars and a grey ramp on every module (in module image "
+                  "coordinates, not traced: the bars' slanted edges are the modules' own), "
+                  "geometric calibration only"},
+                 {"photometry_after.png", "the same with the photometric correction"}});
 }
 
 }  // namespace parallax::report

@@ -24,7 +24,7 @@ using Eigen::half;
 
 // One storage format: bytes a pixel, and how a stored pixel becomes a ray (false: masked).
 struct Format {
-  std::string name;
+  std::string name, shortName;
   int bytesPerPixel;
   std::function<bool(size_t pixel, Eigen::Vector3f* origin, Eigen::Vector3f* direction)> decode;
 };
@@ -103,10 +103,10 @@ void writePrecisionSection(Report& report) {
     };
   };
   const std::vector<Format> formats = {
-      {"float32 origin + direction", 24, fromFull([&](size_t k) { return full32[k]; })},
-      {"float16 origin + direction", 12,
+      {"float32 origin + direction", "float32", 24, fromFull([&](size_t k) { return full32[k]; })},
+      {"float16 origin + direction", "float16", 12,
        fromFull([&](size_t k) { return static_cast<float>(full16[k]); })},
-      {"compact float32 (o.x, s.x, s.y)", 12,
+      {"compact float32 (o.x, s.x, s.y)", "compact float32", 12,
        [&](size_t i, Eigen::Vector3f* o, Eigen::Vector3f* d) {
          const CompactRay& r = compact.rays()[i];
          if (r.masked()) return false;
@@ -114,7 +114,7 @@ void writePrecisionSection(Report& report) {
          *d = frame.direction(r);
          return true;
        }},
-      {"compact float16 (o.x, s.x, s.y)", 6,
+      {"compact float16 (o.x, s.x, s.y)", "compact float16", 6,
        [&](size_t i, Eigen::Vector3f* o, Eigen::Vector3f* d) {
          const CompactRay r{static_cast<float>(compact16[3 * i]),
                             static_cast<float>(compact16[3 * i + 1]),
@@ -130,12 +130,14 @@ void writePrecisionSection(Report& report) {
   const ForwardMap forwardMap(display, module);
   Table table{{"format", "bytes/pixel", "MB/module", "MB/display", "decode + primary trace ms",
                "RMS mm", "max mm", "RMS px", "max px", "coverage mismatch"},
-              {}};
+              {},
+              report.timing().describe()};
   PlotSeries memory{"RMS mm against MB/module", {}, {}, false};
   ProgressBar progress("ray-texture precision", static_cast<std::int64_t>(formats.size()));
   for (const Format& f : formats) {
     VisibilityBuffer v;
-    const double ms = timeMs([&] { v = traceDecoded(scene, m.width, m.height, f); });
+    const double ms =
+        timeMedianMs(report.timing(), [&] { v = traceDecoded(scene, m.width, m.height, f); });
     const PositionError e = positionError(scene, v, exact, forwardMap);
     const double mb = static_cast<double>(f.bytesPerPixel) * static_cast<double>(pixels) / 1e6;
     table.rows.push_back({f.name, std::to_string(f.bytesPerPixel), fixed(mb, 2),
@@ -144,19 +146,20 @@ void writePrecisionSection(Report& report) {
                           std::to_string(e.candidateOnly + e.exactOnly)});
     memory.x.push_back(mb);
     memory.y.push_back(e.rmsMm);
+    memory.pointLabels.push_back(f.shortName);
     progress.advance();
   }
   progress.finish();
-  report.md() << fmt::format(
-      "\n## Ray-texture precision\n\n"
+  report.heading("Ray-texture precision");
+  report.text(fmt::format(
       "Module {}, the Cornell box's primary hits. The exact rays (double) are stored four ways and "
       "traced "
       "back; the error is the hit position against the exact one (as in the error-vs-time table), "
       "time the "
       "decoding of the stored rays plus the primary trace. The compact forms keep o.y, o.z (the "
       "observer "
-      "line) and s.z (the sag) exact, so they spend their bits only where rays differ.\n",
-      module);
+      "line) and s.z (the sag) exact, so they spend their bits only where rays differ.",
+      module));
   report.table("ray_texture_precision", table);
   SvgPlot plot;
   plot.title = "ray-texture precision: error against memory";

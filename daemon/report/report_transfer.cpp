@@ -64,8 +64,8 @@ void writeTransferSection(Report& report) {
     if (countBack) backPx.x.push_back(row), backPx.y.push_back(worstBack);
     if (countFront) frontPx.x.push_back(row), frontPx.y.push_back(worstFront);
   }
-  report.md() << fmt::format(
-      "\n## Screen transfer: linear against conical\n\n"
+  report.heading("Screen transfer: linear against conical");
+  report.text(fmt::format(
       "Module {} of the same display under both transfers. For every {}th row, over every {}th "
       "column: how far "
       "apart the two rays of the same pixel land on the observer line (|Δo.x|, mm), and, in the "
@@ -78,18 +78,20 @@ void writeTransferSection(Report& report) {
       "the "
       "observer line's height. Rows whose module rays all miss the screen (a 4:3 image covering a "
       "16:9 screen's "
-      "width overshoots its height) are left out.\n",
-      module, rowStep, columnStep, zBack, zFront);
+      "width overshoots its height) are left out.",
+      module, rowStep, columnStep, zBack, zFront));
   report.table("transfer_linear_vs_conical", table);
   SvgPlot mmPlot;
   mmPlot.title = "linear vs conical: distance at the observer line, by module row";
   mmPlot.xLabel = "module row";
+  mmPlot.integerX = true;
   mmPlot.yLabel = "|Δo.x| (mm)";
   mmPlot.series = {meanMm, maxMm};
   report.figure("transfer_observer_line", mmPlot);
   SvgPlot pxPlot;
   pxPlot.title = "linear vs conical: distance in the module image, by row";
   pxPlot.xLabel = "module row";
+  pxPlot.integerX = true;
   pxPlot.yLabel = "module px";
   pxPlot.series = {backPx, frontPx};
   report.figure("transfer_module_image", pxPlot);

@@ -1,7 +1,10 @@
 #pragma once
-// A small SVG line/scatter plot for the report: axes with ticks (linear or log10), labelled
-// series, a legend. SVG is text, so the report needs no plotting dependency and its figures
-// diff in review.
+// A small SVG line/scatter plot for the report: axes with ticks (linear, integer or log10),
+// series told apart by marker shape and colour, points labelled with the setting they are, a
+// legend. The layout is computed from measured text widths (text_metrics.h) before anything is
+// drawn, and kept: every text element carries its box (`data-box="x0 y0 x1 y1"`), so a test can
+// check that nothing leaves the canvas. SVG is text, so figures diff in review; the PNG twin is
+// rendered from it (png_twin.h).
 
 #include <string>
 #include <vector>
@@ -13,18 +16,36 @@ struct PlotSeries {
   std::vector<double> x, y;  // points with a non-finite or (on a log axis) non-positive
                              // coordinate are left out
   bool lines = true;         // joined in order; false: markers only
+  // Empty, or one per point: the setting the point is ("4 spp", "float16"), written beside it.
+  std::vector<std::string> pointLabels = {};
+  bool markers = true;  // false: a line only (a reference such as y = x)
+};
+
+// A text element's box on the canvas, px, y down.
+struct TextBox {
+  std::string text;
+  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
 };
 
 struct SvgPlot {
   std::string title;
   std::string xLabel, yLabel;
   bool logX = false, logY = false;
-  std::string caption;  // small print under the plot (machine, command, date)
+  bool integerX = false, integerY = false;  // counts: ticks on whole numbers only
+  std::string caption;  // small print under the plot (provenance), wrapped to the canvas
   std::vector<PlotSeries> series;
 
+  struct Layout {
+    double width = 0, height = 0;
+    double plotX0 = 0, plotY0 = 0, plotX1 = 0, plotY1 = 0;  // the axes' frame
+    std::vector<TextBox> texts;                             // every text drawn, legend included
+    std::vector<double> xTicks, yTicks;                     // data values of the labelled ticks
+    std::vector<std::string> xTickLabels, yTickLabels;
+  };
+
+  std::string render(Layout* layout = nullptr) const;
   // Throws InputError naming the file when it cannot be written.
   void write(const std::string& path) const;
-  std::string render() const;
 };
 
 }  // namespace parallax::report

@@ -1,9 +1,12 @@
 #include "hw/camera/camera.h"
 
 #include <fmt/format.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgproc.hpp>
@@ -87,6 +90,46 @@ class QuietOpenCv {
   cv::utils::logging::LogLevel previous_;
 };
 
+// GLib's warnings from inside OpenCV's GStreamer backend ("GStreamer-CRITICAL **: ...", a
+// blank line before each) go to stderr through g_log, where QuietOpenCv cannot reach: a
+// pipeline that does not parse would print a dozen lines around our one. They are held while
+// the pipeline opens; if it fails, GLib's lines are dropped (ours says what they mean, and
+// gst-launch-1.0 shows GStreamer's own words) and anything else written meanwhile (another
+// thread's log) is passed on; if it opens, everything is passed on.
+class HeldStderr {
+ public:
+  HeldStderr() {
+    std::fflush(stderr);
+    file_ = std::tmpfile();
+    saved_ = file_ ? ::dup(STDERR_FILENO) : -1;
+    if (saved_ >= 0) ::dup2(::fileno(file_), STDERR_FILENO);
+  }
+  ~HeldStderr() { release(true); }
+  HeldStderr(const HeldStderr&) = delete;
+  HeldStderr& operator=(const HeldStderr&) = delete;
+
+  void release(bool all) {
+    if (saved_ < 0) return;
+    std::fflush(stderr);
+    ::dup2(saved_, STDERR_FILENO);
+    ::close(saved_);
+    saved_ = -1;
+    std::rewind(file_);
+    char line[4096];
+    while (std::fgets(line, sizeof line, file_) != nullptr) {
+      const bool glib =
+          line[0] == '\n' || (line[0] == '(' && std::strstr(line, " **: ") != nullptr);
+      if (all || !glib) std::fputs(line, stderr);
+    }
+    std::fclose(file_);
+    file_ = nullptr;
+  }
+
+ private:
+  std::FILE* file_ = nullptr;
+  int saved_ = -1;
+};
+
 bool allDigits(const std::string& s) {
   return !s.empty() && s.size() < 6 && std::all_of(s.begin(), s.end(), ::isdigit);
 }
@@ -135,7 +178,9 @@ bool OpenCvCamera::open(const std::string& source, std::string* error) {
         *error = fmt::format("{}: this OpenCV has no GStreamer backend", named);
         return false;
       }
+      HeldStderr held;
       opened = state_->capture.open(source, cv::CAP_GSTREAMER);
+      held.release(opened);
       if (!opened) {
         *error = fmt::format(
             "{}: GStreamer could not start the pipeline (an element that does not exist or "

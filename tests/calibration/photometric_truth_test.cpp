@@ -78,6 +78,15 @@ TEST(ColourCorrectionFile, NamesTheBadField) {
   std::ofstream(path) << j.dump();
   try {
     loadColourCorrection(path);
+    FAIL() << "an edited file was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.location().field, "checksum") << e.what();
+  }
+  // A hand edit is accepted without its checksum, and then checked field by field.
+  j.erase("checksum");
+  std::ofstream(path, std::ios::trunc) << j.dump();
+  try {
+    loadColourCorrection(path);
     FAIL() << "a gain below 1 was accepted";
   } catch (const InputError& e) {
     EXPECT_EQ(e.location().field, "modules[1].gain");

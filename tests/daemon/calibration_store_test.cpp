@@ -122,7 +122,7 @@ TEST_F(CalibrationStoreTest, RollbackDropsADamagedCurrentInsteadOfKeepingIt) {
   store.install(display(1.0));
   store.install(display(2.0));
   damageOneNumber(path_);
-  EXPECT_TRUE(sameModel(store.rollback(display(0.0)), display(1.0)));
+  EXPECT_TRUE(sameModel(store.rollback(display(0.0)).model, display(1.0)));
   EXPECT_TRUE(sameModel(loadDisplayModel(path_), display(1.0)));
   EXPECT_TRUE(sameModel(loadDisplayModel(store.previousPath()), display(1.0)));
 }

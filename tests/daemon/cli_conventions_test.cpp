@@ -115,11 +115,20 @@ TEST_F(CliConventions, OneDefaultDisplayAndNoSilentWritesIntoTheCurrentFolder) {
   const std::string display = smallDisplay();
   const auto [renderCode, renderOut] =
       run("cd " + folder_.string() + " && " + PARALLAX_PATH + " render --quiet --display " +
-          display + " --scene cornell --module 0");
+          display + " --scene cornell");
   ASSERT_EQ(renderCode, 0) << renderOut;
   EXPECT_TRUE(fs::exists(folder_ / "parallax-render" / "module_000.png")) << renderOut;
   EXPECT_FALSE(fs::exists(folder_ / "module_000.png"));
   EXPECT_NE(renderOut.find((folder_ / "parallax-render").string()), std::string::npos) << renderOut;
+  // `view` likewise, into parallax-view/.
+  const auto [viewCode, viewOut] =
+      run("cd " + folder_.string() + " && " + PARALLAX_PATH + " view --display " + display +
+          " --frames parallax-render --x 0");
+  ASSERT_EQ(viewCode, 0) << viewOut;
+  EXPECT_TRUE(fs::exists(folder_ / "parallax-view" / "view.png")) << viewOut;
+  EXPECT_FALSE(fs::exists(folder_ / "view.png"));
+  EXPECT_NE(viewOut.find((folder_ / "parallax-view" / "view.png").string()), std::string::npos)
+      << viewOut;
 }
 
 TEST(ProgressTimeLeft, SaysHowLongIsLeftAtTheRateSoFarOnceASecondHasPassed) {

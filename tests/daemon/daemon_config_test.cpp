@@ -254,5 +254,24 @@ TEST(DaemonConfig, CalibrationCameraByNameAndItsSettings) {
   EXPECT_TRUE(sectionsNeedingRestart(defaults, c).empty());
 }
 
+// Issue 21: the photometric calibration's switch (in place, like the camera) and the simulated
+// display's photometric variation (a new simulator: a restart).
+TEST(DaemonConfig, PhotometricCalibrationAndSimulatedVariation) {
+  const DaemonConfig defaults = parseDaemonConfig("", "p.toml");
+  EXPECT_EQ(defaults.calibration.photometric, "auto");
+  EXPECT_FALSE(defaults.hardware.photometricVariation);
+  const DaemonConfig c = parseDaemonConfig(
+      "[hardware]\nphotometric_variation = true\n[calibration]\nphotometric = \"on\"\n", "p.toml");
+  EXPECT_TRUE(c.hardware.photometricVariation);
+  EXPECT_EQ(c.calibration.photometric, "on");
+  EXPECT_EQ(sectionsNeedingRestart(defaults, c), std::vector<std::string>{"hardware"});
+  const InputError bad = errorOf("[calibration]\n\nphotometric = \"yes\"\n");
+  EXPECT_EQ(bad.location().field, "calibration.photometric") << bad.what();
+  EXPECT_EQ(bad.location().line, 3) << bad.what();
+  const InputError usb =
+      errorOf("[hardware]\nkind = \"usb\"\nvid = 1\npid = 2\nphotometric_variation = true\n");
+  EXPECT_EQ(usb.location().field, "hardware.photometric_variation") << usb.what();
+}
+
 }  // namespace
 }  // namespace parallax::daemon

@@ -41,5 +41,37 @@ TEST(ModuleRenderer, FusedRenderAndEncodeMatchesEachModuleAlone) {
   }
 }
 
+// With a photometric correction installed every module is encoded through its own encoder;
+// without one, exactly the sRGB encode of before.
+TEST(ModuleRenderer, EachModuleIsEncodedThroughItsCorrection) {
+  NominalDisplayOptions display;
+  display.preset = "demo";
+  display.modules = 3;
+  display.width = 64;
+  display.height = 48;
+  const DisplayModel model = makeNominalDisplay(display);
+  const PhysicalScene scene(makeShapesScene(), model.displayableBox);
+  std::vector<RayTextures> textures;
+  std::vector<ModuleEncoder> encoders;
+  for (int i = 0; i < display.modules; ++i) {
+    textures.push_back(generateRayTextures(model, i));
+    ModuleColourCorrection c = ModuleColourCorrection::srgbIdentity();
+    c.driveFromContent *= 0.6f + 0.1f * static_cast<float>(i);  // each module dimmed its own way
+    encoders.emplace_back(c, 64, 48);
+  }
+  const DisplayFrame corrected = renderDisplayFrame(scene, textures, RenderOptions{}, encoders);
+  const DisplayFrame plain = renderDisplayFrame(scene, textures, RenderOptions{});
+  for (size_t i = 0; i < textures.size(); ++i) {
+    const Frame alone = renderFrame(scene, textures[i], RenderOptions{});
+    EXPECT_EQ(corrected.images[i]->pixels, encoders[i].encode(alone)) << "module " << i;
+    EXPECT_EQ(plain.images[i]->pixels, alone.toSrgb8()) << "module " << i;
+    EXPECT_NE(corrected.images[i]->pixels, plain.images[i]->pixels) << "module " << i;
+  }
+  EXPECT_THROW(
+      renderDisplayFrame(scene, textures, RenderOptions{},
+                         std::vector<ModuleEncoder>(encoders.begin(), encoders.begin() + 2)),
+      std::invalid_argument);
+}
+
 }  // namespace
 }  // namespace parallax::daemon

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # `parallax calibrate --link` against a running parallax-simhw that photographs a seeded ground
 # truth (demo display, 640x360 camera, every 6th camera pixel decoded): interrupted, it stops
-# cleanly and installs nothing; run through, the calibration is installed and its rays are
-# within 0.4 module px RMS of the truth's.
+# cleanly and installs nothing; run through, it reports its stages in order, the calibration is
+# installed and its rays are within 0.4 module px RMS of the truth's.
 #   calibrate_link_test.sh PARALLAX PARALLAX_SIMHW
 set -euo pipefail
 parallax=$1
@@ -50,6 +50,17 @@ out=$("$parallax" calibrate --link "simhw:$sock" --camera link --camera-metadata
         --out "$dir/calib.json" --truth "$dir/ground_truth.json" --pixel-step 6 2>&1)
 echo "$out"
 [ -f "$dir/calib.json" ] || { echo "FAIL: no calibration installed"; exit 1; }
+# Its stages in order, each to its end (issue 20): the pictures, the picture sets decoded, then
+# every step of the fit, the gate last.
+order=$(echo "$out" | grep -oE "^calibrate \[[0-9]/[0-9]\] [a-z]+" | uniq | tr '\n' ';')
+[ "$order" = "calibrate [1/3] capture;calibrate [2/3] decode;calibrate [3/3] fit;" ] ||
+  { echo "FAIL: stages out of order: $order"; exit 1; }
+echo "$out" | grep -qE "^calibrate \[1/3\] capture: [0-9]+ pictures: 100%" ||
+  { echo "FAIL: the capture did not count to its end"; exit 1; }
+echo "$out" | grep -qE "^calibrate \[2/3\] decode: [0-9]+ picture sets: 100%" ||
+  { echo "FAIL: the decode did not count to its end"; exit 1; }
+echo "$out" | grep -qE "^  fit \[([0-9]+)/\1\] quality gate" ||
+  { echo "FAIL: the fit's last step is not the gate"; exit 1; }
 rms=$(echo "$out" | sed -n 's/.*ray error \([0-9.]*\) module px RMS.*/\1/p')
 [ -n "$rms" ] || { echo "FAIL: no ray error line"; exit 1; }
 awk -v r="$rms" 'BEGIN { exit !(r < 0.4) }' || { echo "FAIL: ray error rms $rms >= 0.4 px"; exit 1; }

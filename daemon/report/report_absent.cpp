@@ -1,0 +1,16 @@
+// The trade-offs of features this build does not have yet (issue 25: a section per trade-off,
+// one line where its feature is absent). Each becomes a section of its own when it lands.
+
+#include "daemon/report/report.h"
+
+namespace parallax::report {
+
+void writeAbsentSections(Report& report) {
+  report.absent("Frame cache: memory against frame rate",
+                "Not in this build: the frame cache (issue 22, trace only what changed) has not "
+                "landed.");
+  report.absent("Cluster: rank count against sync overhead and frame rate",
+                "Not in this build: rendering on a cluster (issue 23, MPI) has not landed.");
+}
+
+}  // namespace parallax::report

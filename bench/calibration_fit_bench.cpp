@@ -138,7 +138,7 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
       "true f %.2f, k1 %.4f)\n",
       static_cast<unsigned long long>(seed), trueIntrinsics ? "true" : "checkerboard",
       session.intrinsicsUsed.fx, session.intrinsicsUsed.k1, ti.fx, ti.k1);
-  const size_t stations = obs.stations.size(), modules = nominal.modules.size();
+  const size_t stations = obs.stations.size();
   std::vector<double> sum(stations, 0.0), sumSq(stations, 0.0);
   std::vector<int> count(stations, 0), outliers(stations, 0);
   for (const StripeCentre& st : obs.stripes) {
@@ -289,10 +289,10 @@ int main(int argc, char** argv) {
       quick = true;
     else if (std::strcmp(argv[i], "--experiment") == 0)
       experiment = true;
-    else if (std::strcmp(argv[i], "--decoder-error") == 0 && i + 1 < argc)
-      return decoderError(static_cast<std::uint64_t>(std::atoll(argv[++i])),
-                          i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0);
-    else if (std::strcmp(argv[i], "--pictures") == 0 && i + 1 < argc)
+    else if (std::strcmp(argv[i], "--decoder-error") == 0 && i + 1 < argc) {
+      const auto seed = static_cast<std::uint64_t>(std::atoll(argv[++i]));
+      return decoderError(seed, i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0);
+    } else if (std::strcmp(argv[i], "--pictures") == 0 && i + 1 < argc)
       return pictureSweep(std::max(1, std::atoi(argv[++i])));
     else
       preset = argv[i];

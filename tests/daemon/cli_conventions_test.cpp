@@ -56,8 +56,8 @@ TEST_F(CliConventions, EveryProgramPrintsItsVersion) {
 TEST_F(CliConventions, UsageErrorsExit2RuntimeFailuresExit1) {
   const std::string parallax = PARALLAX_PATH;
   // Usage: an unknown option, a missing value, a value of the wrong type, no command at all.
-  for (const std::string& args : {"render --bogus", "render", "display --modules many", "",
-                                  "ctl --socket", "ctl --timeout soon status"}) {
+  for (const std::string args : {"render --bogus", "render", "display --modules many", "",
+                                 "ctl --socket", "ctl --timeout soon status"}) {
     const auto [code, out] = run(parallax + " " + args);
     EXPECT_EQ(code, 2) << "parallax " << args << ": " << out;
   }

@@ -27,8 +27,8 @@ namespace parallax::daemon {
 namespace {
 
 namespace fs = std::filesystem;
-using test_support::bytesOf;
 using nlohmann::json;
+using test_support::bytesOf;
 
 constexpr int kModules = 4, kWidth = 64, kHeight = 48;
 

@@ -24,9 +24,9 @@ inline std::string bytesOf(const std::filesystem::path& path) {
 // temp/PREFIX-PID-TEST, emptied and created: one per running test.
 inline std::filesystem::path freshTestFolder(const std::string& prefix) {
   namespace fs = std::filesystem;
-  const fs::path folder = fs::temp_directory_path() /
-                          (prefix + "-" + std::to_string(::getpid()) + "-" +
-                           ::testing::UnitTest::GetInstance()->current_test_info()->name());
+  const fs::path folder =
+      fs::temp_directory_path() / (prefix + "-" + std::to_string(::getpid()) + "-" +
+                                   ::testing::UnitTest::GetInstance()->current_test_info()->name());
   fs::remove_all(folder);
   fs::create_directories(folder);
   return folder;

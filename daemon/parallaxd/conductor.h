@@ -37,6 +37,7 @@
 #include "hw/link/link_client.h"
 #include "scripts/scripted_scene.h"
 #include "tracer/frame.h"
+#include "tracer/frame_cache.h"
 #include "tracer/module_encoder.h"
 #include "tracer/physical_scene.h"
 #include "tracer/whitted_integrator.h"
@@ -240,6 +241,8 @@ class Conductor {
   LoopStats stats_;
   FrameLossReport lossReport_;
   RenderCounters lastCounters_;
+  // Animated scenes: the static geometry's primary hits and shadows, kept between frames.
+  FrameCache frameCache_;
 
   std::mutex jobsMutex_;
   std::condition_variable jobsChanged_;

@@ -67,6 +67,24 @@ nlohmann::json Conductor::statsJson() const {
   j["ok"] = true;
   j["summary"] = stats_.summary();
   j["render_counters"] = lastCounters_.lines();
+  const FrameCacheStats& cache = frameCache_.stats();
+  j["frame_cache"] = {{"enabled", options_.config.scene.frameCache},
+                      {"builds", cache.builds},
+                      {"last_build_ms", cache.lastBuildMs},
+                      {"build_ms", cache.buildMs},
+                      {"frames_cached", cache.framesCached},
+                      {"frames_bypassed", cache.framesBypassed},
+                      {"last_rebuild", cache.lastRebuild},
+                      {"bytes", cache.bytes},
+                      {"pixels", cache.pixels},
+                      {"bytes_per_pixel", cache.bytesPerPixel()},
+                      {"static_objects", cache.staticInstances},
+                      {"dynamic_objects", cache.dynamicInstances},
+                      {"static_lights", cache.cachedLights},
+                      {"pixels_reused", cache.saved.pixelsReused},
+                      {"shadow_rays_not_traced", cache.saved.shadowAnswered},
+                      {"shadow_rays_dynamic_only", cache.saved.shadowDynamicOnly},
+                      {"lines", cache.lines()}};
   if (link_) {
     const hw::LinkStats& l = link_->stats();
     j["link"] = {{"submitted", l.submitted},

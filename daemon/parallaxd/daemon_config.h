@@ -20,7 +20,8 @@
 //                  photometric = "auto" | "on" | "off"  (calibrate the modules' colours too;
 //                       auto: when our own simulator has photometric variation)
 //                  (camera = "x.json", the old form, is read as camera_metadata)
-//   [scene]        script = "cornell" | "scene.lua", fps = 30, [scene.parameters] name = value
+//   [scene]        script = "cornell" | "scene.lua", fps = 30, frame_cache = true,
+//                  [scene.parameters] name = value
 //   [daemon]       socket = "...", cache_dir = "...", log_level = "info"
 //   [panel]        enabled = true, address = "127.0.0.1", port = 8470   (control_panel.h;
 //                  another address than loopback only when given here; port 0: any free one)
@@ -79,6 +80,9 @@ struct CalibrationConfig {
 struct SceneConfig {
   std::string script = "cornell";
   double fps = 30.0;
+  // Animated scenes: keep the static geometry's primary hits and shadows between frames
+  // (tracer/frame_cache.h); off renders every frame in full (benchmarks compare the two).
+  bool frameCache = true;
   std::map<std::string, double> parameters;
   bool operator==(const SceneConfig&) const = default;
 };

@@ -96,6 +96,9 @@ class Conductor {
   void reloadConfig(DaemonConfig config);
 
   bool shutdownRequested() const { return shutdown_.load(); }
+  // Any thread: what the `panel` request answers — the control panel's URL with its token, or
+  // (url empty) why there is no panel.
+  void setPanel(std::string url, std::string problem);
   // After run(): the config to build the daemon again from, when a reload asked for it.
   const std::optional<DaemonConfig>& restartWith() const { return restartWith_; }
   StateSnapshot state() const { return state_.snapshot(); }
@@ -176,6 +179,8 @@ class Conductor {
   nlohmann::json answerReload(const RequestArgs&);
   nlohmann::json answerIdentify(const RequestArgs& args);
   nlohmann::json answerTestcard(const RequestArgs&);
+  nlohmann::json answerScenes(const RequestArgs&);
+  nlohmann::json answerPanel(const RequestArgs&);
 
   // Status (conductor_status.cpp): built on the conductor thread, published for any thread.
   nlohmann::json statusJson() const;
@@ -251,8 +256,9 @@ class Conductor {
 
   mutable std::mutex publishedMutex_;
   nlohmann::json publishedStatus_, publishedStats_;
-  std::optional<DaemonConfig> pendingConfig_;     // guarded by jobsMutex_
-  std::optional<std::string> pendingConfigPath_;  // guarded by jobsMutex_
+  std::string panelUrl_, panelProblem_ = "the control panel is starting";  // publishedMutex_
+  std::optional<DaemonConfig> pendingConfig_;                              // guarded by jobsMutex_
+  std::optional<std::string> pendingConfigPath_;                           // guarded by jobsMutex_
 };
 
 }  // namespace parallax::daemon

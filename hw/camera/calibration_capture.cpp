@@ -213,6 +213,8 @@ CalibrationCaptures runSession(LinkClient* link, Camera& camera, const DisplayMo
   const bool files = camera.picturesAreFiles();
   const bool measureExposure = !lock.ok || (files && options.allowUnlockedCamera);
   const PictureQualityLimits quality;
+  BlurCheck blurCheck(quality);
+  std::vector<std::pair<std::string, std::string>> judged;  // blurCheck's pictures: what, file
   SessionGuard guard(link, camera);
   if (link && !link->setMode(DisplayMode::kPattern))
     throw std::runtime_error("the modules did not switch to pattern mode");
@@ -314,7 +316,7 @@ CalibrationCaptures runSession(LinkClient* link, Camera& camera, const DisplayMo
         const SyncReading reading = readSyncCode(linear, geometry, layout);
         // A blurred picture is named as such, whether or not its code still reads.
         if (files) {
-          if (const std::optional<std::string> why = blur(reading, quality)) {
+          if (const std::optional<std::string> why = blurCheck.judge(reading.contrast)) {
             refuse(what, *why, &seen);
             continue;
           }
@@ -327,6 +329,10 @@ CalibrationCaptures runSession(LinkClient* link, Camera& camera, const DisplayMo
           continue;
         }
         if (measureExposure && reading.exposure > 0.0) linear /= reading.exposure;
+        if (files) {
+          blurCheck.add(reading.contrast);
+          judged.emplace_back(what, camera.lastPicture());
+        }
       }
       settleMs.push_back(std::chrono::duration<double, std::milli>(Clock::now() - shown).count());
       return linear;
@@ -437,6 +443,12 @@ CalibrationCaptures runSession(LinkClient* link, Camera& camera, const DisplayMo
 
       captures.stations.push_back(std::move(set));
     }
+  }
+  // The first pictures had too few before them to be judged: now against the whole session.
+  if (const auto blurred = blurCheck.firstBlurred()) {
+    const auto& [what, file] = judged[blurred->first];
+    throw std::runtime_error(
+        fmt::format("{}: picture {} refused: {}", what, file, blurred->second));
   }
   if (stats) {
     stats->pictures = static_cast<int>(settleMs.size());

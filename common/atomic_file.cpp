@@ -19,8 +19,8 @@ class TemporaryFile {
     if (fd_ >= 0) ::close(fd_);
     if (!kept_) ::unlink(path_.c_str());
   }
-  int open() {
-    fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+  int open(mode_t mode) {
+    fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, mode);
     return fd_;
   }
   int fd() const { return fd_; }
@@ -60,10 +60,10 @@ bool writeAll(int fd, const std::string& bytes) {
 
 }  // namespace
 
-void writeFileAtomically(const std::string& path, const std::string& bytes) {
+void writeFileAtomically(const std::string& path, const std::string& bytes, mode_t mode) {
   TemporaryFile temporary(path + ".tmp." + std::to_string(::getpid()));
   ::unlink(temporary.path().c_str());  // a leftover of a crashed run with our pid
-  if (temporary.open() < 0) fail(path, "cannot write the file");
+  if (temporary.open(mode) < 0) fail(path, "cannot write the file");
   if (!writeAll(temporary.fd(), bytes)) fail(path, "writing the file failed");
   if (::fsync(temporary.fd()) != 0) fail(path, "flushing the file to disk failed");
   if (!temporary.close()) fail(path, "writing the file failed");

@@ -5,11 +5,14 @@
 // file or the new one, never half of one, and once the call returns the new file survives a
 // power cut. A full disk or a file-size limit fails the call and leaves the old file as it was.
 
+#include <sys/types.h>
+
 #include <string>
 
 namespace parallax {
 
-// Throws InputError naming `path` and the system's reason when it cannot be written.
-void writeFileAtomically(const std::string& path, const std::string& bytes);
+// Throws InputError naming `path` and the system's reason when it cannot be written. `mode`
+// is the new file's permission bits from the moment it exists (a secret: 0600), before the umask.
+void writeFileAtomically(const std::string& path, const std::string& bytes, mode_t mode = 0644);
 
 }  // namespace parallax

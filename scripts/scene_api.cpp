@@ -276,8 +276,13 @@ const std::vector<ApiFunction>& apiFunctions() {
        apiMaxDepth,
        true},
       {{"world_box", "px.world_box{min = {x, y, z}, max = {x, y, z}} | px.world_box()",
-        "Sets B_W, the part of world space shown in the display's box; with no argument, the "
-        "bounds of the geometry so far.",
+        "Sets B_W, the part of world space shown in the display's box B_P (the presets': "
+        "1.6 x 0.9 x 0.5 m around the screen centre); with no argument, the bounds of the "
+        "geometry so far. World units are scaled uniformly, by the largest factor that fits "
+        "B_W inside B_P on every axis (min over x, y, z of B_P's size / B_W's; a flat axis "
+        "does not count), and B_W's centre goes to B_P's: the tightest axis sets the size, "
+        "so a box deeper than the display's shallow B_P comes out small. Keep B_W close "
+        "around what matters, in B_P's proportions.",
         "px.world_box{min = {-2, 0, -1.25}, max = {2, 2.25, 1.25}}"},
        apiWorldBox,
        true},

@@ -336,6 +336,7 @@ int apiSetTransform(lua_State* L, SceneBuild& b) {
   const int object = lua::toHandle(L, 1, HandleKind::kObject, "object");
   b.scene.instances.at(static_cast<size_t>(object)).worldFromObject =
       lua::toTransform(L, 2, "transform");
+  if (!b.loading) b.scene.movedInstances.insert(object);  // placed at load: not moving
   return 0;
 }
 

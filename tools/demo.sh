@@ -11,6 +11,9 @@
 #      simulated modules differ in response, colour, brightness and vignetting) and asks for the
 #      frames again: a viewer's before/after pair (geometric only, geometric + photometric);
 #   5. shuts it down; the simulator saves what its modules actually received.
+# While it runs, its browser control panel is up: the demo prints the URL (with its token) as
+# soon as the daemon plays. PARALLAX_DEMO_KEEP=1 keeps the daemon and its panel running after
+# step 4, until Enter or Ctrl-C.
 # Pass an output folder as the first argument (default: out/demo).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -67,6 +70,12 @@ for _ in $(seq 1 1800); do
 done
 ctl status | tee "$out/status.json"
 ctl status | grep -q '"state": "playing"' || { echo "demo: the daemon is not playing"; exit 1; }
+# The browser control panel (a convenience: a taken port does not stop the demo).
+if panel_url=$(ctl panel 2>&1); then
+  echo "== control panel, while the demo runs: $panel_url"
+else
+  echo "== no control panel: $panel_url"
+fi
 # The calibration report: what the fit found, or why there is no calibration.
 if [ -f "$out/calibration.json.report.txt" ]; then
   mv "$out/calibration.json.report.txt" "$out/calibration_report.txt"
@@ -105,6 +114,11 @@ for x in -0.5 0 0.5; do
   done
 done
 
+if [ "${PARALLAX_DEMO_KEEP:-0}" = 1 ]; then
+  echo "== the daemon keeps playing; its control panel: $panel_url"
+  read -r -p "   press Enter to shut it down " _ || true
+fi
+
 echo "== 5. shut down"
 ctl shutdown >/dev/null
 wait "$daemon"
@@ -129,4 +143,5 @@ Everything is in $out:
   timings.json                 render / encode / push / end-to-end timings and frame counts
   status.json, parallaxd.log, parallax.toml   the daemon's state (photometry included), its log
                                and its configuration
+  panel.token                  the control panel's token (0600; kept beside the calibration)
 EON

@@ -86,7 +86,8 @@ bool normalsAreFlat(const PhysicalMesh& mesh) {
 
 }  // namespace
 
-PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox) {
+PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox,
+                             const std::vector<bool>* dynamicInstances) {
   const auto start = std::chrono::steady_clock::now();
   scene.validate();
   physicalFromWorld_ = parallax::physicalFromWorld(scene.effectiveWorldBox(), displayableBox);
@@ -106,7 +107,19 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox) {
     lights_.push_back(l);
   }
 
-  for (const Instance& instance : scene.instances) addInstance(scene, instance, displayableBox);
+  if (dynamicInstances) {
+    PARALLAX_CHECK_OP(dynamicInstances->size(), ==, scene.instances.size());
+    dynamicInstances_ = *dynamicInstances;
+  }
+  instanceMeshes_.assign(scene.instances.size(), -1);
+  for (size_t i = 0; i < scene.instances.size(); ++i) {
+    const size_t before = meshes_.size();
+    addInstance(scene, scene.instances[i], displayableBox);
+    if (meshes_.size() > before) {
+      instanceMeshes_[i] = static_cast<int>(before);
+      meshInstances_.push_back(static_cast<int>(i));
+    }
+  }
   for (const std::string& name : features_.unsampledTextureMaterials) {
     warnings_.push_back("material " + name +
                         " has a texture but its mesh has no UVs: texture ignored");
@@ -115,9 +128,16 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox) {
   // Build: high-quality SAH for a static scene (built once, traced for many frames); the
   // dynamic flags and a fast build for an animated one (rebuilt every frame).
   RTCDevice device = embreeDevice();
-  scene_ = rtcNewScene(device);
-  rtcSetSceneFlags(scene_, animated_ ? RTC_SCENE_FLAG_DYNAMIC : RTC_SCENE_FLAG_NONE);
-  rtcSetSceneBuildQuality(scene_, animated_ ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_HIGH);
+  // The partial scenes take the same flags: the same leaf layout, so a ray meets a triangle
+  // with the same arithmetic (the same u, v, t to the bit) in any of them.
+  auto newScene = [&] {
+    RTCScene s = rtcNewScene(device);
+    rtcSetSceneFlags(s, animated_ ? RTC_SCENE_FLAG_DYNAMIC : RTC_SCENE_FLAG_NONE);
+    rtcSetSceneBuildQuality(s, animated_ ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_HIGH);
+    return s;
+  };
+  scene_ = newScene();
+  if (split()) dynamicScene_ = newScene();
   boundsMin_ = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
   boundsMax_ = -boundsMin_;
   // Glass lets shadow rays through (glass_shadows.h) by a filter on the dielectric geometries
@@ -158,9 +178,17 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox) {
     rtcCommitGeometry(geometry);
     const unsigned id = rtcAttachGeometry(scene_, geometry);
     PARALLAX_CHECK_OP(id, ==, static_cast<unsigned>(g));
-    rtcReleaseGeometry(geometry);
+    if (split()) {
+      if (dynamicInstances_[static_cast<size_t>(meshInstances_[g])]) {
+        rtcAttachGeometryByID(dynamicScene_, geometry, id);
+      }
+      geometries_.push_back(geometry);  // kept for buildStaticScene
+    } else {
+      rtcReleaseGeometry(geometry);
+    }
   }
   rtcCommitScene(scene_);
+  if (dynamicScene_) rtcCommitScene(dynamicScene_);
   throwIfEmbreeFailed("the scene build");
   if (counters_.trianglesBuilt == 0) {
     boundsMin_ = boundsMax_ = Eigen::Vector3f::Zero();
@@ -174,6 +202,23 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox) {
 
 PhysicalScene::~PhysicalScene() {
   if (scene_) rtcReleaseScene(scene_);
+  if (dynamicScene_) rtcReleaseScene(dynamicScene_);
+  if (staticScene_) rtcReleaseScene(staticScene_);
+  for (RTCGeometry g : geometries_) rtcReleaseGeometry(g);
+}
+
+void PhysicalScene::buildStaticScene() {
+  PARALLAX_CHECK(split());
+  if (staticScene_) return;
+  staticScene_ = rtcNewScene(embreeDevice());
+  rtcSetSceneFlags(staticScene_, animated_ ? RTC_SCENE_FLAG_DYNAMIC : RTC_SCENE_FLAG_NONE);
+  rtcSetSceneBuildQuality(staticScene_, animated_ ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_HIGH);
+  for (size_t g = 0; g < geometries_.size(); ++g) {
+    if (!dynamicInstances_[static_cast<size_t>(meshInstances_[g])])
+      rtcAttachGeometryByID(staticScene_, geometries_[g], static_cast<unsigned>(g));
+  }
+  rtcCommitScene(staticScene_);
+  throwIfEmbreeFailed("the static scene build");
 }
 
 void PhysicalScene::addInstance(const Scene& scene, const Instance& instance, const Box3& clipBox) {

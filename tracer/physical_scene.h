@@ -58,12 +58,29 @@ struct PhysicalLight {
 class PhysicalScene {
  public:
   // Validates the scene (InputError), maps it into `displayableBox` and builds the BVH.
-  PhysicalScene(const Scene& scene, const Box3& displayableBox);
+  // `dynamicInstances` (one flag per Scene instance, for the frame cache): also builds a BVH of
+  // the flagged instances alone (dynamicHandle), and buildStaticScene() one of the others.
+  PhysicalScene(const Scene& scene, const Box3& displayableBox,
+                const std::vector<bool>* dynamicInstances = nullptr);
   ~PhysicalScene();
   PhysicalScene(const PhysicalScene&) = delete;
   PhysicalScene& operator=(const PhysicalScene&) = delete;
 
   RTCScene handle() const { return scene_; }
+  // The frame cache's partial BVHs: the same geometries under the same IDs (mesh indices), so
+  // a hit in either names the same mesh as in handle(). Null unless the scene was split.
+  RTCScene dynamicHandle() const { return dynamicScene_; }
+  RTCScene staticHandle() const { return staticScene_; }
+  // Builds staticHandle() (once; not thread-safe: before any tracing of this scene).
+  void buildStaticScene();
+  bool split() const { return !dynamicInstances_.empty(); }
+  // Per Scene instance: whether the split counted it dynamic.
+  bool dynamicInstance(int instance) const {
+    return split() && dynamicInstances_[static_cast<size_t>(instance)];
+  }
+  // Per Scene instance: the index of its mesh in meshes(), -1 when nothing of it was built
+  // (wholly outside the displayable box, or degenerate).
+  const std::vector<int>& instanceMeshes() const { return instanceMeshes_; }
   const WorldToPhysical& physicalFromWorld() const { return physicalFromWorld_; }
   const SceneFeatures& features() const { return features_; }
   const SceneBuildCounters& counters() const { return counters_; }
@@ -90,6 +107,12 @@ class PhysicalScene {
   void loadTextures(const Scene& scene);
 
   RTCScene scene_ = nullptr;
+  RTCScene dynamicScene_ = nullptr;
+  RTCScene staticScene_ = nullptr;
+  std::vector<RTCGeometry> geometries_;  // retained while a partial scene may still attach them
+  std::vector<bool> dynamicInstances_;
+  std::vector<int> instanceMeshes_;
+  std::vector<int> meshInstances_;  // per mesh: its Scene instance
   WorldToPhysical physicalFromWorld_;
   SceneFeatures features_;
   SceneBuildCounters counters_;

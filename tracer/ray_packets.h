@@ -55,6 +55,20 @@ class RayHitPackets {
     const RTCRay16& r = packets_[i / 16].ray;
     return {r.dir_x[i % 16], r.dir_y[i % 16], r.dir_z[i % 16]};
   }
+  Eigen::Vector3f origin(size_t i) const {
+    const RTCRay16& r = packets_[i / 16].ray;
+    return {r.org_x[i % 16], r.org_y[i % 16], r.org_z[i % 16]};
+  }
+  // The frame cache: a ray traced only as far as its cached hit, and that hit written in when
+  // nothing nearer was found.
+  void setTfar(size_t i, float tfar) { packets_[i / 16].ray.tfar[i % 16] = tfar; }
+  void setHit(size_t i, unsigned geomID, unsigned primID, float u, float v) {
+    RTCHit16& h = packets_[i / 16].hit;
+    h.geomID[i % 16] = geomID;
+    h.primID[i % 16] = primID;
+    h.u[i % 16] = u;
+    h.v[i % 16] = v;
+  }
   // Lane i as a single ray (logging, the single-ray traversal).
   RTCRayHit get(size_t i) const;
   void set(size_t i, const RTCRayHit& r);

@@ -19,6 +19,7 @@
 #include <array>
 #include <cstdint>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -116,6 +117,11 @@ struct Scene {
   // An animated scene is rebuilt every frame (Embree's dynamic build flags); a static one is
   // built once with the high-quality SAH builder.
   bool animated = false;
+  // Instances an update() has moved (a script's set_transform targets so far): the frame cache
+  // (frame_cache.h) traces them every frame and keeps the primary hits on the rest. A hint
+  // only: the cache notices any other instance that moves, so a wrong hint costs time, not
+  // correctness.
+  std::set<int> movedInstances;
   int maxDepth = 5;  // Whitted recursion limit (1: primary rays only)
 
   // Small builders for fixtures, loaders and bindings. Each returns the new index.

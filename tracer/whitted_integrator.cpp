@@ -11,6 +11,7 @@
 #include <limits>
 #include <memory>
 
+#include "common/check.h"
 #include "common/input_error.h"
 #include "tracer/glass_shadows.h"
 #include "tracer/hit_info.h"
@@ -53,6 +54,8 @@ struct LitSurface {
   float shininess;
   int pixel;
   bool highlight;
+  // The frame cache's answers for the static lights (StaticHit::lights()), 0 when it has none.
+  std::uint8_t staticLights;
 };
 
 // Slab test: does o + t d (t > 0) meet the box? If so, *entry is the t where it comes in.
@@ -105,6 +108,27 @@ class PhaseClock {
   std::chrono::steady_clock::time_point last_;
 };
 
+// One light's shadow rays toward one scene, with what each adds to its pixel.
+struct ShadowBatch {
+  OcclusionPackets rays;
+  std::vector<PendingShadow> pending;
+  // Per shadow ray: what glass let through (only in scenes with glass shadows).
+  std::vector<ShadowTransmittance> transmittance;
+
+  // Room for n rays (written by slot, kept by setSize).
+  void reserve(size_t n, bool glass) {
+    rays.reserveRays(n);
+    if (pending.size() < n) pending.resize(n);
+    if (glass && transmittance.size() < n) transmittance.resize(n);
+  }
+};
+
+// A primary ray's cached static hit, as this frame's PhysicalScene names it.
+struct CachedHit {
+  unsigned mesh = RTC_INVALID_GEOMETRY_ID;  // none: the ray meets no static geometry
+  unsigned prim = 0;
+};
+
 // A worker thread's ray arrays, kept from frame to frame (thread_local below): after the first
 // frame a tile allocates nothing.
 struct TileBuffers {
@@ -112,18 +136,20 @@ struct TileBuffers {
   RayHitPackets rays, nextRays;
   std::vector<LitSurface> lit;
   // Shadow rays are made and traced light after light: a packet then holds neighbouring
-  // pixels' rays toward the same light, which traverse the BVH together.
-  OcclusionPackets shadowRays;
-  std::vector<PendingShadow> shadows;
-  // Per shadow ray: what glass let through (only in scenes with glass shadows).
-  std::vector<ShadowTransmittance> transmittance;
+  // pixels' rays toward the same light, which traverse the BVH together. With the frame cache,
+  // rays from static hits toward static lights that no static surface blocks go to a second
+  // batch, traced against the dynamic instances only.
+  ShadowBatch shadows, dynamicShadows;
+  // The frame cache, per primary ray: its static hit, and that hit's static-light answers.
+  std::vector<CachedHit> cachedHits;
+  std::vector<std::uint8_t> primaryLights;
 };
 
 class TileRenderer {
  public:
   TileRenderer(const PhysicalScene& scene, const RayTextures& textures,
                const RenderOptions& options, int depth, Frame* frame, RayLog* log,
-               TileBuffers* buffers)
+               TileBuffers* buffers, const StaticVisibilityView* cache)
       : scene_(scene),
         textures_(textures),
         options_(options),
@@ -138,9 +164,11 @@ class TileRenderer {
         rays_(buffers->rays),
         nextRays_(buffers->nextRays),
         lit_(buffers->lit),
-        shadowRays_(buffers->shadowRays),
         shadows_(buffers->shadows),
-        transmittance_(buffers->transmittance) {}
+        dynamicShadows_(buffers->dynamicShadows),
+        cachedHits_(buffers->cachedHits),
+        primaryLights_(buffers->primaryLights),
+        cache_(cache) {}
 
   void render(int x0, int x1, int y0, int y1, RenderCounters* c);
 
@@ -149,8 +177,16 @@ class TileRenderer {
   void cone(int pixel, Path* path) const;
   void shade(size_t i, int generation, RenderCounters* c);
   template <bool kPoint>
-  size_t makeShadowRays(const PhysicalLight& light);
-  void traceShadowRays(bool coherent, int generation, RenderCounters* c, PhaseClock* clock);
+  void makeShadowRays(const PhysicalLight& light, int lightIndex, int generation,
+                      RenderCounters* c);
+  void traceShadowRays(ShadowBatch& batch, RTCScene scene, bool coherent, int generation,
+                       RenderCounters* c, PhaseClock* clock);
+  void recordStaticShadows(const ShadowBatch& batch, int lightIndex);
+  // The frame cache around the first generation's intersection.
+  RTCScene primaryScene() const;
+  void limitToStaticHits();
+  void takeStaticHits(RenderCounters* c);
+  void recordStaticHits();
   Rgb textureColor(const Material& m, const HitInfo& h, const Path& path, float t,
                    const Eigen::Vector3f& d, RenderCounters* c) const;
   void pushBranch(const Path& parent, const Rgb& weight, const Eigen::Vector3f& origin,
@@ -176,9 +212,13 @@ class TileRenderer {
   std::vector<LitSurface>&
       lit_;  // the first litCount_ are this generation's (the vector only grows)
   size_t litCount_ = 0;
-  OcclusionPackets& shadowRays_;
-  std::vector<PendingShadow>& shadows_;
-  std::vector<ShadowTransmittance>& transmittance_;
+  ShadowBatch& shadows_;
+  ShadowBatch& dynamicShadows_;
+  std::vector<CachedHit>& cachedHits_;
+  std::vector<std::uint8_t>& primaryLights_;
+  // The frame cache: null without one; build mode fills it from the static scene, else the
+  // first generation reads it and traces against the dynamic instances only.
+  const StaticVisibilityView* cache_;
 };
 
 // o and s − o of a compact ray. A flat screen (the common case) needs no sag and its square root.
@@ -287,8 +327,17 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
   for (int generation = 0; generation < depth_ && !rays_.empty(); ++generation) {
     c->deepest = std::max(c->deepest, generation + 1);
     const bool coherent = generation == 0;
+    if (generation == 0 && cache_ && !cache_->build) limitToStaticHits();
     if (log_) logBatch(generation, rays_);
-    intersectPackets(scene_.handle(), rays_, options_.traversal, coherent);
+    intersectPackets(generation == 0 ? primaryScene() : scene_.handle(), rays_, options_.traversal,
+                     coherent);
+    if (generation == 0 && cache_) {
+      if (cache_->build) {
+        recordStaticHits();
+      } else {
+        takeStaticHits(c);
+      }
+    }
     clock.lap(RenderPhase::kIntersect);
     nextPaths_.clear();
     nextRays_.clear();
@@ -298,11 +347,23 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
     if (lit_.size() < rays_.size()) lit_.resize(rays_.size());
     for (size_t i = 0; i < rays_.size(); ++i) shade(i, generation, c);
     if (litCount_ > 0) {
-      for (const PhysicalLight& light : scene_.lights()) {
-        const size_t count = light.kind == LightKind::kPoint ? makeShadowRays<true>(light)
-                                                             : makeShadowRays<false>(light);
-        shadowRays_.setSize(count);
-        traceShadowRays(coherent, generation, c, &clock);
+      const bool build = cache_ && cache_->build;
+      RTCScene shadowScene = build ? scene_.staticHandle() : scene_.handle();
+      for (size_t k = 0; k < scene_.lights().size(); ++k) {
+        const PhysicalLight& light = scene_.lights()[k];
+        const int index = static_cast<int>(k);
+        if (build && index >= StaticHit::kCachedLights) break;  // never cached
+        if (light.kind == LightKind::kPoint) {
+          makeShadowRays<true>(light, index, generation, c);
+        } else {
+          makeShadowRays<false>(light, index, generation, c);
+        }
+        traceShadowRays(shadows_, shadowScene, coherent, generation, c, &clock);
+        if (build) recordStaticShadows(shadows_, index);
+        if (!dynamicShadows_.rays.empty()) {
+          c->cache.shadowDynamicOnly += static_cast<long>(dynamicShadows_.rays.size());
+          traceShadowRays(dynamicShadows_, scene_.dynamicHandle(), coherent, generation, c, &clock);
+        }
       }
     }
     clock.lap(RenderPhase::kShade);
@@ -315,14 +376,27 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
 // slot, and the slot is kept only if the light reaches the surface's front and contributes.
 // (Measured no faster than skipping unlit surfaces with a branch, but one loop per light over
 // the surfaces needs no per-light buffers.)
+//
+// The frame cache: a surface whose static hit came from the cache has the static geometry's
+// answer for a static light that has not moved: blocked (no ray), or clear (a ray against
+// the dynamic instances only). Building the cache, every ray the light's direction allows is
+// made, whatever the material gives it, so a later frame finds an answer for every ray it
+// makes.
 template <bool kPoint>
-size_t TileRenderer::makeShadowRays(const PhysicalLight& light) {
+void TileRenderer::makeShadowRays(const PhysicalLight& light, int lightIndex, int generation,
+                                  RenderCounters* c) {
   const size_t n = litCount_;
-  shadowRays_.reserveRays(n);
-  if (shadows_.size() < n) shadows_.resize(n);
-  if (glassShadows_ && transmittance_.size() < n) transmittance_.resize(n);
+  shadows_.reserve(n, glassShadows_);
+  const bool build = cache_ && cache_->build;
+  // Rays of this light that the cache answers (first generation, a static light that stayed).
+  const std::uint8_t cachedBit = cache_ && !build && generation == 0 &&
+                                         lightIndex < StaticHit::kCachedLights &&
+                                         (cache_->lightsValid >> lightIndex & 1u)
+                                     ? static_cast<std::uint8_t>(1u << lightIndex)
+                                     : 0;
+  if (cachedBit) dynamicShadows_.reserve(n, glassShadows_);
   const float worldPerPhysical = scene_.worldPerPhysical();
-  size_t kept = 0;
+  size_t kept = 0, keptDynamic = 0;
   for (size_t j = 0; j < n; ++j) {
     const LitSurface& s = lit_[j];
     Eigen::Vector3f l = light.toLight;
@@ -349,33 +423,46 @@ size_t TileRenderer::makeShadowRays(const PhysicalLight& light) {
         response += s.specular * phongPower(alignment, s.shininess);
     }
     const Rgb contribution = response.cwiseProduct(irradiance);
-    reaches = reaches & (contribution.maxCoeff() > 0.0f);
-    shadowRays_.write(kept, s.above, l, tfar);
-    shadows_[kept] = {s.pixel, contribution};
+    if (!build) reaches = reaches & (contribution.maxCoeff() > 0.0f);
+    if (cachedBit && (s.staticLights & StaticHit::kLightsKnown)) {
+      if (!reaches) continue;
+      if (!(s.staticLights & cachedBit)) {
+        ++c->cache.shadowAnswered;  // a static surface blocks it
+        continue;
+      }
+      dynamicShadows_.rays.write(keptDynamic, s.above, l, tfar);
+      dynamicShadows_.pending[keptDynamic] = {s.pixel, contribution};
+      if (glassShadows_) dynamicShadows_.transmittance[keptDynamic].reset();
+      ++keptDynamic;
+      continue;
+    }
+    shadows_.rays.write(kept, s.above, l, tfar);
+    shadows_.pending[kept] = {s.pixel, contribution};
     if (glassShadows_) {
-      transmittance_[kept].reset();  // indexed like the ray (its id is its slot)
+      shadows_.transmittance[kept].reset();  // indexed like the ray (its id is its slot)
     }
     kept += reaches ? 1 : 0;
   }
-  return kept;
+  shadows_.rays.setSize(kept);
+  dynamicShadows_.rays.setSize(keptDynamic);
 }
 
-void TileRenderer::traceShadowRays(bool coherent, int generation, RenderCounters* c,
-                                   PhaseClock* clock) {
-  OcclusionPackets& rays = shadowRays_;
+void TileRenderer::traceShadowRays(ShadowBatch& batch, RTCScene scene, bool coherent,
+                                   int generation, RenderCounters* c, PhaseClock* clock) {
+  OcclusionPackets& rays = batch.rays;
   if (rays.empty()) return;
   if (log_) logBatch(generation, rays);
   clock->lap(RenderPhase::kShade);
   Rgb* pixels = frame_->pixels.data();
-  const PendingShadow* pending = shadows_.data();
+  const PendingShadow* pending = batch.pending.data();
   if (glassShadows_) {
     ShadowQueryContext query =
-        shadowQueryContext(coherent, &scene_, transmittance_.data(), &c->glassShadowHits);
-    occludedPackets(scene_.handle(), rays, options_.traversal, &query);
+        shadowQueryContext(coherent, &scene_, batch.transmittance.data(), &c->glassShadowHits);
+    occludedPackets(scene, rays, options_.traversal, &query);
     clock->lap(RenderPhase::kOcclude);
     for (size_t i = 0; i < rays.size(); ++i) {
       if (rays.occluded(i)) continue;
-      const ShadowTransmittance& state = transmittance_[i];
+      const ShadowTransmittance& state = batch.transmittance[i];
       // Most shadow rays cross no glass: no exp() for them.
       pixels[pending[i].pixel] += state.crossings == 0
                                       ? pending[i].contribution
@@ -383,7 +470,7 @@ void TileRenderer::traceShadowRays(bool coherent, int generation, RenderCounters
     }
   } else {
     // No glass: the plain query, no per-ray state.
-    occludedPackets(scene_.handle(), rays, options_.traversal, coherent);
+    occludedPackets(scene, rays, options_.traversal, coherent);
     clock->lap(RenderPhase::kOcclude);
     for (size_t i = 0; i < rays.size(); ++i) {
       if (!rays.occluded(i)) pixels[pending[i].pixel] += pending[i].contribution;
@@ -391,6 +478,82 @@ void TileRenderer::traceShadowRays(bool coherent, int generation, RenderCounters
   }
   clock->lap(RenderPhase::kGather);
   c->shadow += static_cast<long>(rays.size());
+}
+
+// Building: the static geometry's answer for each ray toward static light `lightIndex`.
+// A ray through static glass leaves the pixel's lights unknown (a transmittance, not a bit).
+void TileRenderer::recordStaticShadows(const ShadowBatch& batch, int lightIndex) {
+  const std::uint8_t bit = static_cast<std::uint8_t>(1u << lightIndex);
+  for (size_t i = 0; i < batch.rays.size(); ++i) {
+    StaticHit& hit = cache_->hits[static_cast<size_t>(batch.pending[i].pixel)];
+    if (glassShadows_ && batch.transmittance[i].crossings > 0) {
+      hit.setLights(0);
+    } else if (!batch.rays.occluded(i) && (hit.lights() & StaticHit::kLightsKnown)) {
+      hit.setLights(hit.lights() | bit);
+    }
+  }
+}
+
+RTCScene TileRenderer::primaryScene() const {
+  if (!cache_) return scene_.handle();
+  return cache_->build ? scene_.staticHandle() : scene_.dynamicHandle();
+}
+
+// Before the first generation is traced: each ray with a cached static hit is traced only as
+// far as that hit, so the dynamic scene reports only what lies in front of it.
+void TileRenderer::limitToStaticHits() {
+  const StaticVisibilityView& view = *cache_;
+  cachedHits_.assign(rays_.size(), CachedHit{});
+  const std::uint32_t* baseEnd = view.triangleBase + view.staticMeshes + 1;
+  for (size_t i = 0; i < rays_.size(); ++i) {
+    const StaticHit& hit = view.hits[static_cast<size_t>(paths_[i].pixel)];
+    const std::uint32_t triangle = hit.triangle();
+    if (triangle == StaticHit::kNoTriangle) continue;
+    const size_t ordinal =
+        static_cast<size_t>(std::upper_bound(view.triangleBase, baseEnd, triangle) -
+                            view.triangleBase) -
+        1;
+    const int meshIndex = view.meshOfStatic[ordinal];
+    const unsigned prim = triangle - view.triangleBase[ordinal];
+    const PhysicalMesh& mesh = scene_.meshes()[static_cast<size_t>(meshIndex)];
+    const auto& tri = mesh.triangles[prim];
+    // The hit point as hitInfoOf computes it; its distance along the (unit) ray.
+    const Eigen::Vector3f p = (1.0f - hit.u - hit.v) * mesh.positions[tri[0]] +
+                              hit.u * mesh.positions[tri[1]] + hit.v * mesh.positions[tri[2]];
+    rays_.setTfar(i, (p - rays_.origin(i)).dot(rays_.direction(i)));
+    cachedHits_[i] = {static_cast<unsigned>(meshIndex), prim};
+  }
+}
+
+// After it: where the dynamic scene found nothing nearer, the static hit is the ray's hit.
+void TileRenderer::takeStaticHits(RenderCounters* c) {
+  primaryLights_.assign(rays_.size(), 0);
+  for (size_t i = 0; i < rays_.size(); ++i) {
+    const CachedHit& cached = cachedHits_[i];
+    if (cached.mesh == RTC_INVALID_GEOMETRY_ID || rays_.geomID(i) != RTC_INVALID_GEOMETRY_ID)
+      continue;
+    const StaticHit& hit = cache_->hits[static_cast<size_t>(paths_[i].pixel)];
+    rays_.setHit(i, cached.mesh, cached.prim, hit.u, hit.v);
+    primaryLights_[i] = hit.lights();
+    ++c->cache.pixelsReused;
+  }
+  c->cache.primaryDynamicOnly += static_cast<long>(rays_.size());
+}
+
+// Building: the first generation was traced against the static scene; keep its hits.
+void TileRenderer::recordStaticHits() {
+  const StaticVisibilityView& view = *cache_;
+  for (size_t i = 0; i < rays_.size(); ++i) {
+    StaticHit& hit = view.hits[static_cast<size_t>(paths_[i].pixel)];
+    hit = StaticHit{};
+    const unsigned geomID = rays_.geomID(i);
+    if (geomID == RTC_INVALID_GEOMETRY_ID) continue;
+    const int ordinal = view.staticOfMesh[geomID];
+    PARALLAX_CHECK_OP(ordinal, >=, 0);
+    hit.u = rays_.u(i);
+    hit.v = rays_.v(i);
+    hit.setTriangle(view.triangleBase[static_cast<size_t>(ordinal)] + rays_.primID(i));
+  }
 }
 
 void TileRenderer::logBatch(int generation, const RayHitPackets& rays) {
@@ -501,6 +664,16 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
       s.geometric = h.geometricNormal;
       s.diffuse = weightedAlbedo;
       s.pixel = path.pixel;
+      s.staticLights = 0;
+      if (generation == 0 && cache_) {
+        if (cache_->build) {
+          // Its static lights are answered by the shadow rays about to be traced.
+          s.staticLights = StaticHit::kLightsKnown;
+          cache_->hits[static_cast<size_t>(path.pixel)].setLights(StaticHit::kLightsKnown);
+        } else {
+          s.staticLights = primaryLights_[i];
+        }
+      }
       s.highlight = m.specular.maxCoeff() > 0.0f;
       if (s.highlight) {
         s.reflected = reflect(d, h.shadingNormal);
@@ -593,13 +766,14 @@ RenderCounters& RenderCounters::operator+=(const RenderCounters& o) {
   pruned += o.pruned;
   glassShadowHits += o.glassShadowHits;
   textureLookups += o.textureLookups;
+  cache += o.cache;
   deepest = std::max(deepest, o.deepest);
   for (int i = 0; i < kRenderPhases; ++i) phaseThreadMs[i] += o.phaseThreadMs[i];
   return *this;
 }
 
 std::vector<std::string> RenderCounters::lines() const {
-  return {
+  std::vector<std::string> out = {
       fmt::format(
           "  pixels {}: {} masked (never traced), {} miss the scene's bounds (never traversed)",
           pixels, masked, missedBounds),
@@ -611,11 +785,22 @@ std::vector<std::string> RenderCounters::lines() const {
       fmt::format("  glass surfaces shadow rays passed through {} (the glass filter's calls)",
                   glassShadowHits),
   };
+  if (cache.primaryDynamicOnly > 0) {
+    out.push_back(fmt::format(
+        "  frame cache: {} primary hits reused ({} primary rays traced against the dynamic "
+        "objects only); shadow rays: {} answered without tracing, {} traced against the dynamic "
+        "objects only",
+        cache.pixelsReused, cache.primaryDynamicOnly, cache.shadowAnswered,
+        cache.shadowDynamicOnly));
+  }
+  return out;
 }
 
-void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures,
-                     const RenderOptions& options, Frame* frame, RenderCounters* counters,
-                     RayLog* log) {
+namespace {
+
+void renderTiles(const PhysicalScene& scene, const RayTextures& textures,
+                 const RenderOptions& options, Frame* frame, RenderCounters* counters, RayLog* log,
+                 const StaticVisibilityView* cache) {
   options.validate();
   if (options.samplesPerPixel != 1) {
     throw InputError(
@@ -629,13 +814,18 @@ void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures,
   }
   int depth = scene.features().depth;
   if (options.maxDepth > 0) depth = std::min(depth, options.maxDepth);
+  if (cache) {
+    PARALLAX_CHECK(scene.split());
+    PARALLAX_CHECK(!cache->build || scene.staticHandle() != nullptr);
+    if (cache->build) depth = 1;  // the primary hits and their shadow rays only
+  }
   tbb::combinable<RenderCounters> perThread;
   const tbb::blocked_range2d<int> range(0, textures.height(), options.tileHeight, 0,
                                         textures.width(), options.tileWidth);
   tbb::parallel_for(
       range,
       [&](const tbb::blocked_range2d<int>& tile) {
-        TileRenderer renderer(scene, textures, options, depth, frame, log, &threadBuffers());
+        TileRenderer renderer(scene, textures, options, depth, frame, log, &threadBuffers(), cache);
         renderer.render(tile.cols().begin(), tile.cols().end(), tile.rows().begin(),
                         tile.rows().end(), &perThread.local());
       },
@@ -644,6 +834,20 @@ void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures,
     *counters = RenderCounters{};
     perThread.combine_each([&](const RenderCounters& c) { *counters += c; });
   }
+}
+
+}  // namespace
+
+void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures,
+                     const RenderOptions& options, Frame* frame, RenderCounters* counters,
+                     RayLog* log) {
+  renderTiles(scene, textures, options, frame, counters, log, nullptr);
+}
+
+void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures,
+                     const RenderOptions& options, const StaticVisibilityView& cache, Frame* frame,
+                     RenderCounters* counters) {
+  renderTiles(scene, textures, options, frame, counters, nullptr, &cache);
 }
 
 Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures,

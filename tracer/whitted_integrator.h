@@ -15,6 +15,7 @@
 #include "tracer/frame.h"
 #include "tracer/physical_scene.h"
 #include "tracer/ray_batch.h"
+#include "tracer/static_visibility.h"
 
 namespace parallax {
 
@@ -66,7 +67,8 @@ struct RenderCounters {
   // surface, duplicates from the BVH's spatial splits included): not extra rays.
   long glassShadowHits = 0;
   long textureLookups = 0;
-  int deepest = 0;  // highest ray generation traced (1 = primary only)
+  FrameCacheCounters cache;  // what the frame cache saved (zero without one)
+  int deepest = 0;           // highest ray generation traced (1 = primary only)
   // Wall-clock time each thread spent in each phase, summed over the threads (timePhases):
   // close to CPU time while the threads are not preempted.
   double phaseThreadMs[kRenderPhases] = {};
@@ -84,6 +86,14 @@ struct RenderCounters {
 void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures,
                      const RenderOptions& options, Frame* frame, RenderCounters* counters = nullptr,
                      RayLog* log = nullptr);
+// Through the frame cache's view of this module (frame_cache.h; `scene` split into static and
+// dynamic instances): with `cache.build` it fills the view's records from the static BVH (the
+// primary rays and their shadow rays toward the static lights; `frame` then holds nothing
+// useful), else it renders the frame as the plain renderFrameInto would, tracing the first
+// generation against the dynamic instances only and taking the rest from the records.
+void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures,
+                     const RenderOptions& options, const StaticVisibilityView& cache, Frame* frame,
+                     RenderCounters* counters = nullptr);
 // The same into a new frame.
 Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures,
                   const RenderOptions& options, RenderCounters* counters = nullptr,

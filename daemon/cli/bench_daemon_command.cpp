@@ -1,11 +1,12 @@
-// parallax bench daemon [--display demo,default] [--seconds 10] [--fps 30]
+// parallax bench daemon [--display demo,default] [--seconds 10] [--fps 30] [--frame-cache on,off]
 // The daemon measured as it runs: starts the real parallaxd (which starts its own simulated
 // display), plays the animated scripts/scenes/orbit.lua for --seconds and reads the daemon's
 // own `stats` over the control socket — per display frame: render, encode, push and end-to-end
 // latency, the frame rate reached against the target, dropped frames — plus the CPU time and
-// peak memory of parallaxd and of the simulator from /proc. Then one frame of the static
-// cornell.lua, and `parallax ctl status` end to end (100 runs). Figures only; nothing passes or
-// fails on time.
+// peak memory of parallaxd and of the simulator from /proc; with the frame cache on and off
+// (one daemon each, one after the other) and their ratio, and what the cache held and saved. Then
+// one frame of the static cornell.lua, and `parallax ctl status` end to end (100 runs). Figures
+// only; nothing passes or fails on time.
 
 #include <fcntl.h>
 #include <fmt/format.h>
@@ -43,6 +44,7 @@ struct BenchDaemonArgs {
   std::string displays = "demo,default";
   double seconds = 10.0;
   double fps = 30.0;
+  std::string frameCache = "on,off";
 };
 
 std::string siblingBinary(const std::string& name) {
@@ -165,7 +167,10 @@ void benchCtlRoundTrip(const std::string& socket) {
       kRuns, medianAndP95(frontMs), kRuns / 10, medianAndP95(toolsMs), medianAndP95(socketMs));
 }
 
-void benchOne(const std::string& display, const BenchDaemonArgs& args) {
+// Plays orbit.lua on `display`; returns the display frames a second it reached. The first run of
+// a display also times cornell.lua and `parallax ctl status`.
+double benchOne(const std::string& display, const BenchDaemonArgs& args, bool frameCache,
+                bool firstRun) {
   const fs::path work =
       fs::temp_directory_path() / fmt::format("parallax-bench-daemon-{}", ::getpid());
   fs::create_directories(work);
@@ -177,10 +182,10 @@ void benchOne(const std::string& display, const BenchDaemonArgs& args) {
   {
     std::ofstream config(work / "parallax.toml");
     config << fmt::format(
-        "[display]\npreset = \"{}\"\n[scene]\nscript = \"orbit\"\nfps = {}\n[calibration]\nauto = "
-        "false\nfile = \"{}\"\n"
+        "[display]\npreset = \"{}\"\n[scene]\nscript = \"orbit\"\nfps = {}\nframe_cache = {}\n"
+        "[calibration]\nauto = false\nfile = \"{}\"\n"
         "[daemon]\nsocket = \"{}\"\ncache_dir = \"{}\"\nlog_level = \"warn\"\n",
-        display, args.fps, (work / "calibration.json").string(), socket, cache);
+        display, args.fps, frameCache, (work / "calibration.json").string(), socket, cache);
   }
   std::string daemonPath = siblingBinary("parallaxd");
   const std::string configPath = (work / "parallax.toml").string();
@@ -190,6 +195,7 @@ void benchOne(const std::string& display, const BenchDaemonArgs& args) {
   if (::posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0)
     throw std::runtime_error("cannot start parallaxd");
   const auto started = Clock::now();
+  double fps = 0.0;
   try {
     nlohmann::json first = waitFor(
         socket, [](const nlohmann::json& s) { return s.value("display_frames", 0) >= 2; },
@@ -215,10 +221,11 @@ void benchOne(const std::string& display, const BenchDaemonArgs& args) {
     const double dropped =
         last["dropped_frames"].get<double>() - first["dropped_frames"].get<double>();
     const nlohmann::json status = request(socket, {{"request", "status"}});
+    fps = frames / dt;
     std::cout << fmt::format(
-        "{}: {} modules; start-up to the second frame {:.1f} s (ray textures: {} from the cache, "
-        "{} generated)\n",
-        display, status["display"]["modules"].get<int>(), startup,
+        "{} (frame cache {}): {} modules; start-up to the second frame {:.1f} s (ray textures: {} "
+        "from the cache, {} generated)\n",
+        display, frameCache ? "on" : "off", status["display"]["modules"].get<int>(), startup,
         status["ray_textures"]["from_cache"].get<int>(),
         status["ray_textures"]["generated"].get<int>());
     std::cout << fmt::format(
@@ -233,6 +240,16 @@ void benchOne(const std::string& display, const BenchDaemonArgs& args) {
         "simulator {:.0f} MiB\n",
         (d1.cpuSeconds - d0.cpuSeconds) / dt, (s1.cpuSeconds - s0.cpuSeconds) / dt, d1.peakMiB,
         s1.peakMiB);
+    if (frameCache && last.contains("frame_cache")) {
+      for (const auto& line : last["frame_cache"]["lines"])
+        std::cout << line.get<std::string>() << "\n";
+    }
+    if (!firstRun) {
+      request(socket, {{"request", "shutdown"}});
+      ::waitpid(pid, nullptr, 0);
+      fs::remove_all(work);
+      return fps;
+    }
     // The static scene: one frame, then nothing to send.
     const nlohmann::json before = request(socket, {{"request", "stats"}});
     request(socket, {{"request", "load"}, {"scene", "cornell"}});
@@ -259,6 +276,7 @@ void benchOne(const std::string& display, const BenchDaemonArgs& args) {
   int status = 0;
   ::waitpid(pid, &status, 0);
   fs::remove_all(work);
+  return fps;
 }
 
 void runBenchDaemon(const BenchDaemonArgs& args) {
@@ -269,10 +287,23 @@ void runBenchDaemon(const BenchDaemonArgs& args) {
   std::string loadavg;
   std::getline(load, loadavg);
   std::cout << loadavg << "\n";
+  std::vector<bool> settings;
+  std::stringstream cacheList(args.frameCache);
+  for (std::string s; std::getline(cacheList, s, ',');) {
+    if (s != "on" && s != "off") throw InputError({"", "--frame-cache", 0}, "on and/or off");
+    settings.push_back(s == "on");
+  }
+  if (settings.empty()) throw InputError({"", "--frame-cache", 0}, "on and/or off");
   for (std::string display; std::getline(list, display, ',');) {
     if (display != "demo" && display != "default")
       throw InputError({"", "--display", 0}, "demo and/or default");
-    benchOne(display, args);
+    double on = 0.0, off = 0.0;
+    for (size_t i = 0; i < settings.size(); ++i)
+      (settings[i] ? on : off) = benchOne(display, args, settings[i], i == 0);
+    if (on > 0.0 && off > 0.0) {
+      std::cout << fmt::format("  {}: frame cache on/off {:.2f} / {:.2f} fps = {:.2f}x\n", display,
+                               on, off, on / off);
+    }
   }
 }
 
@@ -285,6 +316,8 @@ void addBenchDaemonSubcommand(CLI::App* bench) {
   command->add_option("--display", args->displays, "comma-separated: demo, default");
   command->add_option("--seconds", args->seconds, "how long to play the animated scene");
   command->add_option("--fps", args->fps, "target frame rate");
+  command->add_option("--frame-cache", args->frameCache,
+                      "on, off or both (on,off: one daemon each, the ratio)");
   command->callback([args] { runBenchDaemon(*args); });
 }
 

@@ -9,6 +9,7 @@
 //   parallax ctl load cornell            parallax ctl set radius=0.2   (or: set radius 0.2)
 //   parallax ctl frame 3 [--path f.png]  parallax ctl view 0.5 [--path v.png]
 //   parallax ctl identify [3]            parallax ctl calibrate [--module 3]
+//   parallax ctl panel                   (prints the browser panel's URL with its token)
 //   parallax ctl --json '{"request": "status"}'
 
 #include <fmt/format.h>
@@ -98,7 +99,9 @@ int runCtl(const CtlArgs& args, const std::vector<std::string>& words) {
     return 1;
   }
   const bool ok = reply.value("ok", false);
-  if (!quiet()) {
+  if (ok && request.value("request", "") == "panel" && reply.contains("url")) {
+    std::cout << reply["url"].get<std::string>() << "\n";  // to open, or to pipe to a browser
+  } else if (!quiet()) {
     std::cout << reply.dump(2) << "\n";
   } else if (!ok) {
     std::cerr << "parallax ctl: " << reply.value("error", reply.dump()) << "\n";

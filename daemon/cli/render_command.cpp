@@ -1,13 +1,18 @@
 // parallax render [--display FILE|default|demo] --scene NAME|FILE|SCRIPT.lua [--set name=value]
 //                 [--time T] [--module I|all] [--out DIR]
 //                 [--explain] [--float] [--traversal single|packet16|stream] [--spp N]
+//                 [--frames N [--fps F] [--no-frame-cache]]
 // Ray traces module frames of a scene through the display's ray textures and writes them as
 // sRGB PNG (and float EXR with --float). --explain prints what the scene needs, what ran and
 // what was left out, with the per-frame counters. --spp N (a square): N sub-pixel rays a pixel.
+// --frames N plays an animated script from --time on, N frames at --fps, as the daemon does
+// (through the frame cache unless --no-frame-cache), and writes the last; --explain then also
+// says what the cache held and saved.
 
 #include <fmt/format.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -19,6 +24,8 @@
 #include "daemon/cli/commands.h"
 #include "daemon/cli/module_argument.h"
 #include "scripts/scene_argument.h"
+#include "scripts/scene_script.h"
+#include "tracer/frame_cache.h"
 #include "tracer/physical_scene.h"
 #include "tracer/scene_source.h"
 #include "tracer/supersampled_render.h"
@@ -38,7 +45,85 @@ struct RenderArgs {
   std::vector<std::string> sets;  // --set name=value (scene scripts)
   double time = 0.0;              // --time T (animated scene scripts)
   int samplesPerPixel = 1;        // --spp N
+  int frames = 1;                 // --frames N: an animation, as the daemon plays it
+  double fps = 30.0;
+  bool noFrameCache = false;
 };
+
+// --frames N: the script played frame after frame over the chosen modules, through the frame
+// cache as parallaxd does (or in full with --no-frame-cache); the last frame is written.
+void runAnimation(const RenderArgs& args, const DisplayModel& model,
+                  const std::vector<int>& indices, const RenderOptions& options) {
+  if (args.frames < 2 || args.frames > 100000)
+    throw InputError({"", "--frames", 0}, "must be in 2..100000");
+  if (!(args.fps > 0.0 && args.fps <= 240.0))
+    throw InputError({"", "--fps", 0}, "must be in (0, 240]");
+  if (!std::isfinite(args.time)) throw InputError({"", "--time", 0}, "must be finite");
+  if (options.samplesPerPixel != 1)
+    throw InputError({"", "--spp", 0}, "--frames renders one sample a pixel, as the daemon");
+  std::string path = librarySceneScript(args.scene);
+  if (path.empty()) path = args.scene;
+  if (!isSceneScript(path)) throw InputError({"", "--frames", 0}, "needs a scene script (.lua)");
+  ScriptOptions scriptOptions;
+  scriptOptions.parameters = parseParameterSettings(args.sets);
+  std::unique_ptr<SceneScript> script = SceneScript::loadFile(path, scriptOptions);
+  if (!script->animated())
+    throw InputError({path, "update", 0}, "--frames needs an animated script (one with update)");
+  std::vector<RayTextures> textures;
+  for (int index : indices) textures.push_back(generateRayTextures(model, index));
+
+  std::error_code ec;
+  std::filesystem::create_directories(args.out, ec);
+  if (ec) throw InputError({args.out, "", 0}, "cannot create the output folder: " + ec.message());
+  FrameCache cache;
+  std::vector<Frame> frames(textures.size());
+  RenderCounters total;
+  ProgressBar progress("frames", args.frames);
+  const auto start = std::chrono::steady_clock::now();
+  for (int f = 0; f < args.frames; ++f) {
+    script->setTime(args.time + f / args.fps);
+    const Scene& scene = script->scene();
+    PhysicalScene physical(scene, model.displayableBox,
+                           args.noFrameCache ? nullptr : &cache.dynamicInstances(scene));
+    const bool cached = !args.noFrameCache && cache.prepare(physical, textures, 1, options);
+    RenderCounters counters;
+    for (size_t m = 0; m < textures.size(); ++m) {
+      RenderCounters moduleCounters;
+      if (cached) {
+        renderFrameInto(physical, textures[m], options, cache.view(m), &frames[m], &moduleCounters);
+      } else {
+        renderFrameInto(physical, textures[m], options, &frames[m], &moduleCounters);
+      }
+      counters += moduleCounters;
+    }
+    if (cached) cache.count(counters);
+    total += counters;
+    progress.advance();
+  }
+  progress.finish();
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  for (size_t m = 0; m < frames.size(); ++m) {
+    const std::string stem = moduleFrameStem(args.out, indices[m]);
+    writePng(frames[m], stem + ".png");
+    if (args.floatOutput) writeExr(frames[m], stem + ".exr");
+  }
+  std::cout << fmt::format(
+      "script \"{}\" on display \"{}\": {} frames of {} module(s) from t = {} s at {} fps, the "
+      "last written to {}\n",
+      script->name(), model.name, args.frames, indices.size(), args.time, args.fps,
+      std::filesystem::absolute(args.out).string());
+  std::cout << fmt::format(
+      "  {:.1f} ms a display frame on average (scene build, frame cache "
+      "and render; frame cache {})\n",
+      ms / args.frames, args.noFrameCache ? "off" : "on");
+  if (!args.explain) return;
+  std::cout << fmt::format("counters over {} frames:\n", args.frames);
+  for (const std::string& line : total.lines()) std::cout << line << "\n";
+  if (!args.noFrameCache) {
+    for (const std::string& line : cache.stats().lines()) std::cout << line << "\n";
+  }
+}
 
 void runRender(const RenderArgs& args) {
   const DisplayModel model = resolveDisplay(args.display);
@@ -53,6 +138,7 @@ void runRender(const RenderArgs& args) {
   } catch (const InputError& e) {
     throw InputError({"", "--spp", 0}, e.reason());
   }
+  if (args.frames != 1) return runAnimation(args, model, indices, options);
   const Scene scene = loadSceneArgument(args.scene, args.sets, args.time);
   const PhysicalScene physical(scene, model.displayableBox);
   for (const std::string& w : physical.warnings()) std::cerr << "parallax: warning: " << w << "\n";
@@ -128,6 +214,11 @@ void addRenderCommand(CLI::App& app) {
   command->add_flag("--explain", args->explain,
                     "print what ran, what was left out, and the counters");
   command->add_flag("--float", args->floatOutput, "also write float EXR frames");
+  command->add_option("--frames", args->frames,
+                      "play an animated script for N frames from --time (the last is written)");
+  command->add_option("--fps", args->fps, "with --frames: frames a second of animation time");
+  command->add_flag("--no-frame-cache", args->noFrameCache,
+                    "with --frames: render every frame in full");
   command->callback([args] { runRender(*args); });
 }
 

@@ -37,6 +37,7 @@
 #include "hw/link/link_client.h"
 #include "scripts/scripted_scene.h"
 #include "tracer/frame.h"
+#include "tracer/frame_cache.h"
 #include "tracer/module_encoder.h"
 #include "tracer/physical_scene.h"
 #include "tracer/whitted_integrator.h"
@@ -95,6 +96,9 @@ class Conductor {
   void reloadConfig(DaemonConfig config);
 
   bool shutdownRequested() const { return shutdown_.load(); }
+  // Any thread: what the `panel` request answers — the control panel's URL with its token, or
+  // (url empty) why there is no panel.
+  void setPanel(std::string url, std::string problem);
   // After run(): the config to build the daemon again from, when a reload asked for it.
   const std::optional<DaemonConfig>& restartWith() const { return restartWith_; }
   StateSnapshot state() const { return state_.snapshot(); }
@@ -175,6 +179,8 @@ class Conductor {
   nlohmann::json answerReload(const RequestArgs&);
   nlohmann::json answerIdentify(const RequestArgs& args);
   nlohmann::json answerTestcard(const RequestArgs&);
+  nlohmann::json answerScenes(const RequestArgs&);
+  nlohmann::json answerPanel(const RequestArgs&);
 
   // Status (conductor_status.cpp): built on the conductor thread, published for any thread.
   nlohmann::json statusJson() const;
@@ -235,6 +241,8 @@ class Conductor {
   LoopStats stats_;
   FrameLossReport lossReport_;
   RenderCounters lastCounters_;
+  // Animated scenes: the static geometry's primary hits and shadows, kept between frames.
+  FrameCache frameCache_;
 
   std::mutex jobsMutex_;
   std::condition_variable jobsChanged_;
@@ -248,8 +256,9 @@ class Conductor {
 
   mutable std::mutex publishedMutex_;
   nlohmann::json publishedStatus_, publishedStats_;
-  std::optional<DaemonConfig> pendingConfig_;     // guarded by jobsMutex_
-  std::optional<std::string> pendingConfigPath_;  // guarded by jobsMutex_
+  std::string panelUrl_, panelProblem_ = "the control panel is starting";  // publishedMutex_
+  std::optional<DaemonConfig> pendingConfig_;                              // guarded by jobsMutex_
+  std::optional<std::string> pendingConfigPath_;                           // guarded by jobsMutex_
 };
 
 }  // namespace parallax::daemon

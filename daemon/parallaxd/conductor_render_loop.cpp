@@ -60,8 +60,22 @@ void Conductor::turn() {
 void Conductor::renderAndPush() {
   const auto started = Clock::now();
   try {
-    const PhysicalScene physical(script_->scene(), calibration_.displayableBox);
-    DisplayFrame frame = renderDisplayFrame(physical, textures_, options_.render, encoders_);
+    // The frame cache pays only when frames follow frames: an animated scene.
+    const Scene& scene = script_->scene();
+    const bool useCache = options_.config.scene.frameCache && script_->script().animated();
+    if (!useCache) frameCache_.clear();
+    PhysicalScene physical(scene, calibration_.displayableBox,
+                           useCache ? &frameCache_.dynamicInstances(scene) : nullptr);
+    const auto prepareStart = Clock::now();
+    const bool cached =
+        useCache && frameCache_.prepare(physical, textures_, texturesVersion_, options_.render);
+    const double prepareMs =
+        std::chrono::duration<double, std::milli>(Clock::now() - prepareStart).count();
+    DisplayFrame frame = renderDisplayFrame(physical, textures_, options_.render, encoders_,
+                                            cached ? &frameCache_ : nullptr);
+    if (cached) frameCache_.count(frame.counters);
+    // A build of the cache is part of the frame that needed it.
+    frame.renderMs += prepareMs;
     stats_.render.add(frame.renderMs);
     stats_.encode.add(frame.encodeMs);
     ++stats_.displayFrames;

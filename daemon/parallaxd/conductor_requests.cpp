@@ -1,6 +1,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -10,6 +11,8 @@
 #include "daemon/parallaxd/conductor.h"  // IWYU pragma: associated
 #include "daemon/parallaxd/module_renderer.h"
 #include "daemon/parallaxd/output_file.h"
+#include "scripts/scene_argument.h"
+#include "scripts/scene_script.h"
 #include "tracer/observer_view.h"
 
 // The control socket's requests on the daemon's side: the entry that checks a request against
@@ -48,6 +51,8 @@ const std::map<std::string_view, Conductor::Handler>& Conductor::handlers() {
       {"reload", &C::answerReload},
       {"identify", &C::answerIdentify},
       {"testcard", &C::answerTestcard},
+      {"scenes", &C::answerScenes},
+      {"panel", &C::answerPanel},
       {"shutdown", &C::answerShutdown},
   };
   return byName;
@@ -106,6 +111,32 @@ Reply Conductor::answerShutdown(const RequestArgs&) {
   cancel_ = true;
   jobsChanged_.notify_all();
   return ok({{"message", "stopping"}});
+}
+
+Reply Conductor::answerScenes(const RequestArgs&) {
+  // The library's scripts by name, as `load` takes them (scene_argument.h: librarySceneScript).
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (const auto& entry :
+       std::filesystem::directory_iterator(ScriptOptions::defaultSceneLibrary(), ec)) {
+    const std::string stem = entry.path().stem().string();
+    if (entry.path().extension() == ".lua" && !librarySceneScript(stem).empty())
+      names.push_back(stem);
+  }
+  std::sort(names.begin(), names.end());
+  return ok({{"scenes", names}, {"library", ScriptOptions::defaultSceneLibrary()}});
+}
+
+void Conductor::setPanel(std::string url, std::string problem) {
+  std::lock_guard lock(publishedMutex_);
+  panelUrl_ = std::move(url);
+  panelProblem_ = std::move(problem);
+}
+
+Reply Conductor::answerPanel(const RequestArgs&) {
+  std::lock_guard lock(publishedMutex_);
+  if (panelUrl_.empty()) return refused("no control panel: " + panelProblem_);
+  return ok({{"url", panelUrl_}});
 }
 
 Reply Conductor::answerCancel(const RequestArgs&) {

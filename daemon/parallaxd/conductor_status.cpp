@@ -24,7 +24,11 @@ nlohmann::json Conductor::statusJson() const {
       {"state", daemonStateName(s.state)},
       {"stage", s.stage},
       {"seconds_in_state", s.secondsInState},
-      {"display", {{"name", nominal_.name}, {"modules", nominal_.modules.size()}}},
+      {"display",
+       {{"name", nominal_.name},
+        {"modules", nominal_.modules.size()},
+        {"screen_width", nominal_.screen.width},
+        {"observer", {{"y", nominal_.observer.y}, {"z", nominal_.observer.z}}}}},
       {"calibration", {{"source", calibrationSource_}, {"hash", hashHex(texturesHash_)}}},
       {"photometry", photometryJson()},
       {"ray_textures", {{"from_cache", cacheStats_.loaded}, {"generated", cacheStats_.generated}}},
@@ -41,9 +45,17 @@ nlohmann::json Conductor::statusJson() const {
                   {"time", sceneTime_},
                   {"reloads", script_->reloads()},
                   {"failed_reloads", script_->failedReloads()}};
-    nlohmann::json params = nlohmann::json::object();
-    for (const ScriptParameter& p : script_->script().parameters()) params[p.name] = p.value;
+    nlohmann::json params = nlohmann::json::object(), ranges = nlohmann::json::object();
+    for (const ScriptParameter& p : script_->script().parameters()) {
+      params[p.name] = p.value;
+      // What px.param declared: the panel's sliders are made from it.
+      ranges[p.name] = {{"min", p.min},
+                        {"max", p.max},
+                        {"default", p.defaultValue},
+                        {"description", p.description}};
+    }
     j["scene"]["parameters"] = params;
+    j["scene"]["parameter_ranges"] = ranges;
   }
   if (!sceneError_.empty()) j["scene_error"] = sceneError_;
   if (!overlay_.empty()) j["showing"] = overlay_;
@@ -55,6 +67,24 @@ nlohmann::json Conductor::statsJson() const {
   j["ok"] = true;
   j["summary"] = stats_.summary();
   j["render_counters"] = lastCounters_.lines();
+  const FrameCacheStats& cache = frameCache_.stats();
+  j["frame_cache"] = {{"enabled", options_.config.scene.frameCache},
+                      {"builds", cache.builds},
+                      {"last_build_ms", cache.lastBuildMs},
+                      {"build_ms", cache.buildMs},
+                      {"frames_cached", cache.framesCached},
+                      {"frames_bypassed", cache.framesBypassed},
+                      {"last_rebuild", cache.lastRebuild},
+                      {"bytes", cache.bytes},
+                      {"pixels", cache.pixels},
+                      {"bytes_per_pixel", cache.bytesPerPixel()},
+                      {"static_objects", cache.staticInstances},
+                      {"dynamic_objects", cache.dynamicInstances},
+                      {"static_lights", cache.cachedLights},
+                      {"pixels_reused", cache.saved.pixelsReused},
+                      {"shadow_rays_not_traced", cache.saved.shadowAnswered},
+                      {"shadow_rays_dynamic_only", cache.saved.shadowDynamicOnly},
+                      {"lines", cache.lines()}};
   if (link_) {
     const hw::LinkStats& l = link_->stats();
     j["link"] = {{"submitted", l.submitted},

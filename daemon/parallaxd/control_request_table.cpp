@@ -59,6 +59,8 @@ const std::vector<RequestSpec>& controlRequests() {
        "show each module's number (`play` returns to the scene)",
        kQueued},
       {"testcard", {}, "show the test card on every module", kQueued},
+      {"scenes", {}, "the scene library's scenes (names for `load`)", kAtOnce},
+      {"panel", {}, "the browser control panel's URL, with its token", kAtOnce},
       {"shutdown", {}, "stop the daemon (a running calibration is cancelled)", kAtOnce},
   };
   return table;

@@ -1,11 +1,13 @@
 #include "daemon/parallaxd/daemon_config.h"
 
+#include <arpa/inet.h>
 #include <fmt/format.h>
 #include <toml++/toml.h>
 #include <unistd.h>
 
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <set>
 #include <span>
 #include <vector>
@@ -210,6 +212,7 @@ void readScene(TableReader& r, SceneConfig* s) {
   if (const toml::node* n = r.find("script"); n && s->script.empty())
     r.fail(*n, "script", "must not be empty");
   r.readNumber("fps", &s->fps, 0.1, 240.0);
+  r.readBool("frame_cache", &s->frameCache);
   if (const toml::table* p = r.subTable("parameters")) {
     TableReader params(*p, r.file(), "scene.parameters.");
     for (const auto& [key, node] : *p) {
@@ -237,6 +240,24 @@ void readDaemon(TableReader& r, DaemonConfig* c) {
   r.refuseUnknownKeys();
 }
 
+bool isAddressLiteral(const std::string& address) {
+  unsigned char bytes[16];
+  return ::inet_pton(AF_INET, address.c_str(), bytes) == 1 ||
+         ::inet_pton(AF_INET6, address.c_str(), bytes) == 1;
+}
+
+void readPanel(TableReader& r, PanelConfig* p) {
+  r.readBool("enabled", &p->enabled);
+  r.readString("address", &p->address);
+  if (const toml::node* n = r.find("address"); n && !isAddressLiteral(p->address)) {
+    r.fail(*n, "address",
+           fmt::format("must be an IP address such as \"127.0.0.1\" or \"::1\", got \"{}\"",
+                       p->address));
+  }
+  r.readInt("port", &p->port, 0, 65535);
+  r.refuseUnknownKeys();
+}
+
 }  // namespace
 
 void DaemonConfig::validate() const {
@@ -250,6 +271,8 @@ void DaemonConfig::validate() const {
           "usb needs vid and pid");
   require(scene.fps > 0.0 && scene.fps <= 240.0, "scene.fps", "must be in (0, 240]");
   require(!scene.script.empty(), "scene.script", "must not be empty");
+  require(isAddressLiteral(panel.address), "panel.address", "must be an IP address literal");
+  require(panel.port >= 0 && panel.port <= 65535, "panel.port", "must be in 0..65535");
   require(controlSocketPath().size() < 100, "daemon.socket",
           "a Unix socket path must be shorter than 100 bytes");
   // A preset's size is checked here, before anything of that size exists (a display file's
@@ -265,6 +288,11 @@ std::string DaemonConfig::cacheDirPath() const {
 }
 std::string DaemonConfig::calibrationFilePath() const {
   return calibration.file.empty() ? cacheDirPath() + "/calibration.json" : calibration.file;
+}
+std::string DaemonConfig::stateDirPath() const {
+  const std::string folder =
+      std::filesystem::absolute(calibrationFilePath()).parent_path().string();
+  return folder.empty() ? "." : folder;
 }
 
 DaemonConfig parseDaemonConfig(const std::string& text, const std::string& name) {
@@ -285,6 +313,7 @@ DaemonConfig parseDaemonConfig(const std::string& text, const std::string& name)
       {"calibration", [](TableReader& r, DaemonConfig* c) { readCalibration(r, &c->calibration); }},
       {"scene", [](TableReader& r, DaemonConfig* c) { readScene(r, &c->scene); }},
       {"daemon", [](TableReader& r, DaemonConfig* c) { readDaemon(r, c); }},
+      {"panel", [](TableReader& r, DaemonConfig* c) { readPanel(r, &c->panel); }},
   };
   for (const auto& [section, read] : sections) {
     if (const toml::table* t = top.subTable(section)) {
@@ -367,10 +396,12 @@ std::vector<std::string> sectionsNeedingRestart(const DaemonConfig& running,
   if (!(a.display == b.display)) sections.push_back("display");
   if (!(a.hardware == b.hardware)) sections.push_back("hardware");
   if (!(a.calibration == b.calibration)) sections.push_back("calibration");
+  if (!(a.panel == b.panel)) sections.push_back("panel");
   // Whatever is left ([daemon] and any top-level field) is compared as a whole too.
   b.display = a.display;
   b.hardware = a.hardware;
   b.calibration = a.calibration;
+  b.panel = a.panel;
   if (!(a == b)) sections.push_back("daemon");
   return sections;
 }

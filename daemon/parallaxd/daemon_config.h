@@ -20,8 +20,11 @@
 //                  photometric = "auto" | "on" | "off"  (calibrate the modules' colours too;
 //                       auto: when our own simulator has photometric variation)
 //                  (camera = "x.json", the old form, is read as camera_metadata)
-//   [scene]        script = "cornell" | "scene.lua", fps = 30, [scene.parameters] name = value
+//   [scene]        script = "cornell" | "scene.lua", fps = 30, frame_cache = true,
+//                  [scene.parameters] name = value
 //   [daemon]       socket = "...", cache_dir = "...", log_level = "info"
+//   [panel]        enabled = true, address = "127.0.0.1", port = 8470   (control_panel.h;
+//                  another address than loopback only when given here; port 0: any free one)
 
 #include <map>
 #include <optional>
@@ -77,8 +80,19 @@ struct CalibrationConfig {
 struct SceneConfig {
   std::string script = "cornell";
   double fps = 30.0;
+  // Animated scenes: keep the static geometry's primary hits and shadows between frames
+  // (tracer/frame_cache.h); off renders every frame in full (benchmarks compare the two).
+  bool frameCache = true;
   std::map<std::string, double> parameters;
   bool operator==(const SceneConfig&) const = default;
+};
+
+// The browser control panel (control_panel.h). On by default, on the loopback address only.
+struct PanelConfig {
+  bool enabled = true;
+  std::string address = "127.0.0.1";  // an IPv4 or IPv6 address literal
+  int port = 8470;                    // 0: any free port (`parallax ctl panel` says which)
+  bool operator==(const PanelConfig&) const = default;
 };
 
 struct DaemonConfig {
@@ -87,6 +101,7 @@ struct DaemonConfig {
   HardwareConfig hardware;
   CalibrationConfig calibration;
   SceneConfig scene;
+  PanelConfig panel;
   std::string controlSocket;  // empty → defaultControlSocketPath()
   std::string cacheDir;       // empty → defaultCacheDir()
   std::string logLevel = "info";
@@ -97,15 +112,17 @@ struct DaemonConfig {
   std::string controlSocketPath() const;
   std::string cacheDirPath() const;
   std::string calibrationFilePath() const;
+  // The daemon's state: the installed calibration's folder (/var/lib/parallax as installed).
+  std::string stateDirPath() const;
 };
 
 // What a running daemon takes from a reloaded config without being built again: the scene and
 // its parameters, the calibration camera and its settings (all but the file), auto-calibrate,
 // the log level (one list, in daemon_config.cpp). Any other difference needs a restart.
 //
-// The sections ("display", "hardware", "calibration", "daemon") in which `next` differs from
-// `running` in something that needs a restart. Whole sections are compared (paths as resolved),
-// so a field added later restarts the daemon unless it joins the in-place list.
+// The sections ("display", "hardware", "calibration", "panel", "daemon") in which `next` differs
+// from `running` in something that needs a restart. Whole sections are compared (paths as
+// resolved), so a field added later restarts the daemon unless it joins the in-place list.
 std::vector<std::string> sectionsNeedingRestart(const DaemonConfig& running,
                                                 const DaemonConfig& next);
 // `running` with the in-place fields of `next`.

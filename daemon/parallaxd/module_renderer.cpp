@@ -36,7 +36,7 @@ Frame frameShownBy(const hw::Image& image) {
 DisplayFrame renderDisplayFrame(const PhysicalScene& scene,
                                 const std::vector<RayTextures>& textures,
                                 const RenderOptions& options,
-                                const std::vector<ModuleEncoder>& encoders) {
+                                const std::vector<ModuleEncoder>& encoders, FrameCache* cache) {
   using Clock = std::chrono::steady_clock;
   DisplayFrame out;
   const size_t n = textures.size();
@@ -54,7 +54,11 @@ DisplayFrame renderDisplayFrame(const PhysicalScene& scene,
     tbb::this_task_arena::isolate([&] {
       thread_local Frame scratch;
       const auto t0 = Clock::now();
-      renderFrameInto(scene, textures[i], options, &scratch, &counters[i]);
+      if (cache) {
+        renderFrameInto(scene, textures[i], options, cache->view(i), &scratch, &counters[i]);
+      } else {
+        renderFrameInto(scene, textures[i], options, &scratch, &counters[i]);
+      }
       const auto t1 = Clock::now();
       out.images[i] =
           encoders.empty() ? encodeForLink(scratch) : encodeForLink(scratch, encoders[i]);

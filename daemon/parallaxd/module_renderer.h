@@ -9,6 +9,7 @@
 #include "calibration/display/ray_textures.h"
 #include "hw/link/image.h"
 #include "tracer/frame.h"
+#include "tracer/frame_cache.h"
 #include "tracer/module_encoder.h"
 #include "tracer/physical_scene.h"
 #include "tracer/whitted_integrator.h"
@@ -37,9 +38,11 @@ Frame frameShownBy(const hw::Image& image);
 // 170 MB where keeping the float frames too held another 680 MB.
 // `encoders`: one per module when a photometric correction is installed, else empty (every
 // module encoded as an ideal sRGB module, as without photometric calibration).
+// `cache`: the frame cache, prepared for this frame and scene (frame_cache.h), or null.
 DisplayFrame renderDisplayFrame(const PhysicalScene& scene,
                                 const std::vector<RayTextures>& textures,
                                 const RenderOptions& options,
-                                const std::vector<ModuleEncoder>& encoders = {});
+                                const std::vector<ModuleEncoder>& encoders = {},
+                                FrameCache* cache = nullptr);
 
 }  // namespace parallax::daemon

@@ -25,10 +25,12 @@
 #include "common/private_folder.h"
 #include "daemon/cli/command_line.h"
 #include "daemon/parallaxd/conductor.h"
+#include "daemon/parallaxd/control_panel.h"
 #include "daemon/parallaxd/control_server.h"
 #include "daemon/parallaxd/daemon_config.h"
 #include "daemon/parallaxd/instance_lock.h"
 #include "daemon/parallaxd/journal_log_sink.h"
+#include "daemon/parallaxd/panel_token.h"
 #include "daemon/parallaxd/simhw_child.h"
 #include "daemon/parallaxd/systemd_notify.h"
 
@@ -71,6 +73,32 @@ class SignalWatcher {
   std::atomic<bool> stop_{false}, reload_{false}, done_{false};
   std::thread thread_;
 };
+
+std::unique_ptr<ControlPanel> startPanel(const DaemonConfig& config, const std::string& runtime,
+                                         Conductor& conductor) {
+  if (!config.panel.enabled) {
+    conductor.setPanel("", "it is off ([panel] enabled = false)");
+    return nullptr;
+  }
+  try {
+    ControlPanelOptions options;
+    options.address = config.panel.address;
+    options.port = config.panel.port;
+    options.token = loadOrCreatePanelToken(config.stateDirPath());
+    options.scratch = runtime + "/panel";
+    parallax::makePrivateFolder(options.scratch);
+    auto panel = std::make_unique<ControlPanel>(
+        options, [&conductor](const nlohmann::json& r) { return conductor.handle(r); });
+    conductor.setPanel(panel->url(), "");
+    spdlog::info("panel: http://{}:{}/ (`parallax ctl panel` prints the URL with its token)",
+                 config.panel.address, panel->port());
+    return panel;
+  } catch (const std::exception& e) {
+    spdlog::warn("panel: not started: {}", e.what());
+    conductor.setPanel("", e.what());
+    return nullptr;
+  }
+}
 
 // One life of the pipeline: simulator (when configured), conductor, control socket and a
 // supervising thread, from one config. Returns the config to build it again from when a
@@ -118,6 +146,10 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
   auto control = std::make_unique<ControlServer>(
       config.controlSocketPath(),
       [&conductor](const nlohmann::json& r) { return conductor.handle(r); });
+  // The browser panel hands its requests to the same handler. It is a convenience: when it
+  // cannot start (the port is taken, the state folder is read-only) the daemon runs on without
+  // it and `parallax ctl panel` says why.
+  std::unique_ptr<ControlPanel> panel = startPanel(config, folder, conductor);
 
   std::thread supervisor([&] {
     while (!stop.load()) {
@@ -141,6 +173,7 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
   if (!conductor.restartWith()) notifier.stopping();
   stop = true;
   supervisor.join();
+  panel.reset();
   control.reset();  // removes the socket
   if (simulator) simulator->stop();
   if (signals.stopRequested()) return std::nullopt;

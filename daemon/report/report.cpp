@@ -274,6 +274,7 @@ std::string writeReport(const ReportOptions& options) {
   writeTracerOverheadSection(report);
   writeCalibrationSection(report);
   writePhotometrySection(report);
+  writeFrameCacheSection(report);
   writeAbsentSections(report);
   report.finish();
   return report.path("report.md");

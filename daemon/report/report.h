@@ -80,6 +80,7 @@ void writeTransferSection(Report& report);
 void writeTracerOverheadSection(Report& report);
 void writeCalibrationSection(Report& report);
 void writePhotometrySection(Report& report);
+void writeFrameCacheSection(Report& report);
 void writeAbsentSections(Report& report);
 
 // Runs every section; returns report.md's path.

@@ -6,9 +6,6 @@
 namespace parallax::report {
 
 void writeAbsentSections(Report& report) {
-  report.absent("Frame cache: memory against frame rate",
-                "Not in this build: the frame cache (issue 22, trace only what changed) has not "
-                "landed.");
   report.absent("Cluster: rank count against sync overhead and frame rate",
                 "Not in this build: rendering on a cluster (issue 23, MPI) has not landed.");
 }

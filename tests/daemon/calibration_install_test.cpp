@@ -21,27 +21,21 @@
 #include "daemon/parallaxd/calibration_store.h"
 #include "daemon/parallaxd/conductor.h"
 #include "hw/simulator/calibration_physics.h"
+#include "tests/daemon/test_folder.h"
 
 namespace parallax::daemon {
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+using test_support::bytesOf;
 
 constexpr int kModules = 4, kWidth = 64, kHeight = 48;
-
-std::string bytesOf(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 class CalibrationInstall : public ::testing::Test {
  protected:
   void SetUp() override {
-    folder_ = fs::temp_directory_path() / ("plx-install-" + std::to_string(::getpid()));
-    fs::remove_all(folder_);
+    folder_ = test_support::freshTestFolder("plx-install");
     fs::create_directories(folder_ / "small");
     mounted_ = ::mount("tmpfs", (folder_ / "small").c_str(), "tmpfs", 0, "size=64k") == 0;
   }

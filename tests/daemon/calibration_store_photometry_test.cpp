@@ -15,11 +15,13 @@
 #include "calibration/display/display_presets.h"
 #include "common/input_error.h"
 #include "daemon/parallaxd/calibration_store.h"
+#include "tests/daemon/test_folder.h"
 
 namespace parallax::daemon {
 namespace {
 
 namespace fs = std::filesystem;
+using test_support::bytesOf;
 
 DisplayModel display(double shift) {
   NominalDisplayOptions o;
@@ -52,13 +54,6 @@ float liftOf(const std::optional<DisplayColourCorrection>& c) {
   return c ? c->modules.front().lift.x() : -1.0f;
 }
 
-std::string bytesOf(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 bool sameModel(const DisplayModel& a, const DisplayModel& b) {
   return displayModelToJson(a) == displayModelToJson(b);
 }
@@ -66,11 +61,7 @@ bool sameModel(const DisplayModel& a, const DisplayModel& b) {
 class CalibrationStorePhotometry : public ::testing::Test {
  protected:
   void SetUp() override {
-    folder_ = fs::temp_directory_path() /
-              ("plx-store-photo-" + std::to_string(::getpid()) + "-" +
-               ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(folder_);
-    fs::create_directories(folder_);
+    folder_ = test_support::freshTestFolder("plx-store-photo");
     path_ = (folder_ / "calibration.json").string();
   }
   void TearDown() override { fs::remove_all(folder_); }

@@ -20,11 +20,13 @@
 #include "calibration/display/display_model_json.h"
 #include "calibration/display/display_presets.h"
 #include "common/input_error.h"
+#include "tests/daemon/test_folder.h"
 
 namespace parallax::daemon {
 namespace {
 
 namespace fs = std::filesystem;
+using test_support::bytesOf;
 
 DisplayModel display(double shift) {
   NominalDisplayOptions o;
@@ -35,13 +37,6 @@ DisplayModel display(double shift) {
   DisplayModel model = makeNominalDisplay(o);
   for (OpticalModule& m : model.modules) m.cx += shift;  // a different calibration, same display
   return model;
-}
-
-std::string bytesOf(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
 }
 
 void writeBytes(const fs::path& path, const std::string& bytes) {
@@ -66,11 +61,7 @@ bool sameModel(const DisplayModel& a, const DisplayModel& b) {
 class CalibrationStoreTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    folder_ = fs::temp_directory_path() /
-              ("plx-store-" + std::to_string(::getpid()) + "-" +
-               ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(folder_);
-    fs::create_directories(folder_);
+    folder_ = test_support::freshTestFolder("plx-store");
     path_ = (folder_ / "calibration.json").string();
   }
   void TearDown() override { fs::remove_all(folder_); }

@@ -371,7 +371,7 @@ TEST_F(ConductorTest, RequestsAreCheckedAgainstTheTable) {
     EXPECT_NE(help.find("  " + std::string(spec.name)), std::string::npos) << spec.name;
     EXPECT_TRUE(Conductor::handles(spec.name)) << spec.name;
   }
-  EXPECT_EQ(controlRequests().size(), 15u);
+  EXPECT_EQ(controlRequests().size(), 17u);
   EXPECT_FALSE(Conductor::handles("dance"));
   EXPECT_NO_THROW(Conductor::checkEveryRequestHasAHandler());
 }

@@ -91,6 +91,9 @@ TEST(DaemonConfig, ErrorsNameTheKeyAndTheLine) {
       {"[scene]\nscript = \"cornell\"\n[scene.parameters]\ndepth = \"deep\"\n",
        "scene.parameters.depth", 4},
       {"[calibration]\nauto = 1\n", "calibration.auto", 2},
+      {"[panel]\naddress = \"localhost\"\n", "panel.address", 2},  // an address, not a name
+      {"[panel]\nenabled = true\nport = 70000\n", "panel.port", 3},
+      {"[panel]\nprot = 8000\n", "panel.prot", 2},
       {"title = \"x\"\n", "title", 1},
       {"[hardware]\nkind = \"usb\"\nvid = 1\npid = 2\n[hardware.modules]\nA = 0\nB = 1\nC = 0\n",
        "hardware.modules.\"C\"", 8},  // two devices mapped to one module
@@ -101,6 +104,24 @@ TEST(DaemonConfig, ErrorsNameTheKeyAndTheLine) {
     EXPECT_EQ(e.location().field, c.key) << c.text << " -> " << e.what();
     EXPECT_EQ(e.location().line, c.line) << c.text << " -> " << e.what();
   }
+}
+
+TEST(DaemonConfig, ThePanelIsOnAndOnLoopbackUnlessConfigured) {
+  const DaemonConfig defaults = parseDaemonConfig("", "parallax.toml");
+  EXPECT_TRUE(defaults.panel.enabled);
+  EXPECT_EQ(defaults.panel.address, "127.0.0.1");
+  EXPECT_EQ(defaults.panel.port, 8470);
+  const DaemonConfig c =
+      parseDaemonConfig("[panel]\nenabled = false\naddress = \"::1\"\nport = 0\n", "parallax.toml");
+  EXPECT_FALSE(c.panel.enabled);
+  EXPECT_EQ(c.panel.address, "::1");
+  EXPECT_EQ(c.panel.port, 0);
+  // Its own section for a reload: the panel is rebuilt with the pipeline.
+  EXPECT_EQ(sectionsNeedingRestart(defaults, c), std::vector<std::string>{"panel"});
+  // The token lives with the installed calibration (the state folder).
+  const DaemonConfig state = parseDaemonConfig(
+      "[calibration]\nfile = \"/var/lib/parallax/calibration.json\"\n", "parallax.toml");
+  EXPECT_EQ(state.stateDirPath(), "/var/lib/parallax");
 }
 
 TEST(DaemonConfig, SyntaxErrorsNameTheLine) {

@@ -21,30 +21,21 @@
 #include "daemon/parallaxd/calibration_store.h"
 #include "daemon/parallaxd/conductor.h"
 #include "hw/simulator/calibration_physics.h"
+#include "tests/daemon/test_folder.h"
 
 namespace parallax::daemon {
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+using test_support::bytesOf;
 
 constexpr int kModules = 4, kWidth = 64, kHeight = 48;
-
-std::string bytesOf(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 class PhotometricDaemon : public ::testing::Test {
  protected:
   void SetUp() override {
-    folder_ = fs::temp_directory_path() /
-              ("plx-photometric-" + std::to_string(::getpid()) + "-" +
-               ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::remove_all(folder_);
-    fs::create_directories(folder_);
+    folder_ = test_support::freshTestFolder("plx-photometric");
     display_.modules = kModules;
     display_.width = kWidth;
     display_.height = kHeight;

@@ -97,7 +97,7 @@ fi
 step "the installed parallaxd, installed config, simulator, until playing"
 # The service's folders, moved into the temporary root (a test cannot write /var or /run).
 sed -e "s|\"/var/lib/parallax/|\"$root/var/lib/parallax/|" -e "s|\"/var/cache/parallax|\"$root/var/cache/parallax|" \
-    -e "s|\"/run/parallax/|\"$root/run/parallax/|" "$config" >"$work/parallax.toml"
+    -e "s|\"/run/parallax/|\"$root/run/parallax/|" -e "s|^port = 8470|port = 0|" "$config" >"$work/parallax.toml"
 mkdir -p "$root/var/lib/parallax" "$root/var/cache/parallax"
 socket=$root/run/parallax/parallaxd.sock
 env -u PARALLAX_SCENE_LIBRARY -u NOTIFY_SOCKET "$root/usr/bin/parallaxd" --config "$work/parallax.toml" \
@@ -117,6 +117,10 @@ ctl status
 # A scene only the installed library has: the programs find /usr/share/parallax/scenes.
 cp "$root/usr/share/parallax/scenes/shapes.lua" "$root/usr/share/parallax/scenes/packaged_only.lua"
 ctl load packaged_only || fail "the installed parallaxd does not find the installed scene library"
+step "the control panel: its URL, its token in the state folder (0600)"
+url=$(ctl panel) || fail "no control panel"
+[[ $url == http://127.0.0.1:*/?token=* ]] || fail "parallax ctl panel printed \"$url\""
+[ "$(stat -c %a "$root/var/lib/parallax/panel.token")" = 600 ] || fail "panel.token is not 0600"
 
 step "SIGTERM"
 kill -TERM "$daemon_pid"

@@ -9,7 +9,8 @@
 #      viewers at x = -0.5, 0 and 0.5 m see, and for its status and timings;
 #   4. calibrates the modules' colours too (`parallax ctl calibrate --photometric only`: the
 #      simulated modules differ in response, colour, brightness and vignetting) and asks for the
-#      frames again: a viewer's before/after pair (geometric only, geometric + photometric);
+#      frames again: a viewer's before/after pair (geometric only, geometric + photometric), and
+#      the video of a viewer walking the observer line (sweep.mp4);
 #   5. shuts it down; the simulator saves what its modules actually received.
 # While it runs, its browser control panel is up: the demo prints the URL (with its token) as
 # soon as the daemon plays. PARALLAX_DEMO_KEEP=1 keeps the daemon and its panel running after
@@ -114,6 +115,11 @@ for x in -0.5 0 0.5; do
   done
 done
 
+# A viewer walking the observer line from x = -0.6 to 0.6 m, as a video (3 s, H.264).
+"$parallax" view --display "$simulated/ground_truth.json" --frames "$out/frames" \
+  --photometric-truth "$simulated/photometric_truth.json" --sweep -0.6:0.6 --sweep-frames 90 \
+  --fps 30 --out "$out/sweep.mp4" --quiet | tail -1
+
 if [ "${PARALLAX_DEMO_KEEP:-0}" = 1 ]; then
   echo "== the daemon keeps playing; its control panel: $panel_url"
   read -r -p "   press Enter to shut it down " _ || true
@@ -135,6 +141,7 @@ Everything is in $out:
   seen_x*_geometric_only.png   the before/after pair: what viewers at x = -0.5, 0, 0.5 m see on
   seen_x*_photometric.png      the simulated display (its modules' true colours), geometric
                                calibration only / geometric + photometric
+  sweep.mp4                    a viewer walking the observer line from x = -0.6 to 0.6 m (3 s)
   frames_geometric_only/       the module frames before the photometric calibration
   photometric_calibration.json the photometric calibration's reply (per module scale, ΔE)
   calibration_report.txt       the calibration (or why the nominal model was used)

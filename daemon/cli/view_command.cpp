@@ -1,5 +1,6 @@
 // parallax view [--display FILE|default|demo] --frames DIR --x X [--y Y] [--z Z] [--out v.png]
 //               [--size WxH] [--traced-scene NAME|FILE]
+// parallax view ... --frames DIR --sweep X0:X1 [--sweep-frames N] [--fps F] --out sweep.mp4
 // What a viewer at x on the observer line (or anywhere with --y/--z) sees, assembled from the
 // module frames in DIR (module_NNN.png or .exr, as `parallax render` writes them) through the
 // display physics. With --traced-scene it also traces the same view directly and prints the
@@ -7,6 +8,8 @@
 // With --photometric-truth (a simulated display's photometric_truth.json) the frames' 8-bit
 // codes become the light those modules send (their response, colours, black and vignetting)
 // instead of an ideal sRGB module's: what a viewer of that simulated display sees.
+// With --sweep the viewer walks the observer line from X0 to X1 (N views, evenly spaced, both
+// ends included) and the views become a video (sweep_video.h): the display's parallax in motion.
 
 #include <fmt/format.h>
 
@@ -18,8 +21,10 @@
 #include "calibration/display/display_presets.h"
 #include "calibration/simulation/photometric_truth.h"
 #include "common/input_error.h"
+#include "common/progress_bar.h"
 #include "common/width_height.h"
 #include "daemon/cli/commands.h"
+#include "daemon/cli/sweep_video.h"
 #include "scripts/scene_argument.h"
 #include "tracer/observer_view.h"
 #include "tracer/physical_scene.h"
@@ -37,6 +42,9 @@ struct ViewArgs {
   std::string size = "640x360";
   std::string tracedScene;
   std::string photometricTruth;
+  std::string sweep;  // X0:X1
+  int sweepFrames = 90;
+  double fps = 30.0;
 };
 
 // The light module i sends for the 8-bit codes of `frame`, by the photometric truth.
@@ -79,15 +87,28 @@ void runView(const ViewArgs& args) {
   options.width = size.width;
   options.height = size.height;
   options.validate();
-  const Eigen::Vector3d viewer(args.x, args.y.value_or(model.observer.y),
+  std::optional<std::pair<double, double>> sweep;
+  if (!args.sweep.empty()) {
+    sweep = parseRange(args.sweep, "--sweep");
+    if (!args.tracedScene.empty())
+      throw InputError({"", "--traced-scene", 0}, "applies to one view, not to --sweep");
+    if (args.sweepFrames < 2 || args.sweepFrames > 100000)
+      throw InputError({"", "--sweep-frames", 0}, "must be in 2..100000");
+  }
+  const Eigen::Vector3d viewer(sweep ? sweep->first : args.x, args.y.value_or(model.observer.y),
                                args.z.value_or(model.observer.z));
   // Each coordinate blamed on its own option, with the daemon's range (display_model.h).
   const char* options3[3] = {"--x", "--y", "--z"};
+  if (sweep) options3[0] = "--sweep";
   for (int i = 0; i < 3; ++i) {
     if (!std::isfinite(viewer[i]) || std::abs(viewer[i]) > kMaxDisplayExtentM) {
       throw InputError({"", options3[i], 0}, fmt::format("must be a number within ±{} m, got {}",
                                                          kMaxDisplayExtentM, viewer[i]));
     }
+  }
+  if (sweep && std::abs(sweep->second) > kMaxDisplayExtentM) {
+    throw InputError({"", "--sweep", 0}, fmt::format("must be a number within ±{} m, got {}",
+                                                     kMaxDisplayExtentM, sweep->second));
   }
   if (!(viewer.z() > 0.0)) {
     throw InputError({"", "--z", 0}, "the viewer must stand in front of the screen (z > 0)");
@@ -110,6 +131,24 @@ void runView(const ViewArgs& args) {
     if (ec)
       throw InputError({parent.string(), "", 0},
                        "cannot create the output folder: " + ec.message());
+  }
+  if (sweep) {
+    SweepVideo video(args.out, options.width, options.height, args.fps);
+    ProgressBar progress(fmt::format("sweep: {} views", args.sweepFrames), args.sweepFrames);
+    for (int i = 0; i < args.sweepFrames; ++i) {
+      const double t = static_cast<double>(i) / (args.sweepFrames - 1);
+      Eigen::Vector3d at = viewer;
+      at.x() = sweep->first + t * (sweep->second - sweep->first);
+      video.add(synthesizeObserverView(model, frames, at, options));
+      progress.advance();
+    }
+    progress.finish();
+    video.close();
+    std::cout << fmt::format(
+        "sweep from x = {:.3f} to {:.3f} m: {} views of {}x{} at {} fps ({}) written to {}\n",
+        sweep->first, sweep->second, video.frames(), options.width, options.height, args.fps,
+        video.codec(), std::filesystem::absolute(args.out).string());
+    return;
   }
   std::vector<float> coverage;
   const Frame view = synthesizeObserverView(model, frames, viewer, options, &coverage);
@@ -144,7 +183,18 @@ void addViewCommand(CLI::App& app) {
                       "display JSON file or built-in name (default, demo)");
   command->add_option("--frames", args->frames, "folder with module_NNN.png (or .exr) frames")
       ->required();
-  command->add_option("--x", args->x, "viewer position along the observer line (m)")->required();
+  CLI::Option* x =
+      command->add_option("--x", args->x, "viewer position along the observer line (m)");
+  CLI::Option* sweep = command->add_option(
+      "--sweep", args->sweep,
+      "X0:X1: a video (--out .mp4, .mkv or .avi) of a viewer walking the observer line");
+  x->excludes(sweep);
+  command
+      ->add_option("--sweep-frames", args->sweepFrames,
+                   "views in the sweep, both ends included (default 90)")
+      ->needs(sweep);
+  command->add_option("--fps", args->fps, "the sweep video's frame rate (default 30)")
+      ->needs(sweep);
   command->add_option("--y", args->y, "viewer height (m); default: the observer line's");
   command->add_option("--z", args->z, "viewer distance (m); default: the observer line's");
   command->add_option("--out", args->out, "output PNG (default: parallax-view/view.png)");
@@ -154,7 +204,10 @@ void addViewCommand(CLI::App& app) {
   command->add_option("--photometric-truth", args->photometricTruth,
                       "a simulated display's photometric_truth.json: the frames' codes shown by "
                       "those modules (8-bit PNG frames)");
-  command->callback([args] { runView(*args); });
+  command->callback([args, x, sweep] {
+    if (x->count() == 0 && sweep->count() == 0) throw CLI::RequiredError("--x or --sweep");
+    runView(*args);
+  });
 }
 
 }  // namespace parallax::cli

@@ -1,4 +1,5 @@
 // parallax bench daemon [--display demo,default] [--seconds 10] [--fps 30] [--frame-cache on,off]
+//                       [--scene orbit|FILE.lua]
 // The daemon measured as it runs: starts the real parallaxd (which starts its own simulated
 // display), plays the animated scripts/scenes/orbit.lua for --seconds and reads the daemon's
 // own `stats` over the control socket — per display frame: render, encode, push and end-to-end
@@ -45,6 +46,14 @@ struct BenchDaemonArgs {
   double seconds = 10.0;
   double fps = 30.0;
   std::string frameCache = "on,off";
+  std::string scene = "orbit";  // the animated script played
+};
+
+// What one run measured: display frames a second, and parallaxd's CPU time a display frame
+// (which, unlike the frame rate, hardly depends on what else the machine runs).
+struct PlayFigures {
+  double fps = 0.0;
+  double cpuMsPerFrame = 0.0;
 };
 
 std::string siblingBinary(const std::string& name) {
@@ -167,14 +176,17 @@ void benchCtlRoundTrip(const std::string& socket) {
       kRuns, medianAndP95(frontMs), kRuns / 10, medianAndP95(toolsMs), medianAndP95(socketMs));
 }
 
-// Plays orbit.lua on `display`; returns the display frames a second it reached. The first run of
-// a display also times cornell.lua and `parallax ctl status`.
-double benchOne(const std::string& display, const BenchDaemonArgs& args, bool frameCache,
-                bool firstRun) {
+// Plays the animated script on `display`; returns the frame rate and CPU time a frame. The first
+// run of a display also times cornell.lua and `parallax ctl status`.
+PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bool frameCache,
+                     bool firstRun) {
   const fs::path work =
       fs::temp_directory_path() / fmt::format("parallax-bench-daemon-{}", ::getpid());
   fs::create_directories(work);
   const std::string socket = (work / "ctl.sock").string();
+  // A script file is named to the daemon by its absolute path (its config lives elsewhere).
+  const std::string script =
+      args.scene.ends_with(".lua") ? fs::absolute(args.scene).string() : args.scene;
   // The ray textures are cached per user: a second run of the bench does not time their generation.
   const char* home = std::getenv("HOME");
   const std::string cache =
@@ -182,10 +194,10 @@ double benchOne(const std::string& display, const BenchDaemonArgs& args, bool fr
   {
     std::ofstream config(work / "parallax.toml");
     config << fmt::format(
-        "[display]\npreset = \"{}\"\n[scene]\nscript = \"orbit\"\nfps = {}\nframe_cache = {}\n"
+        "[display]\npreset = \"{}\"\n[scene]\nscript = \"{}\"\nfps = {}\nframe_cache = {}\n"
         "[calibration]\nauto = false\nfile = \"{}\"\n"
         "[daemon]\nsocket = \"{}\"\ncache_dir = \"{}\"\nlog_level = \"warn\"\n",
-        display, args.fps, frameCache, (work / "calibration.json").string(), socket, cache);
+        display, script, args.fps, frameCache, (work / "calibration.json").string(), socket, cache);
   }
   std::string daemonPath = siblingBinary("parallaxd");
   const std::string configPath = (work / "parallax.toml").string();
@@ -195,7 +207,7 @@ double benchOne(const std::string& display, const BenchDaemonArgs& args, bool fr
   if (::posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0)
     throw std::runtime_error("cannot start parallaxd");
   const auto started = Clock::now();
-  double fps = 0.0;
+  PlayFigures figures;
   try {
     nlohmann::json first = waitFor(
         socket, [](const nlohmann::json& s) { return s.value("display_frames", 0) >= 2; },
@@ -221,7 +233,8 @@ double benchOne(const std::string& display, const BenchDaemonArgs& args, bool fr
     const double dropped =
         last["dropped_frames"].get<double>() - first["dropped_frames"].get<double>();
     const nlohmann::json status = request(socket, {{"request", "status"}});
-    fps = frames / dt;
+    figures.fps = frames / dt;
+    figures.cpuMsPerFrame = 1000.0 * (d1.cpuSeconds - d0.cpuSeconds) / std::max(frames, 1.0);
     std::cout << fmt::format(
         "{} (frame cache {}): {} modules; start-up to the second frame {:.1f} s (ray textures: {} "
         "from the cache, {} generated)\n",
@@ -229,12 +242,12 @@ double benchOne(const std::string& display, const BenchDaemonArgs& args, bool fr
         status["ray_textures"]["from_cache"].get<int>(),
         status["ray_textures"]["generated"].get<int>());
     std::cout << fmt::format(
-        "  orbit.lua (animated, target {} fps) over {:.1f} s: {:.2f} fps, {} dropped; per display "
+        "  {} (animated, target {} fps) over {:.1f} s: {:.2f} fps, {} dropped; per display "
         "frame: render {:.1f} ms, "
-        "encode {:.1f} ms, push {:.1f} ms, end to end {:.1f} ms\n",
-        args.fps, dt, frames / dt, dropped, windowMeanMs(first, last, "render"),
+        "encode {:.1f} ms, push {:.1f} ms, end to end {:.1f} ms, parallaxd CPU {:.0f} ms\n",
+        args.scene, args.fps, dt, frames / dt, dropped, windowMeanMs(first, last, "render"),
         windowMeanMs(first, last, "encode"), windowMeanMs(first, last, "push"),
-        windowMeanMs(first, last, "end_to_end"));
+        windowMeanMs(first, last, "end_to_end"), figures.cpuMsPerFrame);
     std::cout << fmt::format(
         "  CPU: parallaxd {:.2f} cores, simulator {:.2f} cores; peak memory: parallaxd {:.0f} MiB, "
         "simulator {:.0f} MiB\n",
@@ -248,7 +261,7 @@ double benchOne(const std::string& display, const BenchDaemonArgs& args, bool fr
       request(socket, {{"request", "shutdown"}});
       ::waitpid(pid, nullptr, 0);
       fs::remove_all(work);
-      return fps;
+      return figures;
     }
     // The static scene: one frame, then nothing to send.
     const nlohmann::json before = request(socket, {{"request", "stats"}});
@@ -276,7 +289,7 @@ double benchOne(const std::string& display, const BenchDaemonArgs& args, bool fr
   int status = 0;
   ::waitpid(pid, &status, 0);
   fs::remove_all(work);
-  return fps;
+  return figures;
 }
 
 void runBenchDaemon(const BenchDaemonArgs& args) {
@@ -297,12 +310,17 @@ void runBenchDaemon(const BenchDaemonArgs& args) {
   for (std::string display; std::getline(list, display, ',');) {
     if (display != "demo" && display != "default")
       throw InputError({"", "--display", 0}, "demo and/or default");
-    double on = 0.0, off = 0.0;
+    PlayFigures on, off;
     for (size_t i = 0; i < settings.size(); ++i)
       (settings[i] ? on : off) = benchOne(display, args, settings[i], i == 0);
-    if (on > 0.0 && off > 0.0) {
-      std::cout << fmt::format("  {}: frame cache on/off {:.2f} / {:.2f} fps = {:.2f}x\n", display,
-                               on, off, on / off);
+    if (on.fps > 0.0 && off.fps > 0.0) {
+      // Two daemons one after the other: the frame rates drift with the machine's load, the
+      // CPU time a frame much less.
+      std::cout << fmt::format(
+          "  {}: frame cache on/off {:.2f} / {:.2f} fps = {:.2f}x; parallaxd CPU a frame {:.0f} / "
+          "{:.0f} ms = {:.2f}x less\n",
+          display, on.fps, off.fps, on.fps / off.fps, on.cpuMsPerFrame, off.cpuMsPerFrame,
+          off.cpuMsPerFrame / on.cpuMsPerFrame);
     }
   }
 }
@@ -316,6 +334,8 @@ void addBenchDaemonSubcommand(CLI::App* bench) {
   command->add_option("--display", args->displays, "comma-separated: demo, default");
   command->add_option("--seconds", args->seconds, "how long to play the animated scene");
   command->add_option("--fps", args->fps, "target frame rate");
+  command->add_option("--scene", args->scene,
+                      "the animated script to play: a library name or a .lua file");
   command->add_option("--frame-cache", args->frameCache,
                       "on, off or both (on,off: one daemon each, the ratio)");
   command->callback([args] { runBenchDaemon(*args); });

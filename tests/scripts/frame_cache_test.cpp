@@ -128,6 +128,20 @@ TEST(FrameCache, OrbitFramesEqualAFullRetrace) {
   EXPECT_EQ(cache.stats().bytesPerPixel(), 12.0);
 }
 
+// The cache's good case: two models, a pedestal and a mirror floor stand still, one ball moves
+// (hits on the static mirror are taken from the cache, their reflections traced in full).
+TEST(FrameCache, SentinelFramesEqualAFullRetrace) {
+  ScriptedScene script(testing::sceneLibrary() + "/sentinel.lua", scriptOptions());
+  FrameCache cache;
+  const Comparison c = playAndCompare(script, 10, 0.4, &cache);
+  expectSameImages(c);
+  EXPECT_EQ(cache.stats().builds, 1);
+  EXPECT_EQ(cache.stats().dynamicInstances, 1);
+  EXPECT_EQ(cache.stats().cachedLights, 4);
+  // Half the primary rays pass between the objects inside the scene's bounds: no hit at all.
+  EXPECT_GT(c.counters.cache.pixelsReused, c.counters.primary / 3);
+}
+
 // A floor that starts to move after a while, a pillar that is moved by assigning its
 // transform through a second handle, a light that turns late, a point light that moves, a
 // light that only changes colour, static glass (its shadows are never cached), an object

@@ -76,6 +76,7 @@ void runAnimation(const RenderArgs& args, const DisplayModel& model,
   std::filesystem::create_directories(args.out, ec);
   if (ec) throw InputError({args.out, "", 0}, "cannot create the output folder: " + ec.message());
   FrameCache cache;
+  std::unique_ptr<PhysicalScene> last;
   std::vector<Frame> frames(textures.size());
   RenderCounters total;
   ProgressBar progress("frames", args.frames);
@@ -83,8 +84,10 @@ void runAnimation(const RenderArgs& args, const DisplayModel& model,
   for (int f = 0; f < args.frames; ++f) {
     script->setTime(args.time + f / args.fps);
     const Scene& scene = script->scene();
-    PhysicalScene physical(scene, model.displayableBox,
-                           args.noFrameCache ? nullptr : &cache.dynamicInstances(scene));
+    auto built = std::make_unique<PhysicalScene>(
+        scene, model.displayableBox, args.noFrameCache ? nullptr : &cache.dynamicInstances(scene),
+        last.get());
+    PhysicalScene& physical = *built;
     const bool cached = !args.noFrameCache && cache.prepare(physical, textures, 1, options);
     RenderCounters counters;
     for (size_t m = 0; m < textures.size(); ++m) {
@@ -98,6 +101,7 @@ void runAnimation(const RenderArgs& args, const DisplayModel& model,
     }
     if (cached) cache.count(counters);
     total += counters;
+    last = std::move(built);  // its textures serve the next frame
     progress.advance();
   }
   progress.finish();

@@ -289,10 +289,11 @@ SyncReading readSyncCode(const cv::Mat& linear, const SyncGeometry& geometry,
   constexpr int kMixed = -1, kDark = -2;
   std::vector<int> read(geometry.columns.size(), kMixed);
   int readable = 0;
+  std::vector<double> contrasts;
   for (size_t i = 0; i < geometry.columns.size(); ++i) {
     int code = 0;
     bool ok = true;
-    double lit = 0.0, brightest = 0.0;
+    double lit = 0.0, brightest = 0.0, weakest = 1.0;
     for (int b = 0; b < SyncCodeLayout::kBits; ++b) {
       const auto [a0, a1] = cellRange(geometry, i, layout, 2 * b);
       const auto [b0, b1] = cellRange(geometry, i, layout, 2 * b + 1);
@@ -304,7 +305,9 @@ SyncReading readSyncCode(const cv::Mat& linear, const SyncGeometry& geometry,
       if (one > zero) code |= 1 << b;
       lit += hi;
       brightest = std::max(brightest, hi);
+      weakest = std::min(weakest, hi > 0.0 ? (hi - lo) / hi : 0.0);
     }
+    if (brightest >= 0.3 * geometry.whiteTop[i]) contrasts.push_back(weakest);
     if (!ok) {
       if (brightest < 0.3 * geometry.whiteTop[i]) read[i] = kDark;
       continue;
@@ -318,6 +321,7 @@ SyncReading readSyncCode(const cv::Mat& linear, const SyncGeometry& geometry,
   const auto best = std::max_element(votes.begin(), votes.end());
   const int columns = static_cast<int>(geometry.columns.size());
   reading.readable = static_cast<double>(readable) / columns;
+  reading.contrast = median(contrasts);
   reading.agreement = readable > 0 ? static_cast<double>(*best) / readable : 0.0;
   if (readable < std::max(8, columns / 4) || reading.agreement < 0.9) return reading;
   const int code = static_cast<int>(best - votes.begin());

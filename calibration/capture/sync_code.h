@@ -107,6 +107,10 @@ struct SyncReading {
   // The lit code cells over the white reference at the same place: the picture's exposure
   // relative to the white reference's (1 for a camera whose exposure is locked).
   double exposure = 0.0;
+  // Over the columns whose cells are lit: the median of each column's weakest pair contrast,
+  // (lit cell − unlit cell) / lit cell. Near 1 in a sharp picture; blur (a hand-held camera
+  // that shook, a focus that slipped) runs the cells into each other (picture_quality.h).
+  double contrast = 0.0;
   // When the columns agree but one stripe does not (a module still showing another frame):
   // which, and what it reads.
   std::string staleStripe;

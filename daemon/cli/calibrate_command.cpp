@@ -1,7 +1,10 @@
 // parallax calibrate --captures DIR --nominal FILE|default|demo --out calib.json
 // parallax calibrate --link auto|simhw:SOCKET --camera-metadata camera.json --nominal ...
-//                    --out calib.json [--camera link|opencv:SPEC [--allow-auto-exposure]
-//                    [--station-command CMD]] [--stations 0,2,4] [--save-captures DIR]
+//                    --out calib.json [--camera link|opencv:SPEC|folder:DIR
+//                    [--allow-auto-exposure] [--station-command CMD]] [--stations 0,2,4]
+//                    [--save-captures DIR]
+// parallax calibrate --camera folder:DIR --camera-metadata camera.json --nominal ... --out ...
+//                    (offline: the pictures taken by hand earlier, every one in DIR)
 //        common:     [--report] [--truth gt.json [--camera-truth camera_truth.json]] [--transfer
 //        conical|linear]
 //                    [--threads N] [--pixel-step N]
@@ -208,13 +211,23 @@ CalibrationObservations sessionObservations(const CalibrateArgs& args, const Dis
   }
   *source = args.settings.cameraMetadata;
   const CameraMetadata camera = loadCameraMetadata(args.settings.cameraMetadata);
-  requireKnownIntrinsics(camera, args.settings.cameraMetadata, "calibrating through the link");
-  hw::LinkSelection selection;
-  selection.spec = args.link;
-  hw::SelectedLink chosen = hw::selectLink(selection);
-  std::cout << chosen.note << "\n";
-  *link = std::make_unique<hw::LinkClient>(std::move(chosen.transport));
+  // Without --link, a folder: camera's pictures taken earlier (runCalibrate allows no other).
+  const bool offline = args.link.empty();
+  requireKnownIntrinsics(camera, args.settings.cameraMetadata,
+                         offline ? "calibrating from a folder" : "calibrating through the link");
+  if (!offline) {
+    hw::LinkSelection selection;
+    selection.spec = args.link;
+    hw::SelectedLink chosen = hw::selectLink(selection);
+    std::cout << chosen.note << "\n";
+    *link = std::make_unique<hw::LinkClient>(std::move(chosen.transport));
+  }
   daemon::PipelineProgress progress = stages.capture();
+  progress.pictureRequest = [](const hw::PictureRequest& r) {
+    std::cout << fmt::format("\npicture {}: {} is on the screen: take it and save it as {}\n",
+                             r.index + 1, r.shows, r.path)
+              << std::flush;
+  };
   progress.note = [](const std::string& line) { std::cerr << line << "\n"; };
   progress.moveCamera = [camera](int station) { promptForStation(camera, station); };
   // What the photometric stage needs after this function (the rest refers to its locals).
@@ -225,7 +238,7 @@ CalibrationObservations sessionObservations(const CalibrateArgs& args, const Dis
     std::cout << args.settings.camera << ": " << stats.describe() << "\n";
   };
   const CalibrationCaptures captures = daemon::capturePictures(
-      **link, nominal, args.settings, progress, [] { return gInterrupted.load(); });
+      link->get(), nominal, args.settings, progress, [] { return gInterrupted.load(); });
   if (!args.saveCaptures.empty()) {
     stages.plain("save the pictures: " + args.saveCaptures);
     saveCaptures(captures, args.saveCaptures);
@@ -235,14 +248,19 @@ CalibrationObservations sessionObservations(const CalibrateArgs& args, const Dis
 }
 
 void runCalibrate(CalibrateArgs args) {
-  if (args.captures.empty() == args.link.empty()) {
-    throw InputError(
-        {"", "--captures", 0},
-        "give either --captures DIR or --link SPEC (with --camera-metadata camera.json)");
+  // A folder: camera's pictures, all taken, calibrate without the link (offline).
+  const bool folderOffline =
+      args.captures.empty() && args.link.empty() && args.settings.camera.rfind("folder:", 0) == 0;
+  if (args.captures.empty() == args.link.empty() && !folderOffline) {
+    throw InputError({"", "--captures", 0},
+                     "give either --captures DIR or --link SPEC (with --camera-metadata "
+                     "camera.json), or --camera folder:DIR for pictures taken by hand");
   }
-  if (!args.link.empty() && args.settings.cameraMetadata.empty()) {
+  if (args.captures.empty() && args.settings.cameraMetadata.empty()) {
     throw InputError({"", "--camera-metadata", 0},
-                     "--link needs the camera's metadata (camera.json: intrinsics, stations)");
+                     fmt::format("{} needs the camera's metadata (camera.json: intrinsics, "
+                                 "stations)",
+                                 folderOffline ? "--camera folder:DIR" : "--link"));
   }
   args.settings.photometric = daemon::parsePhotometricMode(args.photometric, "--photometric");
   if (args.settings.photometric != daemon::PhotometricMode::kOff && args.link.empty()) {
@@ -372,8 +390,10 @@ void addCalibrateCommand(CLI::App& app) {
                       "calibrate through the link: auto, simhw:SOCKET or usb[...]");
   command->add_option("--camera", args->settings.camera,
                       "with --link: the camera taking the pictures: link (default; the one behind "
-                      "the link) or opencv:SPEC (/dev/video0, an index, a GStreamer pipeline "
-                      "ending in appsink, a stream URL, gphoto2)");
+                      "the link), opencv:SPEC (/dev/video0, an index, a GStreamer pipeline "
+                      "ending in appsink, a stream URL, gphoto2) or folder:DIR (pictures taken "
+                      "by hand, saved into DIR as the tool names them; without --link, from "
+                      "the pictures already there)");
   command->add_option("--camera-metadata", args->settings.cameraMetadata,
                       "with --link: the camera's metadata (camera.json: intrinsics, stations)");
   command->add_flag("--allow-auto-exposure", args->settings.allowAutoExposure,

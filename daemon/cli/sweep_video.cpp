@@ -91,4 +91,16 @@ std::pair<double, double> parseRange(const std::string& text, const std::string&
   return {number(text.substr(0, colon)), number(text.substr(colon + 1))};
 }
 
+std::string sequenceFrameFolder(const std::string& folder, int frame) {
+  return fmt::format("{}/frame_{:04d}", folder, frame);
+}
+
+std::vector<std::string> sequenceFrameFolders(const std::string& folder) {
+  std::vector<std::string> folders;
+  while (
+      std::filesystem::is_directory(sequenceFrameFolder(folder, static_cast<int>(folders.size()))))
+    folders.push_back(sequenceFrameFolder(folder, static_cast<int>(folders.size())));
+  return folders;
+}
+
 }  // namespace parallax::cli

@@ -6,6 +6,8 @@
 
 #include <memory>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "tracer/frame.h"
 
@@ -39,5 +41,12 @@ class SweepVideo {
 
 // X0:X1 → the two numbers; throws InputError naming `option`.
 std::pair<double, double> parseRange(const std::string& text, const std::string& option);
+
+// A frame sequence (`parallax render --time A:B`): frame f's module frames in
+// `folder`/frame_NNNN/.
+std::string sequenceFrameFolder(const std::string& folder, int frame);
+// The sequence's frame folders in order (frame_0000, frame_0001, ... while they exist); empty
+// when `folder` holds no sequence.
+std::vector<std::string> sequenceFrameFolders(const std::string& folder);
 
 }  // namespace parallax::cli

@@ -10,6 +10,8 @@
 // instead of an ideal sRGB module's: what a viewer of that simulated display sees.
 // With --sweep the viewer walks the observer line from X0 to X1 (N views, evenly spaced, both
 // ends included) and the views become a video (sweep_video.h): the display's parallax in motion.
+// When --frames holds a frame sequence (render --time A:B: frame_NNNN/ folders) the scene plays
+// along, one of its frames a view; otherwise it is frozen.
 
 #include <fmt/format.h>
 
@@ -44,6 +46,7 @@ struct ViewArgs {
   std::string photometricTruth;
   std::string sweep;  // X0:X1
   int sweepFrames = 90;
+  bool sweepFramesGiven = false;
   double fps = 30.0;
 };
 
@@ -113,17 +116,29 @@ void runView(const ViewArgs& args) {
   if (!(viewer.z() > 0.0)) {
     throw InputError({"", "--z", 0}, "the viewer must stand in front of the screen (z > 0)");
   }
-  std::vector<Frame> frames = readModuleFrames(model, args.frames);
+  // A sequence (render --time A:B) plays along the sweep, one of its frames a view.
+  const std::vector<std::string> sequence = sequenceFrameFolders(args.frames);
+  if (!sequence.empty() && !sweep) {
+    throw InputError({args.frames, "--frames", 0},
+                     "holds a frame sequence: give one of its frame_NNNN folders, or --sweep");
+  }
+  std::optional<PhotometricTruth> truth;
   if (!args.photometricTruth.empty()) {
-    const PhotometricTruth truth = loadPhotometricTruth(args.photometricTruth);
-    if (truth.modules.size() != model.modules.size()) {
+    truth = loadPhotometricTruth(args.photometricTruth);
+    if (truth->modules.size() != model.modules.size()) {
       throw InputError({args.photometricTruth, "modules", 0},
-                       fmt::format("has {} modules; the display has {}", truth.modules.size(),
+                       fmt::format("has {} modules; the display has {}", truth->modules.size(),
                                    model.modules.size()));
     }
-    for (size_t i = 0; i < frames.size(); ++i)
-      frames[i] = lightOf(truth, static_cast<int>(i), frames[i]);
   }
+  const auto shown = [&](const std::string& folder) {
+    std::vector<Frame> frames = readModuleFrames(model, folder);
+    if (truth) {
+      for (size_t i = 0; i < frames.size(); ++i)
+        frames[i] = lightOf(*truth, static_cast<int>(i), frames[i]);
+    }
+    return frames;
+  };
   const std::filesystem::path parent = std::filesystem::path(args.out).parent_path();
   if (!parent.empty()) {
     std::error_code ec;
@@ -133,12 +148,22 @@ void runView(const ViewArgs& args) {
                        "cannot create the output folder: " + ec.message());
   }
   if (sweep) {
+    const int views = sequence.empty() ? args.sweepFrames : static_cast<int>(sequence.size());
+    if (sequence.size() == 1)
+      throw InputError({args.frames, "--frames", 0}, "a sequence of one frame: nothing to play");
+    if (!sequence.empty() && args.sweepFramesGiven && args.sweepFrames != views) {
+      throw InputError({"", "--sweep-frames", 0},
+                       fmt::format("{}: the sequence in --frames has {} frames, one a view",
+                                   args.sweepFrames, views));
+    }
     SweepVideo video(args.out, options.width, options.height, args.fps);
-    ProgressBar progress(fmt::format("sweep: {} views", args.sweepFrames), args.sweepFrames);
-    for (int i = 0; i < args.sweepFrames; ++i) {
-      const double t = static_cast<double>(i) / (args.sweepFrames - 1);
+    ProgressBar progress(fmt::format("sweep: {} views", views), views);
+    std::vector<Frame> frames = sequence.empty() ? shown(args.frames) : std::vector<Frame>{};
+    for (int i = 0; i < views; ++i) {
+      const double t = static_cast<double>(i) / (views - 1);
       Eigen::Vector3d at = viewer;
       at.x() = sweep->first + t * (sweep->second - sweep->first);
+      if (!sequence.empty()) frames = shown(sequence[static_cast<size_t>(i)]);
       video.add(synthesizeObserverView(model, frames, at, options));
       progress.advance();
     }
@@ -150,6 +175,7 @@ void runView(const ViewArgs& args) {
         video.codec(), std::filesystem::absolute(args.out).string());
     return;
   }
+  const std::vector<Frame> frames = shown(args.frames);
   std::vector<float> coverage;
   const Frame view = synthesizeObserverView(model, frames, viewer, options, &coverage);
   writePng(view, args.out);
@@ -181,7 +207,10 @@ void addViewCommand(CLI::App& app) {
       app.add_subcommand("view", "what a viewer sees, assembled from module frames");
   command->add_option("--display", args->display,
                       "display JSON file or built-in name (default, demo)");
-  command->add_option("--frames", args->frames, "folder with module_NNN.png (or .exr) frames")
+  command
+      ->add_option("--frames", args->frames,
+                   "folder with module_NNN.png (or .exr) frames, or with --sweep a frame "
+                   "sequence (render --time A:B)")
       ->required();
   CLI::Option* x =
       command->add_option("--x", args->x, "viewer position along the observer line (m)");
@@ -189,10 +218,11 @@ void addViewCommand(CLI::App& app) {
       "--sweep", args->sweep,
       "X0:X1: a video (--out .mp4, .mkv or .avi) of a viewer walking the observer line");
   x->excludes(sweep);
-  command
-      ->add_option("--sweep-frames", args->sweepFrames,
-                   "views in the sweep, both ends included (default 90)")
-      ->needs(sweep);
+  CLI::Option* sweepFrames =
+      command->add_option("--sweep-frames", args->sweepFrames,
+                          "views in the sweep, both ends included (default 90; with a frame "
+                          "sequence in --frames: one a frame)");
+  sweepFrames->needs(sweep);
   command->add_option("--fps", args->fps, "the sweep video's frame rate (default 30)")
       ->needs(sweep);
   command->add_option("--y", args->y, "viewer height (m); default: the observer line's");
@@ -204,8 +234,9 @@ void addViewCommand(CLI::App& app) {
   command->add_option("--photometric-truth", args->photometricTruth,
                       "a simulated display's photometric_truth.json: the frames' codes shown by "
                       "those modules (8-bit PNG frames)");
-  command->callback([args, x, sweep] {
+  command->callback([args, x, sweep, sweepFrames] {
     if (x->count() == 0 && sweep->count() == 0) throw CLI::RequiredError("--x or --sweep");
+    args->sweepFramesGiven = sweepFrames->count() > 0;
     runView(*args);
   });
 }

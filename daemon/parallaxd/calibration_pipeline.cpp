@@ -64,7 +64,12 @@ void CalibrationSettings::validate(const std::string& prefix) const {
     if (prefix == "--") std::replace(key.begin(), key.end(), '_', '-');
     return prefix + key;
   };
-  hw::parseCameraName(camera, field("camera"));
+  if (hw::parseCameraName(camera, field("camera")).kind == hw::CameraKind::kFolder &&
+      photometric != PhotometricMode::kOff) {
+    throw InputError({"", field("photometric"), 0},
+                     "a folder: camera takes the pattern pictures only; the flat fields need a "
+                     "camera the tool drives (link or opencv:)");
+  }
   if (pixelStep < 1 || pixelStep > 64)
     throw InputError({"", field("pixel_step"), 0}, "must be 1..64");
   if (threads < 1 || threads > 256) throw InputError({"", field("threads"), 0}, "must be 1..256");
@@ -91,7 +96,7 @@ CalibrationSettings settingsOf(const CalibrationConfig& config, bool simulatorPh
   return settings;
 }
 
-CalibrationCaptures capturePictures(hw::LinkClient& link, const DisplayModel& nominal,
+CalibrationCaptures capturePictures(hw::LinkClient* link, const DisplayModel& nominal,
                                     const CalibrationSettings& settings,
                                     const PipelineProgress& progress,
                                     const std::function<bool()>& cancelled) {
@@ -100,9 +105,22 @@ CalibrationCaptures capturePictures(hw::LinkClient& link, const DisplayModel& no
                      "calibrating needs the camera's metadata (camera.json)");
   }
   const CameraMetadata metadata = loadCameraMetadata(settings.cameraMetadata);
-  requireKnownIntrinsics(metadata, settings.cameraMetadata, "calibrating through the link");
+  requireKnownIntrinsics(metadata, settings.cameraMetadata,
+                         link ? "calibrating through the link" : "calibrating from a folder");
   const hw::CameraName name = hw::parseCameraName(settings.camera, "camera");
-  std::unique_ptr<hw::Camera> camera = hw::openCamera(name, link);
+  // The capture asks a flag between pictures, right after reporting progress: the flag is
+  // refreshed from the predicate there, and by a folder: camera while it waits for a picture.
+  std::atomic<bool> captureCancelled{cancelled()};
+  hw::FolderCameraOptions folder;
+  folder.cancelled = [&] { return captureCancelled = cancelled(); };
+  folder.onRequest = progress.pictureRequest;
+  if (!folder.onRequest && progress.note) {
+    folder.onRequest = [&progress](const hw::PictureRequest& r) {
+      progress.note(fmt::format("take the picture of {} (on the screen now) and save it as {}",
+                                r.shows, r.path));
+    };
+  }
+  std::unique_ptr<hw::Camera> camera = hw::openCamera(name, link, folder);
 
   hw::CalibrationCaptureOptions capture;
   capture.stations = settings.stations;
@@ -117,7 +135,8 @@ CalibrationCaptures capturePictures(hw::LinkClient& link, const DisplayModel& no
   };
   const size_t stationCount =
       settings.stations.empty() ? metadata.stations.size() : settings.stations.size();
-  if (name.kind != hw::CameraKind::kLink) {
+  // Offline, the pictures were taken already: no camera to move.
+  if (name.kind != hw::CameraKind::kLink && link) {
     if (!settings.stationCommand.empty()) {
       capture.beforeStation = [&](int station) {
         runStationCommand(settings.stationCommand, station);
@@ -131,17 +150,16 @@ CalibrationCaptures capturePictures(hw::LinkClient& link, const DisplayModel& no
                                    settings.camera, stationCount));
     }
   }
-  // The capture asks a flag between pictures, right after reporting progress: the flag is
-  // refreshed from the predicate there.
-  std::atomic<bool> captureCancelled{cancelled()};
   hw::CaptureSyncStats stats;
-  CalibrationCaptures captures = hw::captureCalibration(
-      link, *camera, nominal, metadata, capture,
-      [&](int done, int total) {
-        if (progress.pictures) progress.pictures(done, total);
-        captureCancelled = cancelled();
-      },
-      &captureCancelled, &stats);
+  const auto pictures = [&](int done, int total) {
+    if (progress.pictures) progress.pictures(done, total);
+    captureCancelled = cancelled();
+  };
+  CalibrationCaptures captures =
+      link ? hw::captureCalibration(*link, *camera, nominal, metadata, capture, pictures,
+                                    &captureCancelled, &stats)
+           : hw::captureCalibrationOffline(*camera, nominal, metadata, capture, pictures,
+                                           &captureCancelled, &stats);
   if (progress.captured) progress.captured(stats);
   return captures;
 }
@@ -214,7 +232,7 @@ PhotometricRun calibratePhotometry(hw::LinkClient& link, const DisplayModel& geo
   PARALLAX_CHECK_OP(stations.size(), ==, poses.size());
   const CameraMetadata metadata = loadCameraMetadata(settings.cameraMetadata);
   const hw::CameraName name = hw::parseCameraName(settings.camera, "camera");
-  std::unique_ptr<hw::Camera> camera = hw::openCamera(name, link);
+  std::unique_ptr<hw::Camera> camera = hw::openCamera(name, &link);
   PhotometricRun run;
   FlatFieldCaptures captures;
   {
@@ -279,7 +297,7 @@ CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& no
     stage(fmt::format("pictures: {} of {}", done, total));
   };
   const CalibrationCaptures captures =
-      capturePictures(link, nominal, settings, pictures, cancelled);
+      capturePictures(&link, nominal, settings, pictures, cancelled);
   // Decoding takes seconds and is not interrupted: a `cancel` meanwhile is seen after it.
   const auto stopIfCancelled = [&cancelled] {
     if (cancelled()) throw hw::CalibrationCancelled();

@@ -20,6 +20,7 @@
 #include "calibration/photometry/photometric_fit.h"
 #include "daemon/parallaxd/daemon_config.h"
 #include "hw/camera/calibration_capture.h"
+#include "hw/camera/folder_camera.h"
 #include "hw/link/camera_settings.h"
 #include "hw/link/link_client.h"
 
@@ -82,13 +83,16 @@ struct PipelineProgress {
   // once it stands there (the tool's prompt); unset, and without a station command, only one
   // station can be photographed.
   std::function<void(int station)> moveCamera;
+  // A folder: camera asks for a picture (the frame on the screen, the file to save it as).
+  std::function<void(const hw::PictureRequest&)> pictureRequest;
 };
 
 // The pictures through the link: the modules show the patterns, `settings.camera` takes them
 // (opened and locked here; refused, naming the control, when it does not lock and
-// allowAutoExposure is off). Throws InputError for bad metadata or camera names,
+// allowAutoExposure is off). Without a link (nullptr), offline: only a folder: camera, from
+// the pictures already in its folder. Throws InputError for bad metadata or camera names,
 // std::runtime_error with one line otherwise, hw::CalibrationCancelled once `cancelled()`.
-CalibrationCaptures capturePictures(hw::LinkClient& link, const DisplayModel& nominal,
+CalibrationCaptures capturePictures(hw::LinkClient* link, const DisplayModel& nominal,
                                     const CalibrationSettings& settings,
                                     const PipelineProgress& progress,
                                     const std::function<bool()>& cancelled);

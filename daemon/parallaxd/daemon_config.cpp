@@ -181,10 +181,11 @@ void readCalibration(TableReader& r, CalibrationConfig* c) {
     // The old form named the camera's metadata here; it still means that.
     const bool metadataFile = c->cameraName.size() > 5 && c->cameraName.ends_with(".json");
     if (!metadataFile || r.find("camera_metadata")) {
-      r.fail(*n, "camera",
-             fmt::format("unknown camera \"{}\": give link or opencv:SPEC (the camera's "
-                         "metadata goes in camera_metadata)",
-                         c->cameraName));
+      r.fail(
+          *n, "camera",
+          fmt::format("unknown camera \"{}\": give link, opencv:SPEC or folder:DIR (the camera's "
+                      "metadata goes in camera_metadata)",
+                      c->cameraName));
     }
     c->cameraMetadata = c->cameraName;
     c->cameraName = "link";

@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <chrono>
 #include <optional>
+#include <sstream>
 
+#include "calibration/capture/picture_quality.h"
 #include "calibration/simulation/simulated_session.h"
 #include "common/input_error.h"
 
@@ -35,21 +37,53 @@ std::shared_ptr<const Image> moduleFrame(const cv::Mat& linear, PixelFormat form
 // Puts the modules back into playback mode and unlocks the camera however the session ends.
 class SessionGuard {
  public:
-  SessionGuard(LinkClient& link, Camera& camera) : link_(link), camera_(camera) {}
+  SessionGuard(LinkClient* link, Camera& camera) : link_(link), camera_(camera) {}
   ~SessionGuard() {
     try {
-      link_.flush();
-      link_.takeOutcomes();
-      link_.setMode(DisplayMode::kPlayback);
+      if (link_) {
+        link_->flush();
+        link_->takeOutcomes();
+        link_->setMode(DisplayMode::kPlayback);
+      }
     } catch (...) {  // a dead link: nothing more can be done from here
     }
     camera_.unlock();
   }
 
  private:
-  LinkClient& link_;
+  LinkClient* link_;
   Camera& camera_;
 };
+
+std::string joined(const std::vector<int>& values, const char* separator) {
+  std::ostringstream out;
+  for (size_t i = 0; i < values.size(); ++i) out << (i ? separator : "") << values[i];
+  return out.str();
+}
+
+// What a picture folder's manifest must agree with to be of this session.
+CaptureSessionKey sessionKey(const DisplayModel& nominal, const CameraMetadata& metadata,
+                             const CalibrationCaptureOptions& options,
+                             const std::vector<int>& stations) {
+  CaptureSessionKey key;
+  key.pictureWidth = metadata.intrinsics.width;
+  key.pictureHeight = metadata.intrinsics.height;
+  key.fields = {
+      {"display", fmt::format("{}: {} modules of {}x{}", nominal.name, nominal.modules.size(),
+                              nominal.modules.front().width, nominal.modules.front().height)},
+      {"patterns", fmt::format("period {} px, {} phase steps", options.patterns.periodPx,
+                               options.patterns.phaseSteps)},
+      {"modules_at_once", fmt::format("every {}", options.groupStride)},
+      {"stations", joined(stations, ",")},
+  };
+  return key;
+}
+
+CalibrationCaptures runSession(LinkClient* link, Camera& camera, const DisplayModel& nominal,
+                               const CameraMetadata& metadata,
+                               const CalibrationCaptureOptions& options,
+                               const std::function<void(int done, int total)>& progress,
+                               const std::atomic<bool>* cancel, CaptureSyncStats* stats);
 
 }  // namespace
 
@@ -95,15 +129,38 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
                                        const CalibrationCaptureOptions& options,
                                        const std::function<void(int done, int total)>& progress,
                                        const std::atomic<bool>* cancel, CaptureSyncStats* stats) {
+  return runSession(&link, camera, nominal, metadata, options, progress, cancel, stats);
+}
+
+CalibrationCaptures captureCalibrationOffline(
+    Camera& camera, const DisplayModel& nominal, const CameraMetadata& metadata,
+    const CalibrationCaptureOptions& options,
+    const std::function<void(int done, int total)>& progress, const std::atomic<bool>* cancel,
+    CaptureSyncStats* stats) {
+  if (!camera.picturesAreFiles()) {
+    throw std::runtime_error(
+        fmt::format("{}: takes its pictures while the modules show the patterns: it needs the link",
+                    camera.name()));
+  }
+  return runSession(nullptr, camera, nominal, metadata, options, progress, cancel, stats);
+}
+
+namespace {
+
+CalibrationCaptures runSession(LinkClient* link, Camera& camera, const DisplayModel& nominal,
+                               const CameraMetadata& metadata,
+                               const CalibrationCaptureOptions& options,
+                               const std::function<void(int done, int total)>& progress,
+                               const std::atomic<bool>* cancel, CaptureSyncStats* stats) {
   options.validate(metadata);
   const int modules = static_cast<int>(nominal.modules.size());
   const int mw = nominal.modules.front().width, mh = nominal.modules.front().height;
-  if (static_cast<int>(link.modules().size()) != modules) {
+  if (link && static_cast<int>(link->modules().size()) != modules) {
     throw std::runtime_error(fmt::format("the link has {} modules, the nominal display {}",
-                                         link.modules().size(), modules));
+                                         link->modules().size(), modules));
   }
   bool grey = true;
-  for (const ModuleLinkInfo& m : link.modules()) {
+  for (const ModuleLinkInfo& m : link ? link->modules() : std::vector<ModuleLinkInfo>{}) {
     if (static_cast<int>(m.info.width) != mw || static_cast<int>(m.info.height) != mh) {
       throw std::runtime_error(
           fmt::format("module {} shows {}x{}, the nominal display's modules are {}x{}", m.module,
@@ -140,6 +197,7 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
                                      (columnPatterns.size() + rowPatterns.size()));
   int done = 0;
 
+  camera.beginSession(sessionKey(nominal, metadata, options, stations));
   const CameraLockResult lock = camera.lock(options.cameraSettings);
   if (!lock.ok && !options.allowUnlockedCamera) {
     throw std::runtime_error(fmt::format(
@@ -148,9 +206,17 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
         camera.name(), lock.describe()));
   }
   if (!lock.ok && options.onUnlocked) options.onUnlocked(lock.describe());
-  const bool measureExposure = !lock.ok;
+  // Pictures taken outside the tool's control (files) are checked for blur and over-exposure;
+  // their exposure is measured in each when the operator says it was automatic (allowed). Not
+  // otherwise: each estimate carries the sensor's noise, and four phase steps scaled apart
+  // decode to a shifted phase (on the small simulated display, twice the ray error).
+  const bool files = camera.picturesAreFiles();
+  const bool measureExposure = !lock.ok || (files && options.allowUnlockedCamera);
+  const PictureQualityLimits quality;
+  BlurCheck blurCheck(quality);
+  std::vector<std::pair<std::string, std::string>> judged;  // blurCheck's pictures: what, file
   SessionGuard guard(link, camera);
-  if (!link.setMode(DisplayMode::kPattern))
+  if (link && !link->setMode(DisplayMode::kPattern))
     throw std::runtime_error("the modules did not switch to pattern mode");
   if (progress) progress(0, total);
 
@@ -161,18 +227,30 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
   int sequence = 0;  // frames shown so far: the sync code is its residue
   const auto show = [&](const std::vector<int>& group, const std::shared_ptr<const Image>& frame,
                         const std::string& what) {
-    std::vector<bool> inGroup(static_cast<size_t>(modules), false);
-    for (int m : group) inGroup[static_cast<size_t>(m)] = true;
-    for (int m = 0; m < modules; ++m)
-      link.submit(m, inGroup[static_cast<size_t>(m)] ? frame : dark);
-    link.flush();
-    for (const FrameOutcome& o : link.takeOutcomes()) {
-      if (o.status == FrameStatus::kDelivered || o.status == FrameStatus::kSkippedUnchanged)
-        continue;
-      throw std::runtime_error(fmt::format("{}: module {} did not show it ({}: {})", what, o.module,
-                                           frameStatusName(o.status), o.reason));
+    if (link) {
+      std::vector<bool> inGroup(static_cast<size_t>(modules), false);
+      for (int m : group) inGroup[static_cast<size_t>(m)] = true;
+      for (int m = 0; m < modules; ++m)
+        link->submit(m, inGroup[static_cast<size_t>(m)] ? frame : dark);
+      link->flush();
+      for (const FrameOutcome& o : link->takeOutcomes()) {
+        if (o.status == FrameStatus::kDelivered || o.status == FrameStatus::kSkippedUnchanged)
+          continue;
+        throw std::runtime_error(fmt::format("{}: module {} did not show it ({}: {})", what,
+                                             o.module, frameStatusName(o.status), o.reason));
+      }
     }
+    camera.showing(what);
     ++sequence;
+  };
+  // A picture the checks refuse: taken again, or, when it is a file (asking again gives the
+  // same), the end of the session, naming the file.
+  const auto refuse = [&](const std::string& what, const std::string& why, std::string* seen) {
+    *seen = why;
+    if (files) {
+      throw std::runtime_error(
+          fmt::format("{}: picture {} refused: {}", what, camera.lastPicture(), why));
+    }
   };
 
   // Takes the picture of what `show` put up last: retaken until the sync code says it is that
@@ -188,16 +266,19 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
       if (attempt > 0) {
         ++retaken;
         if (std::chrono::duration<double>(Clock::now() - shown).count() > options.settleTimeoutS) {
-          throw std::runtime_error(fmt::format(
-              "{}: after {:g} s the camera still gives pictures of something else ({}); "
-              "is it aimed at the screen, with the top edge in view?",
-              what, options.settleTimeoutS, seen));
+          throw std::runtime_error(
+              fmt::format("{}: after {:g} s the camera still gives pictures it cannot use ({}); "
+                          "is it aimed at the screen, with the top edge in view?",
+                          what, options.settleTimeoutS, seen));
         }
         if (cancel && cancel->load()) throw CalibrationCancelled();
       }
       std::string error;
       const Image picture = camera.capture(&error);
-      if (picture.empty()) throw std::runtime_error(fmt::format("{}: {}", what, error));
+      if (picture.empty()) {
+        if (cancel && cancel->load()) throw CalibrationCancelled();
+        throw std::runtime_error(fmt::format("{}: {}", what, error));
+      }
       if (picture.width != metadata.intrinsics.width ||
           picture.height != metadata.intrinsics.height) {
         throw std::runtime_error(fmt::format(
@@ -205,6 +286,12 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
             picture.height, metadata.intrinsics.width, metadata.intrinsics.height));
       }
       cv::Mat linear = linearPicture(picture, metadata.responseGamma);
+      if (files) {
+        if (const std::optional<std::string> why = overExposure(linear, quality)) {
+          refuse(what, *why, &seen);
+          continue;
+        }
+      }
       if (!sync) {
         // Too small for a code, and a camera whose pictures are never late: as taken.
       } else if (kind == Kind::kWhite) {
@@ -212,26 +299,40 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
         const std::optional<SyncGeometry> g =
             syncGeometryFromWhite(linear, layout, prediction, &why);
         if (!g) {
-          seen = "not the white reference: " + why;
+          refuse(what, "not the white reference: " + why, &seen);
           continue;
         }
         if (earlierWhite && !whitesDiffer(*earlierWhite, linear)) {
-          seen = "the white reference of the modules before";
+          refuse(what, "the white reference of the modules before", &seen);
           continue;
         }
         *whiteGeometry = *g;
       } else if (kind == Kind::kBlack) {
         if (!looksBlack(linear, geometry, layout, prediction)) {
-          seen = "not the black reference: the band or the patterns are lit";
+          refuse(what, "not the black reference: the band or the patterns are lit", &seen);
           continue;
         }
       } else {
         const SyncReading reading = readSyncCode(linear, geometry, layout);
+        // A blurred picture is named as such, whether or not its code still reads.
+        if (files) {
+          if (const std::optional<std::string> why = blurCheck.judge(reading.contrast)) {
+            refuse(what, *why, &seen);
+            continue;
+          }
+        }
         if (reading.code != code) {
-          seen = fmt::format("{}, expected code {}", reading.describe(), code);
+          refuse(what,
+                 fmt::format("a picture of another frame: {}, expected code {}", reading.describe(),
+                             code),
+                 &seen);
           continue;
         }
         if (measureExposure && reading.exposure > 0.0) linear /= reading.exposure;
+        if (files) {
+          blurCheck.add(reading.contrast);
+          judged.emplace_back(what, camera.lastPicture());
+        }
       }
       settleMs.push_back(std::chrono::duration<double, std::milli>(Clock::now() - shown).count());
       return linear;
@@ -249,9 +350,11 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
                             std::string* torn) {
     out->clear();
     SyncGeometry geometry;
+    std::string firstWhite;  // its file, for a picture folder's messages
     for (size_t f = 0; f < patterns.size(); ++f) {
       if (cancel && cancel->load()) throw CalibrationCancelled();
-      const std::string what = fmt::format("station {}, {} pattern {}", station, axis, f);
+      const std::string what = fmt::format("station {}, modules {}, {} pattern {}", station,
+                                           joined(group, ","), axis, f);
       // makePatternFrames' order: white, black, then the coded frames.
       const Kind kind = f == 0 ? Kind::kWhite : f == 1 ? Kind::kBlack : Kind::kCoded;
       const int code = sequence % SyncCodeLayout::kCodes;
@@ -262,10 +365,12 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
       }
       show(group, moduleFrame(pattern, format), what);
       out->push_back(take(what, kind, code, prediction, geometry, &geometry, earlierWhite));
+      if (f == 0) firstWhite = camera.lastPicture();
       if (progress) progress(done + static_cast<int>(out->size()), total);
     }
     if (!sync) return true;
-    const std::string what = fmt::format("station {}, {} white reference again", station, axis);
+    const std::string what = fmt::format("station {}, modules {}, {} white reference again",
+                                         station, joined(group, ","), axis);
     cv::Mat white = patterns[0].clone();
     drawSyncCode(&white, std::nullopt, layout);
     show(group, moduleFrame(white, format), what);
@@ -275,6 +380,12 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
       const cv::Mat again = take(what, Kind::kWhite, 0, prediction, geometry, &unused, nullptr);
       const std::optional<std::string> differs = whitesDiffer(out->front(), again);
       if (!differs) break;
+      if (files) {
+        throw std::runtime_error(fmt::format(
+            "{}: picture {} refused: it is not of the same screen as the first white reference "
+            "{} ({}): the camera moved, or a module changed while one of them was taken",
+            what, camera.lastPicture(), firstWhite, *differs));
+      }
       if (!previous.empty() && !whitesDiffer(previous, again)) {
         *torn = *differs;
         return false;
@@ -291,7 +402,8 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
     // never as a stripe of the group after.
     const int code = sequence % SyncCodeLayout::kCodes;
     drawSyncCode(&white, code, layout);
-    const std::string closing = fmt::format("station {}, {} patterns done", station, axis);
+    const std::string closing =
+        fmt::format("station {}, modules {}, {} patterns done", station, joined(group, ","), axis);
     show(group, moduleFrame(white, format), closing);
     take(closing, Kind::kCoded, code, prediction, geometry, nullptr, nullptr);
     return true;
@@ -332,6 +444,12 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
       captures.stations.push_back(std::move(set));
     }
   }
+  // The first pictures had too few before them to be judged: now against the whole session.
+  if (const auto blurred = blurCheck.firstBlurred()) {
+    const auto& [what, file] = judged[blurred->first];
+    throw std::runtime_error(
+        fmt::format("{}: picture {} refused: {}", what, file, blurred->second));
+  }
   if (stats) {
     stats->pictures = static_cast<int>(settleMs.size());
     stats->retaken = retaken;
@@ -346,5 +464,7 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
   }
   return captures;
 }
+
+}  // namespace
 
 }  // namespace parallax::hw

@@ -7,7 +7,9 @@
 // through its response. With a camera whose exposure is not locked, each coded picture is
 // scaled by its exposure relative to the white reference, measured from the code's lit cells. At
 // the end — completed, cancelled or failed — the modules go back to playback mode and the camera is
-// unlocked.
+// unlocked. Pictures that are files (a folder: camera) cannot be retaken: one the sync code
+// refuses, or that is blurred or over-exposed (picture_quality.h), ends the session naming the
+// file; their exposure is measured when allowUnlockedCamera says it was automatic.
 //
 // Never half a session passed off as complete: a frame that cannot be delivered, a picture the
 // camera does not give or a wrong picture size throws std::runtime_error naming the module,
@@ -64,6 +66,15 @@ class CalibrationCancelled : public std::runtime_error {
 
 CalibrationCaptures captureCalibration(
     LinkClient& link, Camera& camera, const DisplayModel& nominal, const CameraMetadata& metadata,
+    const CalibrationCaptureOptions& options,
+    const std::function<void(int done, int total)>& progress = {},
+    const std::atomic<bool>* cancel = nullptr, CaptureSyncStats* stats = nullptr);
+
+// The same session with no display (offline): nothing is shown, the camera's pictures are files
+// already taken (Camera::picturesAreFiles, a folder: camera), each checked as above.
+// std::runtime_error for any other camera.
+CalibrationCaptures captureCalibrationOffline(
+    Camera& camera, const DisplayModel& nominal, const CameraMetadata& metadata,
     const CalibrationCaptureOptions& options,
     const std::function<void(int done, int total)>& progress = {},
     const std::atomic<bool>* cancel = nullptr, CaptureSyncStats* stats = nullptr);

@@ -223,7 +223,20 @@ CameraLockResult OpenCvCamera::lock(const CameraSettings& settings) {
   pin(cv::CAP_PROP_EXPOSURE, settings.exposureUs / 100.0, "exposure");
   pin(cv::CAP_PROP_GAIN, settings.gain, "gain");
   pin(cv::CAP_PROP_AUTO_WB, 0.0, "auto white balance off");
+  // White balance and focus have no value of ours: each is held where the camera has it once
+  // its automatic control is off (the operator focuses first), then read back like the rest.
+  // A backend without the property reads back 0 or -1 and refuses the set.
+  const auto hold = [&](int property, const char* name) {
+    const double now = c.get(property);
+    if (c.set(property, now) && std::abs(c.get(property) - now) <= 1e-3 * std::max(1.0, now) &&
+        now >= 0.0) {
+      return;
+    }
+    result.unlocked.push_back(fmt::format("{} (the backend refuses the property)", name));
+  };
+  hold(cv::CAP_PROP_WB_TEMPERATURE, "white balance temperature");
   pin(cv::CAP_PROP_AUTOFOCUS, 0.0, "autofocus off");
+  hold(cv::CAP_PROP_FOCUS, "focus");
   result.ok = result.unlocked.empty();
   settings_ = settings;
   locked_ = result.ok;

@@ -7,20 +7,23 @@
 //                   such as 0), a GStreamer pipeline ending in appsink (SPEC has a '!'), a
 //                   stream URL (rtsp://, http://), or a tethered DSLR through gPhoto2
 //                   (gphoto2 or gphoto2:INDEX)
+//   folder:DIR      pictures taken by hand into DIR, named by the tool (folder_camera.h); live
+//                   while a display shows the patterns, offline from a folder already filled
 // A name that is none of these is refused in one line naming the field.
 
 #include <memory>
 #include <string>
 
 #include "hw/camera/camera.h"
+#include "hw/camera/folder_camera.h"
 
 namespace parallax::hw {
 
-enum class CameraKind { kLink, kOpenCv };
+enum class CameraKind { kLink, kOpenCv, kFolder };
 
 struct CameraName {
   CameraKind kind = CameraKind::kLink;
-  std::string argument;  // opencv: the SPEC
+  std::string argument;  // opencv: the SPEC; folder: DIR
   std::string text;      // as given, for messages
 };
 
@@ -30,9 +33,13 @@ CameraName parseCameraName(const std::string& text, const std::string& field);
 // True for the names parseCameraName accepts.
 bool isCameraName(const std::string& text);
 
-// Opens the camera; `link` is the camera behind it for `link`. Throws std::runtime_error with
-// one line naming the camera when it does not open (no such device, a pipeline that does not
-// parse, a URL that does not answer).
-std::unique_ptr<Camera> openCamera(const CameraName& name, LinkClient& link);
+// Opens the camera; `link` is the camera behind it for `link`, and shows the patterns: a
+// folder: camera waits for its pictures when there is a link, and reads them offline (every
+// one already taken) without (`folder` gives the rest of its options). Throws
+// std::runtime_error with one line naming the camera when it does not open (no such device, a
+// pipeline that does not parse, a URL that does not answer, a camera that needs the link and
+// has none), InputError for a folder that does not exist or a manifest that does not read.
+std::unique_ptr<Camera> openCamera(const CameraName& name, LinkClient* link,
+                                   FolderCameraOptions folder = {});
 
 }  // namespace parallax::hw

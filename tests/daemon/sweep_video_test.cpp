@@ -1,13 +1,15 @@
 // `parallax view --sweep X0:X1 --out sweep.mp4`: the video a viewer walking the observer line
 // sees decodes (OpenCV's FFmpeg reader) to the frames and size asked for, and its first and last
-// frames differ (the viewer moved); bad ranges and extensions are refused naming the option
-// (exit 1, as every InputError), contradictory options are usage errors (exit 2).
+// frames differ (the viewer moved); `render --time A:B` sequences play along the sweep; bad ranges
+// and extensions are refused naming the option (exit 1, as every InputError), contradictory options
+// are usage errors (exit 2).
 
 #include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <filesystem>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/videoio.hpp>
 #include <string>
 
@@ -90,6 +92,57 @@ TEST_F(SweepVideo, BadSweepsAreRefusedNamingTheOption) {
     EXPECT_NE(text.find(named), std::string::npos) << options << "\n" << text;
   }
   EXPECT_FALSE(fs::exists(folder_ / "s.mp4"));
+}
+
+// `render --time A:B --fps F` writes the sequence (frame_NNNN/ folders, both ends included); the
+// sweep then plays it, one frame a view, the scene moving as the viewer walks.
+TEST_F(SweepVideo, ASequenceFromRenderPlaysAlongTheSweep) {
+  const fs::path sequence = folder_ / "orbit";
+  auto [code, out] = testing::runShellCommand(
+      std::string(PARALLAX_PATH) + " render --quiet --display " + display_ +
+      " --scene orbit --time 0:0.5 --fps 8 --out " + sequence.string());
+  ASSERT_EQ(code, 0) << out;
+  EXPECT_NE(out.find("5 frames of 3 module(s) from t = 0 s at 8 fps, each written to"),
+            std::string::npos)
+      << out;
+  for (int f = 0; f < 5; ++f) {
+    const fs::path frame = sequence / ("frame_000" + std::to_string(f));
+    EXPECT_TRUE(fs::exists(frame / "module_000.png")) << frame;
+    EXPECT_TRUE(fs::exists(frame / "module_002.png")) << frame;
+  }
+  EXPECT_FALSE(fs::exists(sequence / "frame_0005"));
+  // The orbit moved: frame 0 and frame 4 of a module differ.
+  const cv::Mat first = cv::imread((sequence / "frame_0000" / "module_001.png").string());
+  const cv::Mat last = cv::imread((sequence / "frame_0004" / "module_001.png").string());
+  ASSERT_FALSE(first.empty());
+  EXPECT_GT(cv::norm(first, last, cv::NORM_L1), 0.0);
+
+  const std::string video = (folder_ / "orbit.mp4").string();
+  std::tie(code, out) = testing::runShellCommand(
+      std::string(PARALLAX_PATH) + " view --quiet --display " + display_ + " --frames " +
+      sequence.string() + " --sweep -0.3:0.3 --size 96x54 --out " + video);
+  ASSERT_EQ(code, 0) << out;
+  cv::VideoCapture decoded(video, cv::CAP_FFMPEG);
+  int frames = 0;
+  cv::Mat frame;
+  while (decoded.read(frame)) ++frames;
+  EXPECT_EQ(frames, 5) << "one view a frame of the sequence";
+  // A sequence where one view is asked for, or of another length than --sweep-frames: refused.
+  std::tie(code, out) =
+      testing::runShellCommand(std::string(PARALLAX_PATH) + " view --display " + display_ +
+                               " --frames " + sequence.string() + " --x 0");
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_NE(out.find("frame_NNNN"), std::string::npos) << out;
+  std::tie(code, out) = testing::runShellCommand(std::string(PARALLAX_PATH) + " view --display " +
+                                                 display_ + " --frames " + sequence.string() +
+                                                 " --sweep 0:1 --sweep-frames 9 --out " + video);
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_NE(out.find("--sweep-frames"), std::string::npos) << out;
+  std::tie(code, out) =
+      testing::runShellCommand(std::string(PARALLAX_PATH) + " render --display " + display_ +
+                               " --scene orbit --time 0:1 --frames 4 --out " + sequence.string());
+  EXPECT_EQ(code, 1) << out;
+  EXPECT_NE(out.find("--frames"), std::string::npos) << out;
 }
 
 }  // namespace

@@ -83,6 +83,12 @@ TEST(OpenCvCamera, ImageSequenceDeliversRgbAndReportsUnlockableControls) {
   EXPECT_FALSE(lock.ok);  // a file has no exposure control: said, not hidden
   EXPECT_FALSE(lock.unlocked.empty());
   EXPECT_NE(lock.describe().find("exposure"), std::string::npos) << lock.describe();
+  // Focus and white balance are locked too, and read back: held where the camera has them.
+  EXPECT_NE(lock.describe().find("autofocus off"), std::string::npos) << lock.describe();
+  EXPECT_NE(lock.describe().find("focus (the backend refuses the property)"), std::string::npos)
+      << lock.describe();
+  EXPECT_NE(lock.describe().find("white balance temperature"), std::string::npos)
+      << lock.describe();
   EXPECT_FALSE(camera.locked());
   const Image image = camera.capture(&error);
   ASSERT_FALSE(image.empty()) << error;

@@ -7,9 +7,11 @@
 // and fiducial sightings. The true camera poses and the true display are never in here.
 
 #include <Eigen/Core>
+#include <optional>
 #include <vector>
 
 #include "calibration/camera/calibration_camera.h"
+#include "calibration/camera/camera_response_check.h"
 
 namespace parallax {
 
@@ -43,6 +45,7 @@ struct CalibrationObservations {
   std::vector<Correspondence> correspondences;
   std::vector<StripeCentre> stripes;
   std::vector<FiducialSighting> fiducialSightings;
+  std::optional<CameraResponseCheck> cameraResponse;  // decoded from pictures only
 };
 
 }  // namespace parallax

@@ -9,6 +9,7 @@
 
 #include "calibration/camera/observations_json.h"
 #include "calibration/capture/camera_picture.h"
+#include "calibration/capture/camera_response.h"
 #include "calibration/capture/fiducial_detector.h"
 #include "calibration/display/json_fields.h"
 #include "calibration/display/json_file.h"
@@ -132,9 +133,19 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
   captures.validate(nominal);
   CaptureDecoderOptions decoder = options;
   decoder.patterns = captures.patterns;
+  // The response measured, never taken on trust (camera_response.h): when camera.json's is off,
+  // each set's pictures are re-linearized before anything is decoded from them.
+  const CameraResponseCheck response = checkCameraResponse(captures);
+  const double exponent = response.usedGamma() / response.assumedGamma;
+  const auto relinearized = [&](const std::vector<cv::Mat>& frames) {
+    std::vector<cv::Mat> out(frames.size());
+    for (size_t f = 0; f < frames.size(); ++f) cv::pow(frames[f], exponent, out[f]);
+    return out;
+  };
   // The pictures were 8-bit: the top code (255) is where the sensor clipped.
-  decoder.saturatedLinear = std::pow(254.5 / 255.0, captures.camera.responseGamma);
+  decoder.saturatedLinear = std::pow(254.5 / 255.0, response.usedGamma());
   CalibrationObservations obs = observationsFrame(captures.camera);
+  obs.cameraResponse = response;
   // Fiducials first (from each station's first black reference picture): the pose they give
   // is what the decoder predicts the stripes from.
   std::vector<std::optional<CameraPose>> poses(captures.camera.stations.size());
@@ -142,15 +153,21 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
   for (const StationCaptures& s : captures.stations) {
     if (fiducialsDone[static_cast<size_t>(s.station)]) continue;
     fiducialsDone[static_cast<size_t>(s.station)] = true;
-    detectFiducials(s.columnFrames[1], nominal.screen, s.station, FiducialDetectorOptions{}, &obs);
+    detectFiducials(response.corrected ? relinearized({s.columnFrames[1]})[0] : s.columnFrames[1],
+                    nominal.screen, s.station, FiducialDetectorOptions{}, &obs);
     poses[static_cast<size_t>(s.station)] = poseFromFiducials(obs, nominal.screen, s.station);
   }
   const int sets = static_cast<int>(captures.stations.size());
   for (int i = 0; i < sets; ++i) {
     const StationCaptures& s = captures.stations[static_cast<size_t>(i)];
     const auto& pose = poses[static_cast<size_t>(s.station)];
-    decodeStation(s.columnFrames, s.rowFrames, s.group, nominal, s.station, decoder, &obs,
-                  pose ? &*pose : nullptr);
+    if (response.corrected) {
+      decodeStation(relinearized(s.columnFrames), relinearized(s.rowFrames), s.group, nominal,
+                    s.station, decoder, &obs, pose ? &*pose : nullptr);
+    } else {
+      decodeStation(s.columnFrames, s.rowFrames, s.group, nominal, s.station, decoder, &obs,
+                    pose ? &*pose : nullptr);
+    }
     if (options.onPictureSet) options.onPictureSet(i + 1, sets);
   }
   return obs;

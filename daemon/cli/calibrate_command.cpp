@@ -308,6 +308,8 @@ void runCalibrate(CalibrateArgs args) {
   std::cout << fmt::format("{} correspondences, {} stripe centres, {} fiducial sightings\n",
                            observations.correspondences.size(), observations.stripes.size(),
                            observations.fiducialSightings.size());
+  if (observations.cameraResponse)
+    std::cout << describeCameraResponse(*observations.cameraResponse) << "\n";
   daemon::CalibrationSettings settings = args.settings;
   if (!args.transfer.empty()) {
     ScreenTransfer transfer;

@@ -70,10 +70,16 @@ Image FolderCamera::capture(std::string* error) {
   const ManifestPicture* entry = manifest_.find(showing_);
   if (entry == nullptr) {
     if (!options_.waitForPictures) {
-      *error = fmt::format(
-          "{}: no picture of \"{}\" in {} ({} pictures listed): the pictures were taken for "
-          "other stations or stopped before this one",
-          name(), showing_, manifestPath(), manifest_.pictures.size());
+      std::error_code ec;
+      *error = fs::exists(manifestPath(), ec)
+                   ? fmt::format(
+                         "{}: no picture of \"{}\" in {} ({} pictures listed): the "
+                         "pictures were taken for other stations or stopped before this one",
+                         name(), showing_, manifestPath(), manifest_.pictures.size())
+                   : fmt::format(
+                         "{}: no picture of \"{}\": the folder has no {} (its pictures "
+                         "are taken live first, with --link)",
+                         name(), showing_, kPictureManifestName);
       return {};
     }
     const int index = static_cast<int>(manifest_.pictures.size());

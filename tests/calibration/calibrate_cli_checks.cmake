@@ -43,3 +43,22 @@ endif()
 expect_refused("--max-error-px 0" "--max-error-px: must be > 0"
                calibrate --captures ${OUT}/session --nominal ${OUT}/session/nominal.json
                --max-error-px 0 --out ${OUT}/calib.json)
+
+# folder:DIR offline (no --link): the camera's metadata is needed, the folder must exist, and a
+# folder without the pictures names the first one missing (issue 19).
+expect_refused("folder: without metadata" "--camera folder:DIR needs the camera's metadata"
+               calibrate --camera folder:${OUT}/pictures --nominal ${OUT}/session/nominal.json
+               --out ${OUT}/calib.json)
+expect_refused("folder: that does not exist" "the pictures' folder does not exist"
+               calibrate --camera folder:${OUT}/pictures --camera-metadata ${OUT}/session/camera.json
+               --nominal ${OUT}/session/nominal.json --out ${OUT}/calib.json)
+file(MAKE_DIRECTORY ${OUT}/pictures)
+expect_refused("folder: without its pictures" "no picture of \"station 0, modules 0,3,6,9,12,15, column pattern 0\""
+               calibrate --camera folder:${OUT}/pictures --camera-metadata ${OUT}/session/camera.json
+               --nominal ${OUT}/session/nominal.json --out ${OUT}/calib.json)
+expect_refused("folder: and --photometric" "--photometric: needs --link"
+               calibrate --camera folder:${OUT}/pictures --camera-metadata ${OUT}/session/camera.json
+               --nominal ${OUT}/session/nominal.json --out ${OUT}/calib.json --photometric)
+if(EXISTS ${OUT}/calib.json)
+  message(FATAL_ERROR "a refused calibration installed ${OUT}/calib.json")
+endif()

@@ -1,0 +1,40 @@
+#pragma once
+// What the decoder found of the calibration camera's response (measured from the phase
+// pictures: calibration/capture/camera_response.h) against what camera.json said.
+
+#include <fmt/format.h>
+
+#include <string>
+
+namespace parallax {
+
+struct CameraResponseCheck {
+  double assumedGamma = 1.0;  // camera.json's response_gamma (1 when it gives none)
+  bool measured = false;      // false: too few usable pixels, or fewer than 4 phase steps
+  double measuredGamma = 1.0;
+  double sigma = 0.0;  // of measuredGamma
+  int pixels = 0;      // phase pixels the measurement used
+  // The pictures were re-linearized with the measured γ: it differs from the assumed one by more
+  // than the tolerance (3σ, and at least 2%).
+  bool corrected = false;
+
+  // The γ every decoded quantity used.
+  double usedGamma() const { return corrected ? measuredGamma : assumedGamma; }
+};
+
+// "camera response: γ 2.200 ± 0.004 measured from 18000 phase pixels; camera.json says 1.00:
+// the pictures were re-linearized with the measured γ" (one line, no newline).
+inline std::string describeCameraResponse(const CameraResponseCheck& check) {
+  if (!check.measured)
+    return fmt::format(
+        "camera response: not measured ({} usable phase pixels; 4 or more phase steps needed); "
+        "γ {:.2f} from camera.json taken on trust",
+        check.pixels, check.assumedGamma);
+  return fmt::format(
+      "camera response: γ {:.3f} ± {:.4f} measured from {} phase pixels; camera.json says {:.2f}{}",
+      check.measuredGamma, check.sigma, check.pixels, check.assumedGamma,
+      check.corrected ? ": the pictures were re-linearized with the measured γ"
+                      : ": consistent, used as it is");
+}
+
+}  // namespace parallax

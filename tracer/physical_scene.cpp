@@ -87,7 +87,7 @@ bool normalsAreFlat(const PhysicalMesh& mesh) {
 }  // namespace
 
 PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox,
-                             const std::vector<bool>* dynamicInstances) {
+                             const std::vector<bool>* dynamicInstances, PhysicalScene* previous) {
   const auto start = std::chrono::steady_clock::now();
   scene.validate();
   physicalFromWorld_ = parallax::physicalFromWorld(scene.effectiveWorldBox(), displayableBox);
@@ -195,7 +195,7 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox,
     warnings_.push_back(
         "no triangle lies inside the displayable box: the frame shows only the background");
   }
-  loadTextures(scene);
+  loadTextures(scene, previous);
   counters_.buildMs =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
@@ -330,13 +330,49 @@ void PhysicalScene::addInstance(const Scene& scene, const Instance& instance, co
   meshes_.push_back(std::move(mesh));
 }
 
-void PhysicalScene::loadTextures(const Scene& scene) {
+namespace {
+
+bool sameTexture(const Texture& a, const Texture& b) {
+  return a.path == b.path && a.width == b.width && a.height == b.height && a.pixels == b.pixels &&
+         a.fallback == b.fallback && a.srgb == b.srgb;
+}
+
+}  // namespace
+
+void PhysicalScene::loadTextures(const Scene& scene, PhysicalScene* previous) {
   textures_.resize(scene.textures.size());
+  textureSources_.resize(scene.textures.size());
   for (size_t i = 0; i < scene.textures.size(); ++i) {
     const Texture& t = scene.textures[i];
+    TextureSource& source = textureSources_[i];
+    source.texture = t;
     if (!features_.textureNeeded[i]) {
       ++counters_.texturesSkipped;
       continue;
+    }
+    source.used = true;
+    if (!t.path.empty()) {
+      std::error_code ec;
+      source.modified = std::filesystem::last_write_time(t.path, ec);
+      source.size = ec ? 0 : std::filesystem::file_size(t.path, ec);
+    }
+    if (previous && i < previous->textureSources_.size()) {
+      // The same texture, from a file that has not changed since: take it over.
+      const TextureSource& before = previous->textureSources_[i];
+      if (before.used && sameTexture(before.texture, t) && before.modified == source.modified &&
+          before.size == source.size && i < previous->textures_.size()) {
+        textures_[i] = std::move(previous->textures_[i]);
+        previous->textureSources_[i].used = false;  // moved out: not there to take twice
+        source.failure = before.failure;
+        ++counters_.texturesReused;
+        if (source.failure.empty()) {
+          ++counters_.texturesLoaded;
+        } else {
+          ++counters_.texturesFailed;  // warned when it was first read, not every frame
+          warnings_.push_back(source.failure);
+        }
+        continue;
+      }
     }
     if (t.path.empty()) {
       textures_[i] = TextureImage(t.width, t.height, t.pixels);
@@ -353,6 +389,7 @@ void PhysicalScene::loadTextures(const Scene& scene) {
                       t.fallback.x(), t.fallback.y(), t.fallback.z());
       spdlog::warn("{}", message);
       warnings_.push_back(message);
+      source.failure = message;
       textures_[i] = TextureImage::constant(t.fallback);
     }
   }

@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cstdint>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,7 @@ struct SceneBuildCounters {
   int texturesLoaded = 0;
   int texturesFailed = 0;   // unreadable: warned, replaced by their fallback colour
   int texturesSkipped = 0;  // nothing samples them: never read
+  int texturesReused = 0;   // taken over from the previous frame's scene (of those loaded)
   double buildMs = 0.0;
 };
 
@@ -60,8 +62,12 @@ class PhysicalScene {
   // Validates the scene (InputError), maps it into `displayableBox` and builds the BVH.
   // `dynamicInstances` (one flag per Scene instance, for the frame cache): also builds a BVH of
   // the flagged instances alone (dynamicHandle), and buildStaticScene() one of the others.
+  // `previous` (an animated scene's previous frame): its textures are taken over (moved out of
+  // it) where this scene names the same texture and its file has not changed since, instead of
+  // being read and filtered again every frame.
   PhysicalScene(const Scene& scene, const Box3& displayableBox,
-                const std::vector<bool>* dynamicInstances = nullptr);
+                const std::vector<bool>* dynamicInstances = nullptr,
+                PhysicalScene* previous = nullptr);
   ~PhysicalScene();
   PhysicalScene(const PhysicalScene&) = delete;
   PhysicalScene& operator=(const PhysicalScene&) = delete;
@@ -104,7 +110,16 @@ class PhysicalScene {
 
  private:
   void addInstance(const Scene& scene, const Instance& instance, const Box3& clipBox);
-  void loadTextures(const Scene& scene);
+  void loadTextures(const Scene& scene, PhysicalScene* previous);
+  // What a texture was made from, to know the same one again in the next frame's scene.
+  struct TextureSource {
+    Texture texture;
+    bool used = false;    // read (or its fallback taken); false: left out
+    std::string failure;  // the warning when the file could not be read (the fallback is used)
+    std::filesystem::file_time_type modified{};
+    std::uintmax_t size = 0;
+  };
+  std::vector<TextureSource> textureSources_;
 
   RTCScene scene_ = nullptr;
   RTCScene dynamicScene_ = nullptr;

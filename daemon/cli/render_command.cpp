@@ -90,6 +90,7 @@ void runAnimation(const RenderArgs& args, const Animation& animation, const Disp
   std::filesystem::create_directories(args.out, ec);
   if (ec) throw InputError({args.out, "", 0}, "cannot create the output folder: " + ec.message());
   FrameCache cache;
+  std::unique_ptr<PhysicalScene> last;
   std::vector<Frame> frames(textures.size());
   RenderCounters total;
   ProgressBar progress("frames", animation.frames);
@@ -107,8 +108,10 @@ void runAnimation(const RenderArgs& args, const Animation& animation, const Disp
     const auto frameStart = std::chrono::steady_clock::now();
     script->setTime(animation.start + f / args.fps);
     const Scene& scene = script->scene();
-    PhysicalScene physical(scene, model.displayableBox,
-                           args.noFrameCache ? nullptr : &cache.dynamicInstances(scene));
+    auto built = std::make_unique<PhysicalScene>(
+        scene, model.displayableBox, args.noFrameCache ? nullptr : &cache.dynamicInstances(scene),
+        last.get());
+    PhysicalScene& physical = *built;
     const bool cached = !args.noFrameCache && cache.prepare(physical, textures, 1, options);
     RenderCounters counters;
     for (size_t m = 0; m < textures.size(); ++m) {
@@ -122,6 +125,7 @@ void runAnimation(const RenderArgs& args, const Animation& animation, const Disp
     }
     if (cached) cache.count(counters);
     total += counters;
+    last = std::move(built);  // its textures serve the next frame
     renderMs +=
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - frameStart)
             .count();

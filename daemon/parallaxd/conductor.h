@@ -243,6 +243,8 @@ class Conductor {
   RenderCounters lastCounters_;
   // Animated scenes: the static geometry's primary hits and shadows, kept between frames.
   FrameCache frameCache_;
+  // An animated scene's previous frame: the next one takes its textures over.
+  std::unique_ptr<PhysicalScene> lastScene_;
 
   std::mutex jobsMutex_;
   std::condition_variable jobsChanged_;

@@ -64,8 +64,11 @@ void Conductor::renderAndPush() {
     const Scene& scene = script_->scene();
     const bool useCache = options_.config.scene.frameCache && script_->script().animated();
     if (!useCache) frameCache_.clear();
-    PhysicalScene physical(scene, calibration_.displayableBox,
-                           useCache ? &frameCache_.dynamicInstances(scene) : nullptr);
+    // The previous frame's scene hands its textures over (not read and filtered again).
+    auto built = std::make_unique<PhysicalScene>(
+        scene, calibration_.displayableBox,
+        useCache ? &frameCache_.dynamicInstances(scene) : nullptr, lastScene_.get());
+    PhysicalScene& physical = *built;
     const auto prepareStart = Clock::now();
     const bool cached =
         useCache && frameCache_.prepare(physical, textures_, texturesVersion_, options_.render);
@@ -74,6 +77,11 @@ void Conductor::renderAndPush() {
     DisplayFrame frame = renderDisplayFrame(physical, textures_, options_.render, encoders_,
                                             cached ? &frameCache_ : nullptr);
     if (cached) frameCache_.count(frame.counters);
+    if (script_->script().animated()) {
+      lastScene_ = std::move(built);
+    } else {
+      lastScene_.reset();
+    }
     // A build of the cache is part of the frame that needed it.
     frame.renderMs += prepareMs;
     stats_.render.add(frame.renderMs);

@@ -35,6 +35,7 @@ SceneFigures measure(const std::string& name, const DisplayModel& display,
       SceneScript::loadFile(librarySceneScript(name), scriptOptions);
   const RenderOptions options;
   FrameCache cache;
+  std::unique_ptr<PhysicalScene> last;  // hands its textures to the next frame's scene
   Frame frame;
   double time = 0.0;
   // One display frame: the scene at the next time step, every module rendered.
@@ -42,8 +43,10 @@ SceneFigures measure(const std::string& name, const DisplayModel& display,
     time += kFrameStep;
     script->setTime(time);
     const Scene& scene = script->scene();
-    PhysicalScene physical(scene, display.displayableBox,
-                           cached ? &cache.dynamicInstances(scene) : nullptr);
+    auto built = std::make_unique<PhysicalScene>(scene, display.displayableBox,
+                                                 cached ? &cache.dynamicInstances(scene) : nullptr,
+                                                 last.get());
+    PhysicalScene& physical = *built;
     const bool use = cached && cache.prepare(physical, textures, 1, options);
     for (size_t m = 0; m < textures.size(); ++m) {
       if (use) {
@@ -52,6 +55,7 @@ SceneFigures measure(const std::string& name, const DisplayModel& display,
         renderFrameInto(physical, textures[m], options, &frame);
       }
     }
+    last = std::move(built);
   };
   SceneFigures f;
   // The first cached frame builds the records: timed on its own, before the runs.

@@ -17,6 +17,7 @@ void CaptureDecoderOptions::validate() const {
   }
   if (pixelStep < 1 || pixelStep > 64) throw InputError({"", "pixel_step", 0}, "must be 1..64");
   if (minStripePixels < 1) throw InputError({"", "min_stripe_pixels", 0}, "must be >= 1");
+  if (!(lobeWidthTolerance > 1.0)) throw InputError({"", "lobe_width_tolerance", 0}, "must be > 1");
   if (!(saturatedLinear > 0.0 && saturatedLinear <= 1.0))
     throw InputError({"", "saturated_linear", 0}, "must be in (0, 1]");
 }
@@ -38,6 +39,11 @@ void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<c
   if (decoderPose) pose = *decoderPose;
   const auto camera = packCamera(pose);
 
+  struct Candidate {
+    StripeCentre centre;
+    double width;  // the fitted lobe's σ (rad)
+  };
+  std::vector<Candidate> candidates;
   for (int y = 0; y < height; ++y) {
     // Correspondences and stripe centres on every n-th row: neighbouring rows' stripe centres
     // are nearly the same measurement, and each costs the solver a residual.
@@ -88,11 +94,27 @@ void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<c
     }
     std::vector<int> pixels(group.size(), 0);
     for (const StripeRowSample& p : lit) ++pixels[static_cast<size_t>(p.owner)];
-    const auto peaks = stripePeaksInRow(lit, static_cast<int>(group.size()));
+    std::vector<double> widths;
+    const auto peaks = stripePeaksInRow(lit, static_cast<int>(group.size()), {}, &widths);
     for (size_t g = 0; g < group.size(); ++g) {
       if (pixels[g] >= options.minStripePixels && peaks[g])
-        obs->stripes.push_back({station, group[g], {*peaks[g], y + 0.5}});
+        candidates.push_back({{station, group[g], {*peaks[g], y + 0.5}}, widths[g]});
     }
+  }
+  // Every lobe is the screen's diffusion seen through the same transfer: in angle, one width.
+  // A lobe far narrower or wider than the set's median is a fragment (a tail whose peak the
+  // module's image edge or the sync band cut away, peaking 10–100 mm from the truth) or two
+  // lobes taken as one.
+  std::vector<double> all;
+  for (const auto& c : candidates)
+    if (std::isfinite(c.width)) all.push_back(c.width);
+  if (all.empty()) return;
+  std::nth_element(all.begin(), all.begin() + static_cast<long>(all.size() / 2), all.end());
+  const double median = all[all.size() / 2];
+  for (const auto& c : candidates) {
+    if (c.width >= median / options.lobeWidthTolerance &&
+        c.width <= median * options.lobeWidthTolerance)
+      obs->stripes.push_back(c.centre);
   }
 }
 

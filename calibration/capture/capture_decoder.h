@@ -29,6 +29,9 @@ struct CaptureDecoderOptions {
   int pixelStep = 2;                  // decode every n-th camera pixel in x and y (and
                                       // find stripe centres on every n-th row)
   int minStripePixels = 3;            // per row, for a stripe centre
+  // A stripe centre is kept when its lobe's fitted width is within this factor of the picture
+  // set's median lobe width.
+  double lobeWidthTolerance = 1.5;
   // Linear picture values at or above this were clipped by the sensor (decodeCaptures sets it
   // from the camera's response: the top 8-bit code). A clipped pixel says only "at least this
   // bright": it is left out of the stripe-peak fits (a flattened lobe top pulls the peak toward

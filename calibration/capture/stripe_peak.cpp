@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 
 namespace parallax {
 namespace {
@@ -102,8 +103,8 @@ bool bordersNeighbour(const std::vector<StripeRowSample>& row, size_t i, int sid
 }  // namespace
 
 std::vector<std::optional<double>> stripePeaksInRow(const std::vector<StripeRowSample>& row,
-                                                    int groupSize,
-                                                    const StripePeakOptions& options) {
+                                                    int groupSize, const StripePeakOptions& options,
+                                                    std::vector<double>* widths) {
   const auto modules = static_cast<size_t>(std::max(groupSize, 0));
   std::vector<std::optional<Lobe>> lobes(modules);
   std::vector<std::vector<size_t>> owned(modules);
@@ -138,6 +139,11 @@ std::vector<std::optional<double>> stripePeaksInRow(const std::vector<StripeRowS
       lobes[m] = fitLobe(angle, contrast, clipped, frontIsValley, backIsValley, options);
       if (round == options.rounds && lobes[m]) peaks[m] = cameraXAtAngle(x, angle, lobes[m]->mean);
     }
+  }
+  if (widths) {
+    widths->assign(modules, std::numeric_limits<double>::quiet_NaN());
+    for (size_t m = 0; m < modules; ++m)
+      if (peaks[m] && lobes[m]) (*widths)[m] = lobes[m]->width;
   }
   return peaks;
 }

@@ -44,8 +44,12 @@ struct StripePeakOptions {
 
 // Per group module: the camera x of its lobe's peak in this row, or nothing when its stripe was
 // cut, is too short, or does not peak inside its own pixels (no finite answer is made up).
+// `widths`, when given, receives each found lobe's fitted width (its Gaussian σ, rad; NaN where
+// there is no peak): every lobe is the screen's own, so one far from the others' width is a
+// fragment (capture_decoder.cpp compares them over a picture set).
 std::vector<std::optional<double>> stripePeaksInRow(const std::vector<StripeRowSample>& row,
                                                     int groupSize,
-                                                    const StripePeakOptions& options = {});
+                                                    const StripePeakOptions& options = {},
+                                                    std::vector<double>* widths = nullptr);
 
 }  // namespace parallax

@@ -58,6 +58,20 @@ double centroid(const std::vector<StripeRowSample>& row, int module) {
   return swx / sw;
 }
 
+// The decoder keeps a stripe centre only when its lobe is as wide as the set's others
+// (capture_decoder.cpp): the width given back is the lobe's own σ, neighbours taken out.
+TEST(StripePeak, GivesEachLobesOwnWidth) {
+  SyntheticRow truth;
+  truth.peakX = {200.0, 330.0, 460.0};
+  std::vector<double> widths;
+  const auto peaks = stripePeaksInRow(truth.samples(), 3, {}, &widths);
+  ASSERT_EQ(widths.size(), 3u);
+  for (int m = 0; m < 3; ++m) {
+    ASSERT_TRUE(peaks[static_cast<size_t>(m)].has_value());
+    EXPECT_NEAR(widths[static_cast<size_t>(m)], truth.sigma, 0.05 * truth.sigma);
+  }
+}
+
 TEST(StripePeak, AnIsolatedLobeSeenObliquelyPeaksWhereItsAngleIsZeroNotAtItsCentroid) {
   SyntheticRow truth;
   truth.peakX = {300.25};

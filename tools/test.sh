@@ -36,9 +36,9 @@ if [ "$fuzz_seconds" -gt 0 ]; then
     -DPARALLAX_FUZZ_SECONDS="$fuzz_seconds" >/dev/null
   cmake --build "$fuzz_dir" --target fuzz_targets --parallel "$(nproc)"
   fuzz_log=$fuzz_dir/ctest.log
-  # One at a time: each fuzzer uses a core of its own for its whole time.
+  # One per core: each fuzzer is single-threaded and runs for its whole time.
   status=0
-  ctest --test-dir "$fuzz_dir" -L fuzz --output-on-failure -V >"$fuzz_log" 2>&1 || status=$?
+  ctest --test-dir "$fuzz_dir" -L fuzz --output-on-failure -V -j "$(nproc)" >"$fuzz_log" 2>&1 || status=$?
   grep -E "Test +#|stat::number_of_executed_runs|Done [0-9]|tests passed|FAILED" "$fuzz_log" || true
   if [ "$status" -ne 0 ]; then
     tail -n 80 "$fuzz_log"

@@ -273,6 +273,7 @@ std::string writeReport(const ReportOptions& options) {
   writeTransferSection(report);
   writeTracerOverheadSection(report);
   writeCalibrationSection(report);
+  writeCaptureSection(report);
   writePhotometrySection(report);
   writeFrameCacheSection(report);
   writeAbsentSections(report);

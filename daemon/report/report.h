@@ -79,6 +79,7 @@ void writePrecisionSection(Report& report);
 void writeTransferSection(Report& report);
 void writeTracerOverheadSection(Report& report);
 void writeCalibrationSection(Report& report);
+void writeCaptureSection(Report& report);
 void writePhotometrySection(Report& report);
 void writeFrameCacheSection(Report& report);
 void writeAbsentSections(Report& report);

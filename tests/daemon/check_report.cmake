@@ -19,7 +19,8 @@ endforeach()
 file(READ ${OUT}/report.md markdown)
 foreach(needle "## Fig. 6" "## Error against run time" "## Anti-aliasing" "## Ray-texture precision"
                "## Screen transfer" "## Tracer against raw Embree" "## Calibration"
-               "## Photometric calibration" "## Frame cache" "## Cluster" "machine: " " cores available"
+               "## Calibration: capture time against accuracy" "## Photometric calibration"
+               "## Frame cache" "## Cluster" "machine: " " cores available"
                "build: parallax " "command: `parallax report --quick" "date: " "Times: median of 3 runs after 1 warm-up")
   string(FIND "${markdown}" "${needle}" at)
   if(at EQUAL -1)
@@ -36,7 +37,8 @@ endif()
 # --- Tables.
 set(parts 0)
 foreach(table error_vs_time fig6_xyz_difference antialiasing ray_texture_precision transfer_linear_vs_conical
-              tracer_vs_embree calibration_iterations calibration_stations photometry_levels photometry_gain_map)
+              tracer_vs_embree calibration_iterations calibration_stations calibration_capture photometry_levels
+              photometry_gain_map)
   set(csv ${OUT}/${table}.csv)
   if(NOT EXISTS ${csv})
     message(FATAL_ERROR "missing table ${csv}")
@@ -110,10 +112,29 @@ foreach(row "xyz,raster linear,0," "xyz,raster perspective,0," "xyz,tracer,," "c
   endif()
 endforeach()
 
+# The picture path's table: a row per station count of --quick (3 and 5), the pictures growing
+# with the stations.
+file(STRINGS ${OUT}/calibration_capture.csv captureRows REGEX "^[0-9]+,[0-9]+,")
+list(LENGTH captureRows captureCount)
+if(NOT captureCount EQUAL 2)
+  message(FATAL_ERROR "calibration_capture.csv: ${captureCount} station rows, not 2 (3 and 5)")
+endif()
+list(GET captureRows 0 few)
+list(GET captureRows 1 many)
+if(NOT few MATCHES "^3,([0-9]+)," OR NOT many MATCHES "^5,([0-9]+),")
+  message(FATAL_ERROR "calibration_capture.csv: rows \"${few}\" and \"${many}\" are not 3 and 5 stations")
+endif()
+string(REGEX MATCH "^3,([0-9]+)," _ "${few}")
+set(fewPictures ${CMAKE_MATCH_1})
+string(REGEX MATCH "^5,([0-9]+)," _ "${many}")
+if(NOT CMAKE_MATCH_1 GREATER fewPictures)
+  message(FATAL_ERROR "calibration_capture.csv: 5 stations took no more pictures than 3")
+endif()
+
 # --- Plots: data points, a PNG twin of the same size, every text box on the canvas.
 set(plots error_vs_time_xyz error_vs_time_cornell antialiasing ray_texture_precision transfer_observer_line
           transfer_module_image tracer_vs_embree calibration_iterations calibration_stations
-          photometry_levels photometry_gain_map)
+          calibration_capture photometry_levels photometry_gain_map)
 foreach(plot ${plots})
   if(NOT EXISTS ${OUT}/${plot}.svg)
     message(FATAL_ERROR "missing plot ${plot}.svg")

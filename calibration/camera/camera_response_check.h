@@ -10,12 +10,18 @@ namespace parallax {
 
 struct CameraResponseCheck {
   double assumedGamma = 1.0;  // camera.json's response_gamma (1 when it gives none)
+  bool stated = false;        // camera.json gave it
   bool measured = false;      // false: too few usable pixels, or fewer than 4 phase steps
   double measuredGamma = 1.0;
   double sigma = 0.0;  // of measuredGamma
   int pixels = 0;      // phase pixels the measurement used
-  // The pictures were re-linearized with the measured γ: it differs from the assumed one by more
-  // than the tolerance (3σ, and at least 2%).
+  // The measured γ differs from the assumed one by more than the tolerance (3σ, and at least 2%).
+  bool disagrees = false;
+  // ... and camera.json gave none, so the pictures were re-linearized with the measured γ. A
+  // stated γ is kept (and the disagreement noted): the phase pictures show the whole chain from
+  // pattern code to recorded value, which is the camera's own response only when the modules
+  // are driven linearly; a display whose modules have a response curve of their own shows less
+  // (a γ 2.2 camera over γ 2.2 modules measures about 1), while the lobes need the camera's.
   bool corrected = false;
 
   // The γ every decoded quantity used.
@@ -30,11 +36,20 @@ inline std::string describeCameraResponse(const CameraResponseCheck& check) {
         "camera response: not measured ({} usable phase pixels; 4 or more phase steps needed); "
         "γ {:.2f} from camera.json taken on trust",
         check.pixels, check.assumedGamma);
+  if (!check.stated)
+    return fmt::format(
+        "camera response: γ {:.3f} ± {:.4f} measured from {} phase pixels; camera.json gives "
+        "none{}",
+        check.measuredGamma, check.sigma, check.pixels,
+        check.corrected ? ": the pictures were re-linearized with the measured γ"
+                        : " and the pictures are linear: used as they are");
   return fmt::format(
-      "camera response: γ {:.3f} ± {:.4f} measured from {} phase pixels; camera.json says {:.2f}{}",
+      "camera response: γ {:.3f} ± {:.4f} measured from {} phase pixels; camera.json states "
+      "{:.2f}{}",
       check.measuredGamma, check.sigma, check.pixels, check.assumedGamma,
-      check.corrected ? ": the pictures were re-linearized with the measured γ"
-                      : ": consistent, used as it is");
+      check.disagrees ? ": they disagree (modules with a response curve of their own, or a wrong "
+                        "camera.json?); the stated γ is used"
+                      : ": consistent");
 }
 
 }  // namespace parallax

@@ -205,7 +205,7 @@ void saveCameraMetadata(const CameraMetadata& camera, const std::string& path) {
     // Only the picture size: the intrinsics are to be calibrated from the checkerboard.
     for (const char* key : {"focal_px", "principal_px", "distortion"}) j["intrinsics"].erase(key);
   }
-  j["response_gamma"] = camera.responseGamma;
+  if (camera.responseGammaStated) j["response_gamma"] = camera.responseGamma;
   writeFileAtomically(path, j.dump(2) + "\n");
 }
 
@@ -220,6 +220,7 @@ CameraMetadata loadCameraMetadata(const std::string& path) {
     camera.fiducials = obs.fiducials;
     if (j.contains("response_gamma")) {
       camera.responseGamma = number(j["response_gamma"], "response_gamma");
+      camera.responseGammaStated = true;
       if (!(camera.responseGamma >= 0.2 && camera.responseGamma <= 5.0))
         fail("response_gamma", "must be 0.2..5");
     }

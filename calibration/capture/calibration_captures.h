@@ -37,7 +37,10 @@ struct CameraMetadata {
   // false: camera.json gave only the picture size (fx, fy, cx, cy NaN); the intrinsics must
   // come from the checkerboard pictures before anything is decoded.
   bool intrinsicsKnown = true;
-  double responseGamma = 1.0;              // recorded = linear^(1/gamma)
+  double responseGamma = 1.0;  // recorded = linear^(1/gamma)
+  // camera.json gave response_gamma (a simulated rig knows its sensor's). When it did not, the
+  // decoder uses the response it measures from the phase pictures (camera_response.h).
+  bool responseGammaStated = false;
   std::vector<CameraStation> stations;     // tape-measured centres (cm accuracy)
   std::vector<Eigen::Vector2d> fiducials;  // marker places on the screen frame (x, y)
 };

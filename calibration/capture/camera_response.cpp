@@ -108,6 +108,7 @@ CameraResponseCheck checkCameraResponse(const CalibrationCaptures& captures,
                                         const CameraResponseOptions& options) {
   CameraResponseCheck check;
   check.assumedGamma = captures.camera.responseGamma;
+  check.stated = captures.camera.responseGammaStated;
   check.measuredGamma = check.assumedGamma;
   const int steps = captures.patterns.phaseSteps;
   if (steps < 4 || captures.stations.empty()) return check;  // no harmonic bin to look at
@@ -153,8 +154,9 @@ CameraResponseCheck checkCameraResponse(const CalibrationCaptures& captures,
   check.measuredGamma = check.assumedGamma * e;
   check.sigma = check.assumedGamma * spread / std::sqrt(static_cast<double>(kParts));
   const double difference = std::abs(check.measuredGamma - check.assumedGamma);
-  check.corrected =
+  check.disagrees =
       difference > 3.0 * check.sigma && difference > options.relativeTolerance * check.assumedGamma;
+  check.corrected = check.disagrees && !check.stated;
   return check;
 }
 

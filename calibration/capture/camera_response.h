@@ -34,7 +34,8 @@ struct CameraResponseOptions {
 };
 
 // Measures the response from every set's column and row phase frames (linear under
-// captures.camera.responseGamma) and decides whether it must be corrected.
+// captures.camera.responseGamma) and decides whether it must be corrected (only when camera.json
+// states none: CameraResponseCheck::corrected says why a stated one is kept).
 CameraResponseCheck checkCameraResponse(const CalibrationCaptures& captures,
                                         const CameraResponseOptions& options = {});
 

@@ -68,14 +68,6 @@ std::optional<Lobe> fitLobe(const std::vector<double>& angle, const std::vector<
   lobe.width = spread * std::sqrt(-0.5 / c[2]);
   lobe.amplitude = std::exp(c[0] - c[1] * c[1] / (4.0 * c[2]));
   if (!std::isfinite(lobe.width) || !std::isfinite(lobe.amplitude)) return std::nullopt;
-  // A cut the blur hid: the run ends (not at a valley) where the fitted lobe is still bright.
-  // The module's image or the screen ended near the peak; the lens blur spread the edge over a
-  // few pixels, so the end pixel itself looked dim enough to pass the check above while the
-  // lobe was fitted on one flank and the blurred edge (on demo's outer stations, 15–25 mm off).
-  if (!frontIsValley && lobe.at(angle.front()) > options.cutFraction * lobe.amplitude)
-    return std::nullopt;
-  if (!backIsValley && lobe.at(angle.back()) > options.cutFraction * lobe.amplitude)
-    return std::nullopt;
   return lobe;
 }
 

@@ -113,7 +113,7 @@ void summarizeResiduals(const FitInputs& in, const FitState& state, const Corres
   result->correspondenceSigmaMm = sigmas.correspondencePx * mmPerModulePx(in, state);
 
   // ---- what the decoder found of the camera's response, when it decoded pictures ----
-  if (obs.cameraResponse && (obs.cameraResponse->corrected || !obs.cameraResponse->measured))
+  if (obs.cameraResponse && (obs.cameraResponse->disagrees || !obs.cameraResponse->measured))
     result->notes.push_back(describeCameraResponse(*obs.cameraResponse));
 
   // ---- the transfer check: stripes that the assumed transfer cannot explain ----

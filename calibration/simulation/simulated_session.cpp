@@ -97,6 +97,7 @@ SimulatedRig makeSimulatedRig(const DisplayModel& truth, const CameraRigOptions&
   out.metadata.stations = session.observations.stations;
   out.metadata.fiducials = session.observations.fiducials;
   out.metadata.responseGamma = sensor.gamma;
+  out.metadata.responseGammaStated = true;
   out.truth.intrinsics = session.observations.intrinsics;
   out.truth.poses = session.truePoses;
   out.truth.sensor = sensor;

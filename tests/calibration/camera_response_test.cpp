@@ -1,8 +1,8 @@
-// The camera's response is measured from the phase pictures, never taken on trust from
-// camera.json (calibration/capture/camera_response.h): a γ 2.2 camera whose camera.json says
-// nothing (1, linear) is measured at 2.2 and its pictures re-linearized, so its stripe centres
-// are as close to the truth as with the right camera.json; a right camera.json is left alone;
-// a linear camera is measured linear; three phase steps cannot be measured and say so.
+// The camera's response is measured from the phase pictures (calibration/capture/
+// camera_response.h): a γ 2.2 camera whose camera.json gives none is measured at 2.2 and its
+// pictures re-linearized, so its stripe centres are as close to the truth as with the right
+// camera.json; a stated one is kept, and a disagreement is noted, not acted on; a linear camera
+// is measured linear; three phase steps cannot be measured and say so.
 
 #include "calibration/capture/camera_response.h"
 
@@ -27,7 +27,7 @@ struct Session {
 };
 
 // Six modules seen from three stations by a camera whose sensor has `sensorGamma`, with a
-// camera.json that says `statedGamma`.
+// camera.json that states `statedGamma`, or none (0).
 Session session(double sensorGamma, double statedGamma, int phaseSteps = 4) {
   NominalDisplayOptions options;
   options.modules = 6;
@@ -43,7 +43,8 @@ Session session(double sensorGamma, double statedGamma, int phaseSteps = 4) {
   CameraRenderOptions sensor;
   sensor.gamma = sensorGamma;
   s.rig = makeSimulatedRig(s.truth, rig, 5, sensor);
-  s.rig.metadata.responseGamma = statedGamma;
+  s.rig.metadata.responseGammaStated = statedGamma > 0.0;
+  s.rig.metadata.responseGamma = statedGamma > 0.0 ? statedGamma : 1.0;
   SimulatedSessionOptions options2;
   options2.groupStride = 2;
   options2.patterns.phaseSteps = phaseSteps;
@@ -73,9 +74,9 @@ double medianStripeErrorMm(const Session& s, const CalibrationObservations& obs)
   return errors[errors.size() / 2];
 }
 
-TEST(CameraResponse, AGammaCameraWhoseCameraJsonSaysLinearIsMeasuredAndCorrected) {
+TEST(CameraResponse, AGammaCameraWhoseCameraJsonGivesNoneIsMeasuredAndCorrected) {
   const Session right = session(2.2, 2.2);
-  const Session unstated = session(2.2, 1.0);
+  const Session unstated = session(2.2, 0.0);
   const CameraResponseCheck r = checkCameraResponse(right.captures);
   const CameraResponseCheck u = checkCameraResponse(unstated.captures);
   std::printf("right camera.json: %s\nunstated: %s\n", describeCameraResponse(r).c_str(),
@@ -107,20 +108,25 @@ TEST(CameraResponse, AGammaCameraWhoseCameraJsonSaysLinearIsMeasuredAndCorrected
   EXPECT_GT(corrected.correspondences.size(), withRight.correspondences.size() * 9 / 10);
 }
 
-TEST(CameraResponse, ALinearCameraIsMeasuredLinear) {
-  const CameraResponseCheck check = checkCameraResponse(session(1.0, 1.0).captures);
+TEST(CameraResponse, ALinearCameraIsMeasuredLinearAndAStatedGammaIsKeptButQuestioned) {
+  const CameraResponseCheck check = checkCameraResponse(session(1.0, 0.0).captures);
   ASSERT_TRUE(check.measured);
   EXPECT_NEAR(check.measuredGamma, 1.0, 0.03);
+  EXPECT_FALSE(check.disagrees);
   EXPECT_FALSE(check.corrected);
-  // And one whose camera.json claims γ 2.2 is caught the other way.
+  // A camera.json that states γ 2.2 for it: the phase pictures cannot tell a wrong file from
+  // modules with a response curve of their own, so the stated γ stays and the note says so.
   const CameraResponseCheck claimed = checkCameraResponse(session(1.0, 2.2).captures);
   ASSERT_TRUE(claimed.measured);
   EXPECT_NEAR(claimed.measuredGamma, 1.0, 0.05);
-  EXPECT_TRUE(claimed.corrected);
+  EXPECT_TRUE(claimed.disagrees);
+  EXPECT_FALSE(claimed.corrected);
+  EXPECT_DOUBLE_EQ(claimed.usedGamma(), 2.2);
+  EXPECT_NE(describeCameraResponse(claimed).find("disagree"), std::string::npos);
 }
 
 TEST(CameraResponse, ThreePhaseStepsCannotShowItAndSaySo) {
-  const CameraResponseCheck check = checkCameraResponse(session(2.2, 1.0, 3).captures);
+  const CameraResponseCheck check = checkCameraResponse(session(2.2, 0.0, 3).captures);
   EXPECT_FALSE(check.measured);
   EXPECT_FALSE(check.corrected);
   EXPECT_NE(describeCameraResponse(check).find("taken on trust"), std::string::npos);

@@ -28,7 +28,7 @@ struct CameraResponseCheck {
   double usedGamma() const { return corrected ? measuredGamma : assumedGamma; }
 };
 
-// "camera response: γ 2.200 ± 0.004 measured from 18000 phase pixels; camera.json says 1.00:
+// "camera response: γ 2.200 ± 0.0040 measured from 18000 phase pixels; camera.json gives none:
 // the pictures were re-linearized with the measured γ" (one line, no newline).
 inline std::string describeCameraResponse(const CameraResponseCheck& check) {
   if (!check.measured)

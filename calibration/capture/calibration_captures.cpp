@@ -133,17 +133,17 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
   captures.validate(nominal);
   CaptureDecoderOptions decoder = options;
   decoder.patterns = captures.patterns;
-  // The response measured, never taken on trust (camera_response.h): when camera.json's is off,
-  // each set's pictures are re-linearized before anything is decoded from them.
+  // The response measured (camera_response.h): when camera.json gives none, each set's pictures
+  // are re-linearized with the measured one before anything is decoded from them.
   const CameraResponseCheck response = checkCameraResponse(captures);
   const double exponent = response.usedGamma() / response.assumedGamma;
-  const auto relinearized = [&](const std::vector<cv::Mat>& frames) {
+  const auto linear = [&](const std::vector<cv::Mat>& frames) {
+    if (!response.corrected) return frames;  // headers only: the pixels are shared
     std::vector<cv::Mat> out(frames.size());
     for (size_t f = 0; f < frames.size(); ++f) cv::pow(frames[f], exponent, out[f]);
     return out;
   };
-  // The pictures were 8-bit: the top code (255) is where the sensor clipped.
-  decoder.saturatedLinear = std::pow(254.5 / 255.0, response.usedGamma());
+  decoder.saturatedLinear = clippedLinear(response.usedGamma());
   CalibrationObservations obs = observationsFrame(captures.camera);
   obs.cameraResponse = response;
   // Fiducials first (from each station's first black reference picture): the pose they give
@@ -153,25 +153,22 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
   for (const StationCaptures& s : captures.stations) {
     if (fiducialsDone[static_cast<size_t>(s.station)]) continue;
     fiducialsDone[static_cast<size_t>(s.station)] = true;
-    detectFiducials(response.corrected ? relinearized({s.columnFrames[1]})[0] : s.columnFrames[1],
-                    nominal.screen, s.station, FiducialDetectorOptions{}, &obs);
+    detectFiducials(linear({s.columnFrames[1]})[0], nominal.screen, s.station,
+                    FiducialDetectorOptions{}, &obs);
     poses[static_cast<size_t>(s.station)] = poseFromFiducials(obs, nominal.screen, s.station);
   }
   const int sets = static_cast<int>(captures.stations.size());
   for (int i = 0; i < sets; ++i) {
     const StationCaptures& s = captures.stations[static_cast<size_t>(i)];
     const auto& pose = poses[static_cast<size_t>(s.station)];
-    if (response.corrected) {
-      decodeStation(relinearized(s.columnFrames), relinearized(s.rowFrames), s.group, nominal,
-                    s.station, decoder, &obs, pose ? &*pose : nullptr);
-    } else {
-      decodeStation(s.columnFrames, s.rowFrames, s.group, nominal, s.station, decoder, &obs,
-                    pose ? &*pose : nullptr);
-    }
+    decodeStation(linear(s.columnFrames), linear(s.rowFrames), s.group, nominal, s.station, decoder,
+                  &obs, pose ? &*pose : nullptr);
     if (options.onPictureSet) options.onPictureSet(i + 1, sets);
   }
   return obs;
 }
+
+double clippedLinear(double gamma) { return std::pow(254.5 / 255.0, gamma); }
 
 cv::Mat linearFromRecorded8(const cv::Mat& recorded8, double gamma) {
   // A lookup table: 256 values, exact.

@@ -98,6 +98,9 @@ void saveCameraMetadata(const CameraMetadata& camera, const std::string& path);
 
 // Recorded 8-bit picture ↔ linear light through the camera's response.
 cv::Mat linearFromRecorded8(const cv::Mat& recorded8, double gamma);
+// The linear value at and above which an 8-bit picture of that response was clipped by the
+// sensor: its top code (255), from halfway below it.
+double clippedLinear(double gamma);
 cv::Mat recorded8FromLinear(const cv::Mat& linear, double gamma);
 
 }  // namespace parallax

@@ -117,7 +117,7 @@ CameraResponseCheck checkCameraResponse(const CalibrationCaptures& captures,
   const double candidates = 2.0 * static_cast<double>(captures.stations.size()) * any.total();
   const int step =
       std::max(1, static_cast<int>(std::sqrt(candidates / (4.0 * std::max(options.maxPixels, 1)))));
-  const double saturated = std::pow(254.5 / 255.0, captures.camera.responseGamma);
+  const double saturated = clippedLinear(captures.camera.responseGamma);
   PhaseSamples samples;
   samples.steps = steps;
   for (const StationCaptures& s : captures.stations) {
@@ -138,6 +138,9 @@ CameraResponseCheck checkCameraResponse(const CalibrationCaptures& captures,
   check.pixels = static_cast<int>(samples.pixels());
   if (check.pixels < options.minPixels) return check;
   const double e = bestExponent(samples, 0.2, 5.0, 0, 1);
+  // At the search's bounds it found no minimum: nothing measured.
+  check.measured = std::isfinite(e) && e > 0.2 * 1.01 && e < 5.0 / 1.01;
+  if (!check.measured) return check;
   // σ from the spread over disjoint subsets, each searched near the whole set's answer.
   constexpr size_t kParts = 8;
   double sum = 0.0, sumSq = 0.0;
@@ -149,8 +152,6 @@ CameraResponseCheck checkCameraResponse(const CalibrationCaptures& captures,
   const double mean = sum / kParts;
   const double spread =
       std::sqrt(std::max(sumSq / kParts - mean * mean, 0.0) * kParts / (kParts - 1));
-  check.measured = std::isfinite(e) && e > 0.2 * 1.01 && e < 5.0 / 1.01;
-  if (!check.measured) return check;
   check.measuredGamma = check.assumedGamma * e;
   check.sigma = check.assumedGamma * spread / std::sqrt(static_cast<double>(kParts));
   const double difference = std::abs(check.measuredGamma - check.assumedGamma);

@@ -4,8 +4,8 @@
 //
 // Every decoded quantity assumes the pictures are in linear light: the white − black contrast
 // whose lobes are fitted and whose neighbours' tails are subtracted (stripe_peak.h), the phase
-// of the shifted sinusoids. A camera.json that leaves its response out (or names the wrong one)
-// makes a gamma-encoded camera look linear, and then every stripe centre at an oblique station
+// of the shifted sinusoids. A camera.json that leaves its response out makes a gamma-encoded
+// camera look linear, and then every stripe centre at an oblique station
 // moves by pixels (on demo through the link, camera.json saying 1 for a γ 2.2 sensor: stripe
 // centres 13 mm RMS off, rays 9.5 mm RMS / 56 mm worst on the observer line, while the fit
 // predicted 0.6 mm).

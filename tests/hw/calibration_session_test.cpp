@@ -33,25 +33,8 @@
 namespace parallax::hw {
 namespace {
 
-// Six 128x96 modules, a 240x136 camera at two stations.
-SmallSession smallSession() {
-  CameraRigOptions rig;
-  rig.stations = 2;
-  rig.spanM = 1.0;
-  rig.intrinsics = CameraIntrinsics::centred(240, 136, 262.0);
-  return makeSmallSession(5, rig, 6);
-}
-
-SimulatedHardwareOptions modulesOf(const DisplayModel& display) {
-  SimulatedHardwareOptions o;
-  o.modules = static_cast<int>(display.modules.size());
-  o.width = display.modules.front().width;
-  o.height = display.modules.front().height;
-  return o;
-}
-
 TEST(CalibrationSession, LinkSessionRecordsWhatTheOfflineRendererMakes) {
-  const SmallSession s = smallSession();
+  const SmallSession s = twoStationSession();
   InProcessSimhw sim(modulesOf(s.truth),
                      std::make_unique<CalibrationPhysics>(s.truth, s.rig.truth));
   int calls = 0, lastDone = -1, lastTotal = -1;
@@ -111,7 +94,7 @@ TEST(CalibrationSession, LinkSessionRecordsWhatTheOfflineRendererMakes) {
 }
 
 TEST(CalibrationSession, CancelStopsAndLeavesPlaybackMode) {
-  const SmallSession s = smallSession();
+  const SmallSession s = twoStationSession();
   InProcessSimhw sim(modulesOf(s.truth),
                      std::make_unique<CalibrationPhysics>(s.truth, s.rig.truth));
   std::atomic<bool> cancel{false};
@@ -135,7 +118,7 @@ TEST(CalibrationSession, CancelStopsAndLeavesPlaybackMode) {
 }
 
 TEST(CalibrationSession, AStationTheCameraDoesNotHaveIsAClearError) {
-  SmallSession s = smallSession();
+  SmallSession s = twoStationSession();
   CameraTruth oneStation = s.rig.truth;
   oneStation.poses.resize(1);  // the simulator's camera knows one station, the metadata two
   InProcessSimhw sim(modulesOf(s.truth), std::make_unique<CalibrationPhysics>(s.truth, oneStation));
@@ -152,7 +135,7 @@ TEST(CalibrationSession, AStationTheCameraDoesNotHaveIsAClearError) {
 }
 
 TEST(CalibrationSession, PhotometricFlatFieldsThroughTheLinkFindTheModulesPhotometry) {
-  const SmallSession s = smallSession();
+  const SmallSession s = twoStationSession();
   PhotometricTruthOptions p;
   p.seed = 9;
   const PhotometricTruth photometry = makePhotometricTruth(6, p);

@@ -38,23 +38,6 @@ namespace parallax::hw {
 namespace {
 namespace fs = std::filesystem;
 
-// Six 128x96 modules, a 240x136 camera at two stations.
-SmallSession smallSession() {
-  CameraRigOptions rig;
-  rig.stations = 2;
-  rig.spanM = 1.0;
-  rig.intrinsics = CameraIntrinsics::centred(240, 136, 262.0);
-  return makeSmallSession(5, rig, 6);
-}
-
-SimulatedHardwareOptions modulesOf(const DisplayModel& display) {
-  SimulatedHardwareOptions o;
-  o.modules = static_cast<int>(display.modules.size());
-  o.width = display.modules.front().width;
-  o.height = display.modules.front().height;
-  return o;
-}
-
 void savePicture(const Image& image, const std::string& path) {
   ASSERT_FALSE(image.empty());
   const bool grey = image.format == PixelFormat::kGray8;
@@ -104,7 +87,7 @@ FilledFolder fillFolder(const SmallSession& s, const std::string& name) {
 
 // One live fill for the whole suite; each test works on its own copy.
 const FilledFolder& filledFolder() {
-  static const FilledFolder filled = fillFolder(smallSession(), "filled");
+  static const FilledFolder filled = fillFolder(twoStationSession(), "filled");
   return filled;
 }
 
@@ -164,7 +147,7 @@ void expectSameCaptures(const CalibrationCaptures& got, const CalibrationCapture
 }
 
 TEST(FolderCamera, LiveSessionNamesEachPictureAndOfflineReadsTheSame) {
-  const SmallSession s = smallSession();
+  const SmallSession s = twoStationSession();
   const FilledFolder& filled = filledFolder();
   // Every frame asked for once, by a file name that sorts in order, all in the manifest.
   const PictureManifest manifest =
@@ -195,7 +178,7 @@ TEST(FolderCamera, LiveSessionNamesEachPictureAndOfflineReadsTheSame) {
 }
 
 TEST(FolderCamera, PicturesRenamedOutOfOrderArePutRightByTheManifest) {
-  const SmallSession s = smallSession();
+  const SmallSession s = twoStationSession();
   const fs::path dir = copyOf("renamed");
   // A camera's own names, in reverse order of the frames: the manifest says which is which.
   PictureManifest manifest = loadPictureManifest((dir / kPictureManifestName).string());
@@ -212,7 +195,7 @@ TEST(FolderCamera, PicturesRenamedOutOfOrderArePutRightByTheManifest) {
 }
 
 TEST(FolderCamera, PicturesSwappedAreNamedNotDecoded) {
-  const SmallSession s = smallSession();
+  const SmallSession s = twoStationSession();
   const fs::path dir = copyOf("swapped");
   // Two coded pictures of the same set saved under each other's names.
   const fs::path a = requestShowing("modules 0,3, column pattern 4").path;
@@ -230,7 +213,7 @@ TEST(FolderCamera, PicturesSwappedAreNamedNotDecoded) {
 }
 
 TEST(FolderCamera, AMissingPictureIsNamed) {
-  const SmallSession s = smallSession();
+  const SmallSession s = twoStationSession();
   const fs::path dir = copyOf("missing");
   const fs::path gone = requestShowing("station 1, modules 1,4, row pattern 2").path;
   fs::remove(dir / gone.filename());
@@ -243,7 +226,7 @@ TEST(FolderCamera, AMissingPictureIsNamed) {
 }
 
 TEST(FolderCamera, APictureOfTheWrongPatternIsRefused) {
-  const SmallSession s = smallSession();
+  const SmallSession s = twoStationSession();
   for (const auto& [wanted, instead] :
        {std::pair{"modules 1,4, column pattern 6", "modules 1,4, column pattern 0"},  // a white
         std::pair{"modules 1,4, column pattern 1", "modules 1,4, column pattern 0"},  // for black
@@ -263,7 +246,7 @@ TEST(FolderCamera, APictureOfTheWrongPatternIsRefused) {
 }
 
 TEST(FolderCamera, BlurredAndOverExposedPicturesAreNamed) {
-  const SmallSession s = smallSession();
+  const SmallSession s = twoStationSession();
   // Blur is judged against the session's other pictures: a picture late in the session at once,
   // the first coded picture at the end (nothing to judge it against before).
   for (const char* shows : {"modules 0,3, row pattern 4", "modules 0,3, column pattern 2"}) {
@@ -293,7 +276,7 @@ TEST(FolderCamera, BlurredAndOverExposedPicturesAreNamed) {
 }
 
 TEST(FolderCamera, AFolderOfAnotherSessionOrAHostileManifestIsRefused) {
-  SmallSession s = smallSession();
+  SmallSession s = twoStationSession();
   {
     const fs::path dir = copyOf("other");
     FolderCameraOptions options;
@@ -327,7 +310,7 @@ TEST(FolderCamera, AFolderOfAnotherSessionOrAHostileManifestIsRefused) {
 }
 
 TEST(FolderCamera, LiveItWaitsForThePictureThenGivesUpNamingIt) {
-  const SmallSession s = smallSession();
+  const SmallSession s = twoStationSession();
   const fs::path dir = freshFolder("waiting");
   InProcessSimhw sim(modulesOf(s.truth),
                      std::make_unique<CalibrationPhysics>(s.truth, s.rig.truth));
@@ -380,7 +363,7 @@ TEST(CameraName, FolderNeedsADirectoryAndOnlyItWorksOffline) {
 // display (the same truth and camera; the simulator's sensor noise follows the pictures taken,
 // and both sessions take one picture per frame, in the same order).
 TEST(FolderCameraEndToEnd, CalibrationFromTheFolderMatchesTheLinkPath) {
-  const SmallSession s = smallSession();
+  const SmallSession s = twoStationSession();
   CalibrationCaptures viaLink;
   {
     InProcessSimhw sim(modulesOf(s.truth),

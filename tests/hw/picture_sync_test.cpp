@@ -74,14 +74,6 @@ class BufferedCamera : public Camera {
   std::deque<Image> queue_;
 };
 
-SimulatedHardwareOptions modulesOf(const DisplayModel& display) {
-  SimulatedHardwareOptions o;
-  o.modules = static_cast<int>(display.modules.size());
-  o.width = display.modules.front().width;
-  o.height = display.modules.front().height;
-  return o;
-}
-
 CalibrationCaptures capture(const SmallSession& s, int lag, bool autoExposure,
                             const CalibrationCaptureOptions& options, CaptureSyncStats* stats) {
   InProcessSimhw sim(modulesOf(s.truth),

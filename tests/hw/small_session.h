@@ -7,6 +7,7 @@
 #include "calibration/display/display_presets.h"
 #include "calibration/simulation/ground_truth.h"
 #include "calibration/simulation/simulated_session.h"
+#include "hw/simulator/simulated_hardware.h"
 
 namespace parallax::hw {
 
@@ -29,6 +30,24 @@ inline SmallSession makeSmallSession(std::uint64_t truthSeed, const CameraRigOpt
   s.truth = makeGroundTruth(s.nominal, gt);
   s.rig = makeSimulatedRig(s.truth, rig, rigSeed);
   return s;
+}
+
+// Six 128x96 modules, a 240x136 camera at two stations.
+inline SmallSession twoStationSession() {
+  CameraRigOptions rig;
+  rig.stations = 2;
+  rig.spanM = 1.0;
+  rig.intrinsics = CameraIntrinsics::centred(240, 136, 262.0);
+  return makeSmallSession(5, rig, 6);
+}
+
+// A simulator with the display's module count and size.
+inline SimulatedHardwareOptions modulesOf(const DisplayModel& display) {
+  SimulatedHardwareOptions o;
+  o.modules = static_cast<int>(display.modules.size());
+  o.width = display.modules.front().width;
+  o.height = display.modules.front().height;
+  return o;
 }
 
 }  // namespace parallax::hw

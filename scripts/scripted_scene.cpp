@@ -67,6 +67,10 @@ ScriptedScene::Reload ScriptedScene::reloadIfChanged() {
   bool changed = false;
   for (const Stamp& s : stamps_) changed = changed || !(stampOf(s.path) == s);
   if (!changed) return Reload::kUnchanged;
+  return reload();
+}
+
+ScriptedScene::Reload ScriptedScene::reload() {
   if (loadAgain()) {
     ++reloads_;
     return Reload::kReloaded;

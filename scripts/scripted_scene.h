@@ -37,6 +37,8 @@ class ScriptedScene {
 
   // Checks the watched files; loads the new version when any changed.
   Reload reloadIfChanged();
+  // Loads the script again now, changed or not (a cluster rank told by rank 0 that it changed).
+  Reload reload();
 
   const std::string& lastError() const { return lastError_; }
   long reloads() const { return reloads_; }

@@ -5,6 +5,7 @@
 
 #include <thread>
 
+#include "common/check.h"
 #include "common/input_error.h"
 #include "hw/link/link_transport.h"
 
@@ -16,11 +17,19 @@ namespace parallax::daemon {
 
 Conductor::Conductor(ConductorOptions options)
     : options_(std::move(options)),
+      singleProcess_(options_.cluster ? nullptr : std::make_unique<SingleProcess>()),
+      cluster_(options_.cluster ? options_.cluster : singleProcess_.get()),
       nominal_(nominalDisplayOf(options_.config.display)),
+      ownership_(options_.ownership
+                     ? *options_.ownership
+                     : ModuleOwnership::single(static_cast<int>(nominal_.modules.size()))),
+      owned_(ownership_.modulesOf(cluster_->rank())),
       calibration_(nominal_),
       calibrationSource_("nominal (uncalibrated)"),
       store_(options_.config.calibrationFilePath()),
       cache_(options_.config.cacheDirPath()) {
+  PARALLAX_CHECK_OP(ownership_.ranks(), ==, cluster_->size());
+  PARALLAX_CHECK_OP(ownership_.modules(), ==, static_cast<int>(nominal_.modules.size()));
   options_.render.validate();
   checkEveryRequestHasAHandler();
   publish();
@@ -30,21 +39,34 @@ Conductor::~Conductor() = default;
 
 void Conductor::run(const std::atomic<bool>& stop) {
   stop_ = &stop;
+  // A signal (not a `shutdown` request) also ends a wait for a rank that does not answer.
+  cluster_->setInterrupt([&stop] { return stop.load(); });
   try {
     startUp();
   } catch (const std::exception& e) {
     state_.fail("starting", e.what(), DaemonState::kError);
   }
   startingUp_ = false;
-  if (options_.onReady) options_.onReady();
-  while (!stopAsked()) {
-    if (options_.onHeartbeat) options_.onHeartbeat();
-    drainJobs(Clock::now() + timeToNextTurn());
-    if (stopAsked()) break;
-    turn();
-    if (const std::optional<std::string> line = lossReport_.take(stats_, Clock::now()))
-      spdlog::warn("{}", *line);
-    publish();
+  try {
+    // Every rank has started (a rank that builds its ray textures takes its time).
+    gatherRankReports(kStartUpTimeoutMs);
+    if (!cluster_->isConductor()) {
+      follow();
+    } else {
+      if (options_.onReady) options_.onReady();
+      while (!stopAsked()) {
+        if (options_.onHeartbeat) options_.onHeartbeat();
+        drainJobs(Clock::now() + timeToNextTurn());
+        if (stopAsked()) break;
+        turn();
+        if (const std::optional<std::string> line = lossReport_.take(stats_, Clock::now()))
+          spdlog::warn("{}", *line);
+        publish();
+      }
+      stopOthers();
+    }
+  } catch (const RanksSilent& e) {
+    endJob(e);
   }
   state_.enter(DaemonState::kStopping);
   finishInFlight();
@@ -93,8 +115,12 @@ void Conductor::startUp() {
     state_.fail("loading the calibration", e.what(), DaemonState::kStarting);
   }
   bool haveTextures = false;
-  if (!haveCalibration && options_.config.calibration.autoCalibrate && link_)
+  if (!haveCalibration && options_.config.calibration.autoCalibrate && link_ && !clustered())
     haveTextures = calibrate(std::nullopt).done();
+  if (!haveCalibration && clustered() && cluster_->isConductor())
+    spdlog::warn(
+        "no installed calibration: a cluster plays the nominal display (calibrate with "
+        "one rank, then start the cluster)");
   // A stop (signal or `shutdown`) during a stage ends start-up there: nothing more is built.
   if (stopAsked()) return;
   if (!haveTextures) haveTextures = regenerate(calibration_).done();
@@ -114,11 +140,13 @@ void Conductor::applyPhotometry(const std::optional<DisplayColourCorrection>& ph
                        fmt::format("has {} modules; this display has {}",
                                    photometry->modules.size(), nominal_.modules.size()));
     }
-    encoders.reserve(nominal_.modules.size());
+    // Checked for every module (the same verdict on every rank), kept for this rank's own.
     for (size_t i = 0; i < nominal_.modules.size(); ++i) {
       try {
-        encoders.emplace_back(photometry->modules[i], nominal_.modules[i].width,
+        ModuleEncoder encoder(photometry->modules[i], nominal_.modules[i].width,
                               nominal_.modules[i].height);
+        if (ownership_.ownerOf(static_cast<int>(i)) == cluster_->rank())
+          encoders.push_back(std::move(encoder));
       } catch (const InputError& e) {
         throw InputError({source, fmt::format("modules[{}].{}", i, e.location().field), 0},
                          e.reason());
@@ -153,18 +181,20 @@ bool Conductor::connectLink(int timeoutMs) {
       linkError_.clear();
       const auto& modules = link_->modules();
       spdlog::info("link: up: {} with {} modules", link_->transportName(), modules.size());
-      if (modules.size() != nominal_.modules.size()) {
-        linkError_ = fmt::format("the link has {} modules but the display has {}", modules.size(),
-                                 nominal_.modules.size());
+      if (modules.size() != owned_.size()) {
+        linkError_ = clustered()
+                         ? fmt::format("the link of {} has {} modules",
+                                       ownership_.describe(cluster_->rank()), modules.size())
+                         : fmt::format("the link has {} modules but the display has {}",
+                                       modules.size(), nominal_.modules.size());
       }
-      for (size_t i = 0; i < modules.size() && linkError_.empty() && i < nominal_.modules.size();
-           ++i) {
+      for (size_t i = 0; i < modules.size() && linkError_.empty() && i < owned_.size(); ++i) {
         const hw::DeviceInfo& info = modules[i].info;
-        const OpticalModule& m = nominal_.modules[i];
+        const OpticalModule& m = nominal_.modules[static_cast<size_t>(owned_[i])];
         if (static_cast<int>(info.width) != m.width || static_cast<int>(info.height) != m.height) {
           linkError_ =
-              fmt::format("module {} ({}) takes {}x{} frames but the display model says {}x{}", i,
-                          info.serial, info.width, info.height, m.width, m.height);
+              fmt::format("module {} ({}) takes {}x{} frames but the display model says {}x{}",
+                          owned_[i], info.serial, info.width, info.height, m.width, m.height);
         }
       }
       if (!linkError_.empty()) {
@@ -226,7 +256,14 @@ void Conductor::drainJobs(Clock::time_point until) {
         jobs_.pop_front();
       }
     }
+    if (config && clustered()) {
+      // The other ranks would not see it: a cluster reloads from the config file only.
+      spdlog::error("config: a cluster reloads its config file only (SIGHUP or `reload`)");
+      config.reset();
+      continue;
+    }
     if (configPath) {
+      tellOthers({{"step", "config"}, {"path", *configPath}});
       try {
         reloadFromFile(*configPath);
       } catch (const std::exception& e) {
@@ -236,10 +273,17 @@ void Conductor::drainJobs(Clock::time_point until) {
       applyConfig(*config);
     } else if (job) {
       nlohmann::json reply;
+      tellOthers({{"step", "request"}, {"request", job->request}});
       try {
         reply = (this->*job->handler)(job->args);
       } catch (const std::exception& e) {
         reply = {{"ok", false}, {"error", e.what()}};
+      }
+      try {
+        reply = agreeOnReply(std::move(reply));
+      } catch (const RanksSilent& e) {
+        job->reply.set_value({{"ok", false}, {"error", e.what()}});
+        throw;
       }
       publish();
       job->reply.set_value(std::move(reply));

@@ -27,11 +27,13 @@
 #include "calibration/display/ray_textures.h"
 #include "daemon/parallaxd/calibration_pipeline.h"
 #include "daemon/parallaxd/calibration_store.h"
+#include "daemon/parallaxd/cluster.h"
 #include "daemon/parallaxd/control_request.h"
 #include "daemon/parallaxd/daemon_config.h"
 #include "daemon/parallaxd/daemon_state.h"
 #include "daemon/parallaxd/frame_loss_report.h"
 #include "daemon/parallaxd/loop_stats.h"
+#include "daemon/parallaxd/module_ownership.h"
 #include "daemon/parallaxd/ray_texture_cache.h"
 #include "hw/link/image.h"
 #include "hw/link/link_client.h"
@@ -55,6 +57,10 @@ struct ConductorOptions {
   // That simulator shows a photometric truth: `[calibration] photometric = "auto"` calibrates
   // the modules' colours too.
   bool simulatorPhotometric = false;
+  // The ranks driving the display together (cluster.h) and which modules this one renders and
+  // pushes (its link reaches exactly those). Null / unset: one rank with every module.
+  Cluster* cluster = nullptr;
+  std::optional<ModuleOwnership> ownership;
   int connectTimeoutMs = 10000;  // at start (a simulator we started may take a moment)
   int keepAliveMs = 1000;        // idle link probe: how soon a reconnect is noticed
   // Called from the conductor thread: once when the first stage sequence has finished (with
@@ -102,6 +108,9 @@ class Conductor {
   // After run(): the config to build the daemon again from, when a reload asked for it.
   const std::optional<DaemonConfig>& restartWith() const { return restartWith_; }
   StateSnapshot state() const { return state_.snapshot(); }
+  // After run(): why the cluster's job must end (a rank died or hangs), naming the rank and its
+  // modules; empty when it ended normally.
+  const std::string& clusterFailure() const { return clusterFailure_; }
 
   // True when the conductor has a handler for the request of this name. Every request of the
   // table has one (checked when a conductor is made: InternalError otherwise).
@@ -114,6 +123,7 @@ class Conductor {
   struct Job {
     Handler handler;
     RequestArgs args;
+    nlohmann::json request;  // as received: the other ranks of a cluster run it too
     std::promise<nlohmann::json> reply;
   };
   using Clock = std::chrono::steady_clock;
@@ -123,6 +133,8 @@ class Conductor {
   static constexpr const char* kRegenerating = "regenerating the ray textures";
   static constexpr const char* kLoadingScene = "loading the scene";
   static constexpr const char* kReloadingConfig = "reloading the config (the old one stays)";
+  // How long rank 0 waits for every rank to start (ray textures of its modules, the scene).
+  static constexpr int kStartUpTimeoutMs = 15 * 60 * 1000;
 
   // What a stage ended with: the caller replies from this, not from side effects.
   struct StageResult {
@@ -154,6 +166,9 @@ class Conductor {
   // Render loop (conductor_render_loop.cpp).
   std::chrono::milliseconds timeToNextTurn() const;
   void turn();
+  // What rank 0 decided in a turn (the script changed on disk, the animation's time, a frame to
+  // render): every rank plays the same turn.
+  void playTurn(const nlohmann::json& plan);
   void renderAndPush();
   void push(const std::vector<std::shared_ptr<const hw::Image>>& images);
   void countFailedModuleFrame(int module,
@@ -162,6 +177,24 @@ class Conductor {
   void showOverlay(const std::string& kind, std::optional<int> module);
   void finishInFlight();
   void noteLinkHealth(LinkHealth health, const std::string& problem);
+
+  // The cluster (conductor_cluster.cpp). Rank 0 runs the loop and tells every other rank, step by
+  // step, what to do (a request, a turn of the loop, a config reload, the stop); they follow()
+  // and answer; every rank runs the same code on the same inputs, for its own modules.
+  bool clustered() const { return cluster_->size() > 1; }
+  void follow();
+  void tellOthers(const nlohmann::json& step);
+  // Rank 0: every rank's reply to a request, merged: a rank that refused is named in the error.
+  nlohmann::json agreeOnReply(nlohmann::json reply);
+  // Every rank's state after a turn (link health, calibration, timings), for `status`.
+  void gatherRankReports(int timeoutMs);
+  nlohmann::json rankReport() const;
+  // Rank 0: the images of `modules` from the ranks that own them, by module index (null where
+  // the owner shows nothing yet); the other ranks send theirs and get an empty vector.
+  std::vector<std::shared_ptr<const hw::Image>> gatherImages(const std::vector<int>& modules);
+  void endJob(const RanksSilent& e);
+  void stopOthers();
+  nlohmann::json clusterJson() const;  // status
 
   // Requests (conductor_requests.cpp): one handler each, named in the request table.
   nlohmann::json answerStatus(const RequestArgs&);
@@ -195,19 +228,28 @@ class Conductor {
   DaemonState showingState() const;  // playing or paused, whichever we were in
 
   ConductorOptions options_;
+  std::unique_ptr<Cluster> singleProcess_;  // when options_.cluster is null
+  Cluster* cluster_ = nullptr;
   StateMachine state_;
   DisplayModel nominal_;
+  ModuleOwnership ownership_;
+  // This rank's modules: its local module i (textures_, encoders_, currentImages_, the link's
+  // module i) is the display's module owned_[i].
+  std::vector<int> owned_;
+  std::vector<nlohmann::json> rankReports_;              // rank 0: the last report of every rank
+  StageTiming tellTiming_, agreeTiming_, reportTiming_;  // cluster sync, per display frame
+  std::string clusterFailure_;
   DisplayModel calibration_;  // the installed calibration, or the nominal when there is none
   std::string calibrationSource_;
   CalibrationStore store_;
   // The installed photometric correction and its encoders (one a module; empty: plain sRGB).
   std::optional<DisplayColourCorrection> photometry_;
-  std::vector<ModuleEncoder> encoders_;
+  std::vector<ModuleEncoder> encoders_;  // this rank's modules (as textures_)
   std::string photometrySource_;
   std::string photometryRefused_;  // why a photometry file beside the calibration is not used
   RayTextureCache cache_;
   RayTextureCacheStats cacheStats_;
-  std::vector<RayTextures> textures_;
+  std::vector<RayTextures> textures_;  // this rank's modules, in owned_'s order
   uint64_t texturesVersion_ = 0;
   uint64_t texturesHash_ = 0;
 
@@ -225,7 +267,7 @@ class Conductor {
   Clock::time_point lastLinkTry_, lastLinkActivity_;
   LinkHealth linkHealth_ = LinkHealth::kDown;
   std::string linkError_;  // empty while the link is up; else why it is not (status)
-  // What the modules show (8-bit sRGB); views decode it. No float copy is kept (680 MB on
+  // What this rank's modules show (8-bit sRGB); views decode it. No float copy is kept (680 MB on
   // `default`).
   std::vector<std::shared_ptr<const hw::Image>> currentImages_;
   // Per module, the last frame the link failed to deliver (render count and image), so a frame

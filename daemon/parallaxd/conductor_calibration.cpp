@@ -133,7 +133,7 @@ Conductor::StageResult Conductor::regenerate(const DisplayModel& model) {
   try {
     RayTextureCacheStats stats;
     std::vector<RayTextures> textures =
-        cache_.texturesFor(model, &stats, [this](int done, int total) {
+        cache_.texturesFor(model, owned_, &stats, [this](int done, int total) {
           state_.setStage(fmt::format("ray textures: module {} of {}", done, total));
           publish();                                         // `status` says how far it got
           if (options_.onHeartbeat) options_.onHeartbeat();  // a long stage is not a hang

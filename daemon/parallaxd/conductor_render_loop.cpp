@@ -22,9 +22,13 @@ std::chrono::milliseconds Conductor::timeToNextTurn() const {
 }
 
 void Conductor::turn() {
-  if (!link_ && Clock::now() - lastLinkTry_ > std::chrono::seconds(2)) connectLink(0);
+  // Rank 0 decides (the script changed on disk, an animation period came, a frame is due) and
+  // every rank plays the same turn.
+  nlohmann::json plan = {{"step", "turn"}};
   if (state_.state() == DaemonState::kPlaying && script_ && overlay_.empty()) {
-    if (script_->reloadIfChanged() == ScriptedScene::Reload::kFailed) {
+    const ScriptedScene::Reload reload = script_->reloadIfChanged();
+    if (reload != ScriptedScene::Reload::kUnchanged) plan["reload"] = true;
+    if (reload == ScriptedScene::Reload::kFailed) {
       sceneError_ = script_->lastError();
       spdlog::error("scene reload failed, the previous version keeps playing: {}", sceneError_);
     }
@@ -42,24 +46,54 @@ void Conductor::turn() {
           std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(step));
       if (renderedSceneVersion_ != 0) sceneTime_ += step;
       if (!script_->setTime(sceneTime_)) sceneError_ = script_->lastError();
+      plan["time"] = sceneTime_;
       due = true;
     }
-    if (due && textures_.size() == nominal_.modules.size() &&
+    if (due && textures_.size() == owned_.size() &&
         (script_->version() != renderedSceneVersion_ ||
          texturesVersion_ != renderedTexturesVersion_)) {
-      renderAndPush();
+      plan["render"] = true;
     }
   }
+  const auto told = Clock::now();
+  tellOthers(plan);
+  if (plan.contains("render") && clustered())
+    tellTiming_.add(std::chrono::duration<double, std::milli>(Clock::now() - told).count());
+  playTurn(plan);
+}
+
+void Conductor::playTurn(const nlohmann::json& plan) {
+  if (!link_ && Clock::now() - lastLinkTry_ > std::chrono::seconds(2)) connectLink(0);
+  if (!cluster_->isConductor() && script_) {
+    // Rank 0 has reloaded and timed its copy of the script already.
+    if (plan.contains("reload") && script_->reload() == ScriptedScene::Reload::kFailed)
+      sceneError_ = script_->lastError();
+    if (plan.contains("time")) {
+      sceneTime_ = plan["time"].get<double>();
+      if (!script_->setTime(sceneTime_)) sceneError_ = script_->lastError();
+    }
+  }
+  if (plan.contains("render")) renderAndPush();
   keepLinkAlive();
   if (needsPush_ && link_ && !currentImages_.empty()) {
     ++stats_.resendsAfterReconnect;
     push(currentImages_);
   }
+  const auto reported = Clock::now();
+  gatherRankReports(options_.config.cluster.timeoutMs);
+  if (plan.contains("render") && clustered())
+    reportTiming_.add(std::chrono::duration<double, std::milli>(Clock::now() - reported).count());
 }
 
 void Conductor::renderAndPush() {
   const auto started = Clock::now();
+  DisplayFrame frame;
+  std::string failure;
   try {
+    if (!script_)
+      throw std::runtime_error("no scene loaded on " + ownership_.describe(cluster_->rank()));
+    if (textures_.size() != owned_.size())
+      throw std::runtime_error("no ray textures on " + ownership_.describe(cluster_->rank()));
     // The frame cache pays only when frames follow frames: an animated scene.
     const Scene& scene = script_->scene();
     const bool useCache = options_.config.scene.frameCache && script_->script().animated();
@@ -74,8 +108,8 @@ void Conductor::renderAndPush() {
         useCache && frameCache_.prepare(physical, textures_, texturesVersion_, options_.render);
     const double prepareMs =
         std::chrono::duration<double, std::milli>(Clock::now() - prepareStart).count();
-    DisplayFrame frame = renderDisplayFrame(physical, textures_, options_.render, encoders_,
-                                            cached ? &frameCache_ : nullptr);
+    frame = renderDisplayFrame(physical, textures_, options_.render, encoders_,
+                               cached ? &frameCache_ : nullptr);
     if (cached) frameCache_.count(frame.counters);
     if (script_->script().animated()) {
       lastScene_ = std::move(built);
@@ -84,21 +118,29 @@ void Conductor::renderAndPush() {
     }
     // A build of the cache is part of the frame that needed it.
     frame.renderMs += prepareMs;
-    stats_.render.add(frame.renderMs);
-    stats_.encode.add(frame.encodeMs);
-    ++stats_.displayFrames;
-    lastCounters_ = frame.counters;
-    currentImages_ = std::move(frame.images);
-    renderedSceneVersion_ = script_->version();
-    renderedTexturesVersion_ = texturesVersion_;
   } catch (const std::exception& e) {
-    // Nothing of a failed frame reaches the modules: they keep the last complete one.
+    failure = e.what();
+  }
+  // Nothing of a failed frame reaches the modules: they keep the last complete one. In a
+  // cluster that holds for the display: no rank pushes unless every rank rendered its part.
+  const auto agreeing = Clock::now();
+  const bool everyRankRendered = cluster_->all(failure.empty(), options_.config.cluster.timeoutMs);
+  if (clustered())
+    agreeTiming_.add(std::chrono::duration<double, std::milli>(Clock::now() - agreeing).count());
+  if (failure.empty() && !everyRankRendered) failure = "another rank's part of the frame failed";
+  if (script_) renderedSceneVersion_ = script_->version();
+  if (!failure.empty()) {
     ++stats_.renderFailures;
-    sceneError_ = e.what();
-    renderedSceneVersion_ = script_->version();
-    spdlog::error("render failed, the modules keep the previous frame: {}", e.what());
+    sceneError_ = failure;
+    spdlog::error("render failed, the modules keep the previous frame: {}", failure);
     return;
   }
+  stats_.render.add(frame.renderMs);
+  stats_.encode.add(frame.encodeMs);
+  ++stats_.displayFrames;
+  lastCounters_ = frame.counters;
+  currentImages_ = std::move(frame.images);
+  renderedTexturesVersion_ = texturesVersion_;
   if (link_) {
     push(currentImages_);
     stats_.latency.add(std::chrono::duration<double, std::milli>(Clock::now() - started).count());
@@ -193,10 +235,10 @@ void Conductor::keepLinkAlive() {
 
 void Conductor::showOverlay(const std::string& kind, std::optional<int> module) {
   std::vector<std::shared_ptr<const hw::Image>> images = currentImages_;
-  images.resize(nominal_.modules.size());
-  for (size_t i = 0; i < nominal_.modules.size(); ++i) {
-    const OpticalModule& m = nominal_.modules[i];
-    const int index = static_cast<int>(i);
+  images.resize(owned_.size());
+  for (size_t i = 0; i < owned_.size(); ++i) {
+    const int index = owned_[i];
+    const OpticalModule& m = nominal_.modules[static_cast<size_t>(index)];
     if (!module || index == *module) {
       images[i] =
           encodeForLink(kind == "identify" ? identifyFrame(m.width, m.height, index, m.mirror)

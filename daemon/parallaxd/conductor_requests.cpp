@@ -30,6 +30,12 @@ Reply ok(Reply j = Reply::object()) {
 
 Reply refused(const std::string& why) { return {{"ok", false}, {"error", why}}; }
 
+// The calibration shows patterns on every module and photographs them through one camera; the
+// ranks of a cluster do not share that session yet.
+constexpr const char* kNotInACluster =
+    "the cluster plays the installed calibration: calibrate (and roll back) with one rank "
+    "(parallaxd without mpirun), then start the cluster again";
+
 }  // namespace
 
 const std::map<std::string_view, Conductor::Handler>& Conductor::handlers() {
@@ -79,7 +85,7 @@ Reply Conductor::handle(const Reply& request) {
     // Answered at once: from the published snapshot, or a flag the conductor thread polls.
     const Handler handler = handlers().at(spec->name);
     if (spec->served == Served::kAtOnce) return (this->*handler)(args);
-    job = std::make_shared<Job>(Job{handler, std::move(args), {}});
+    job = std::make_shared<Job>(Job{handler, std::move(args), request, {}});
   } catch (const std::exception& e) {
     return refused(e.what());
   }
@@ -151,6 +157,7 @@ Reply Conductor::answerCancel(const RequestArgs&) {
 // ---- queued to the conductor thread ---------------------------------------------------------
 
 Reply Conductor::answerCalibrate(const RequestArgs& args) {
+  if (clustered()) return refused(kNotInACluster);
   std::optional<PhotometricMode> photometric;
   if (args.has("photometric"))
     photometric = parsePhotometricMode(args.string("photometric"), "photometric");
@@ -163,6 +170,7 @@ Reply Conductor::answerCalibrate(const RequestArgs& args) {
 }
 
 Reply Conductor::answerRollback(const RequestArgs&) {
+  if (clustered()) return refused(kNotInACluster);
   // The previous version, geometry and photometry, is checked before anything changes.
   const StoredCalibration previous = store_.rollback(nominal_);
   const StageResult result = regenerate(previous.model);
@@ -212,10 +220,12 @@ Reply Conductor::answerSet(const RequestArgs& args) {
 
 Reply Conductor::answerFrame(const RequestArgs& args) {
   const int m = *args.module("module");
-  if (m >= static_cast<int>(currentImages_.size())) {
-    throw InputError(
-        {"", "module", 0},
-        fmt::format("no frame for module {} ({} modules show frames)", m, currentImages_.size()));
+  // From the rank that owns the module (every rank takes part; only rank 0 writes the file).
+  const std::vector<std::shared_ptr<const hw::Image>> images = gatherImages({m});
+  if (!cluster_->isConductor()) return ok();
+  if (!images[static_cast<size_t>(m)]) {
+    throw InputError({"", "module", 0},
+                     fmt::format("no frame for module {}: it shows none yet", m));
   }
   std::string path = args.string("path");
   if (path.empty()) {
@@ -224,14 +234,19 @@ Reply Conductor::answerFrame(const RequestArgs& args) {
     std::filesystem::create_directories(folder);  // the daemon's own folder
     path = moduleFrameStem(folder, m) + ".png";
   }
-  const std::shared_ptr<const hw::Image> shown = currentImages_[static_cast<size_t>(m)];
+  const std::shared_ptr<const hw::Image> shown = images[static_cast<size_t>(m)];
   writeOutputFile(path, "path", [&](const std::string& file) { hw::writePng(*shown, file); });
   return ok({{"path", path}, {"module", m}});
 }
 
 Reply Conductor::answerView(const RequestArgs& args) {
-  if (currentImages_.size() != calibration_.modules.size())
-    return refused("the modules show no frames yet");
+  std::vector<int> every(nominal_.modules.size());
+  for (size_t i = 0; i < every.size(); ++i) every[i] = static_cast<int>(i);
+  const std::vector<std::shared_ptr<const hw::Image>> images = gatherImages(every);
+  if (!cluster_->isConductor()) return ok();
+  for (const auto& image : images) {
+    if (!image) return refused("the modules show no frames yet");
+  }
   const double x = args.number("x");
   ObserverViewOptions vo;
   vo.width = args.integer("width", vo.width);
@@ -248,13 +263,23 @@ Reply Conductor::answerView(const RequestArgs& args) {
   // From what the modules show (8-bit), back in linear light: the view includes quantisation.
   // Through a photometric correction, as its model says the corrected module shows it.
   std::vector<Frame> shown;
-  shown.reserve(currentImages_.size());
-  for (size_t i = 0; i < currentImages_.size(); ++i) {
-    const hw::Image& image = *currentImages_[i];
-    const bool corrected = i < encoders_.size() && overlay_.empty() &&
-                           image.width == encoders_[i].width() &&
-                           image.height == encoders_[i].height();
-    shown.push_back(corrected ? encoders_[i].decode(image.pixels) : frameShownBy(image));
+  shown.reserve(images.size());
+  for (size_t i = 0; i < images.size(); ++i) {
+    const hw::Image& image = *images[i];
+    const auto decode = [&](const ModuleEncoder& encoder) {
+      const bool corrected =
+          overlay_.empty() && image.width == encoder.width() && image.height == encoder.height();
+      return corrected ? encoder.decode(image.pixels) : frameShownBy(image);
+    };
+    if (!photometry_) {
+      shown.push_back(frameShownBy(image));
+    } else if (clustered()) {
+      // Another rank's module: its encoder is made here, from the same correction.
+      shown.push_back(decode(ModuleEncoder(photometry_->modules[i], nominal_.modules[i].width,
+                                           nominal_.modules[i].height)));
+    } else {
+      shown.push_back(decode(encoders_[i]));
+    }
   }
   const Frame view = synthesizeObserverView(calibration_, shown, viewer, vo);
   writeOutputFile(path, "path", [&](const std::string& file) { writePng(view, file); });

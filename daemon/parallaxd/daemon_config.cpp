@@ -258,6 +258,29 @@ void readPanel(TableReader& r, PanelConfig* p) {
   r.refuseUnknownKeys();
 }
 
+void readCluster(TableReader& r, ClusterConfig* c) {
+  if (const toml::node* n = r.find("modules")) {
+    const std::string shape =
+        "must be an array with, per rank, an array of module indices: [[0, 1], [2, 3]]";
+    const toml::array* ranks = n->as_array();
+    if (!ranks || ranks->empty()) r.fail(*n, "modules", shape);
+    for (const toml::node& rank : *ranks) {
+      const toml::array* modules = rank.as_array();
+      if (!modules) r.fail(rank, "modules", shape);
+      std::vector<int>& owned = c->modules.emplace_back();
+      for (const toml::node& m : *modules) {
+        if (!m.is_integer() || m.as_integer()->get() < 0 || m.as_integer()->get() > 1023)
+          r.fail(m, "modules", "module indices must be integers in 0..1023");
+        owned.push_back(static_cast<int>(m.as_integer()->get()));
+      }
+    }
+    c->file = r.file();
+    c->line = static_cast<int>(n->source().begin.line);
+  }
+  r.readInt("timeout_ms", &c->timeoutMs, 100, 3600000);
+  r.refuseUnknownKeys();
+}
+
 }  // namespace
 
 void DaemonConfig::validate() const {
@@ -314,6 +337,7 @@ DaemonConfig parseDaemonConfig(const std::string& text, const std::string& name)
       {"scene", [](TableReader& r, DaemonConfig* c) { readScene(r, &c->scene); }},
       {"daemon", [](TableReader& r, DaemonConfig* c) { readDaemon(r, c); }},
       {"panel", [](TableReader& r, DaemonConfig* c) { readPanel(r, &c->panel); }},
+      {"cluster", [](TableReader& r, DaemonConfig* c) { readCluster(r, &c->cluster); }},
   };
   for (const auto& [section, read] : sections) {
     if (const toml::table* t = top.subTable(section)) {

@@ -23,6 +23,9 @@
 //   [scene]        script = "cornell" | "scene.lua", fps = 30, frame_cache = true,
 //                  [scene.parameters] name = value
 //   [daemon]       socket = "...", cache_dir = "...", log_level = "info"
+//   [cluster]      modules = [[0, 1, 2], [3, 4, 5]]   (per MPI rank, the modules it renders
+//                       and pushes; omitted: contiguous blocks), timeout_ms = 30000
+//                       (module_ownership.h; one rank without mpirun)
 //   [panel]        enabled = true, address = "127.0.0.1", port = 8470   (control_panel.h;
 //                  another address than loopback only when given here; port 0: any free one)
 
@@ -95,6 +98,18 @@ struct PanelConfig {
   bool operator==(const PanelConfig&) const = default;
 };
 
+// The ranks of `mpirun -np N parallaxd` (cluster.h, module_ownership.h). Ignored by one rank.
+struct ClusterConfig {
+  // Per rank, the modules its link reaches; empty: contiguous blocks in module order.
+  std::vector<std::vector<int>> modules;
+  // Rank 0 waits this long for a rank's answer (after its own part of the frame) before it ends
+  // the job naming that rank and its modules.
+  int timeoutMs = 30000;
+  std::string file;  // where `modules` was written: errors found once the rank count is known
+  int line = 0;
+  bool operator==(const ClusterConfig&) const = default;
+};
+
 struct DaemonConfig {
   std::string sourceFile;  // empty: the built-in defaults
   DisplayConfig display;
@@ -102,6 +117,7 @@ struct DaemonConfig {
   CalibrationConfig calibration;
   SceneConfig scene;
   PanelConfig panel;
+  ClusterConfig cluster;
   std::string controlSocket;  // empty → defaultControlSocketPath()
   std::string cacheDir;       // empty → defaultCacheDir()
   std::string logLevel = "info";

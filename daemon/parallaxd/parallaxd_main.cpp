@@ -1,6 +1,7 @@
 // parallaxd: the daemon (DESIGN.md, "Processes and interfaces"; README, "The daemon").
 //
 //   parallaxd [--config parallax.toml]
+//   mpirun -np N parallaxd --config parallax.toml      (a cluster: cluster.h)
 //
 // Without a config: the built-in `demo` display on a simulator it starts itself, the control
 // socket at the per-user default path that `parallax ctl` finds with no argument. SIGTERM and
@@ -9,6 +10,7 @@
 // to stderr (under systemd the journal: syslog priorities, no timestamp of ours); with
 // $NOTIFY_SOCKET it speaks sd_notify (READY, STATUS, WATCHDOG, RELOADING, STOPPING).
 
+#include <fmt/format.h>
 #include <signal.h>
 #include <spdlog/spdlog.h>
 
@@ -24,12 +26,14 @@
 #include "common/input_error.h"
 #include "common/private_folder.h"
 #include "daemon/cli/command_line.h"
+#include "daemon/parallaxd/cluster.h"
 #include "daemon/parallaxd/conductor.h"
 #include "daemon/parallaxd/control_panel.h"
 #include "daemon/parallaxd/control_server.h"
 #include "daemon/parallaxd/daemon_config.h"
 #include "daemon/parallaxd/instance_lock.h"
 #include "daemon/parallaxd/journal_log_sink.h"
+#include "daemon/parallaxd/module_ownership.h"
 #include "daemon/parallaxd/panel_token.h"
 #include "daemon/parallaxd/simhw_child.h"
 #include "daemon/parallaxd/systemd_notify.h"
@@ -37,6 +41,20 @@
 namespace {
 
 using namespace parallax::daemon;
+
+// A rank of the cluster stopped it: the job must end (every rank), after this rank cleaned up.
+struct ClusterEnded : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// The display with only `modules` (in that order): what one rank's simulator shows.
+parallax::DisplayModel displayOfModules(const parallax::DisplayModel& display,
+                                        const std::vector<int>& modules) {
+  parallax::DisplayModel part = display;
+  part.modules.clear();
+  for (int m : modules) part.modules.push_back(display.modules[static_cast<size_t>(m)]);
+  return part;
+}
 
 // Signals are taken by one thread with sigwait, never by handlers: every other thread
 // inherits the mask, so no library call is interrupted at a random point. The thread exists
@@ -105,23 +123,36 @@ std::unique_ptr<ControlPanel> startPanel(const DaemonConfig& config, const std::
 // SIGHUP reload changed what cannot change under a running loop (display, hardware, socket,
 // ...).
 std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& configPath,
-                                        SignalWatcher& signals, SystemdNotifier& notifier) {
+                                        SignalWatcher& signals, SystemdNotifier& notifier,
+                                        Cluster& cluster) {
+  const bool isConductor = cluster.isConductor();
+  const bool clustered = cluster.size() > 1;
   // The runtime folder is checked (ours, 0700, no symlink) and locked before anything in it
-  // is touched: a second daemon stops here, with the first one's sockets intact.
-  const std::string folder =
+  // is touched: a second daemon stops here, with the first one's sockets intact. The other
+  // ranks of a cluster have their own folder inside it (their simulators' sockets).
+  const std::string top =
       std::filesystem::absolute(config.controlSocketPath()).parent_path().string();
-  parallax::makePrivateFolder(folder);
+  parallax::makePrivateFolder(top);
+  const std::string folder = isConductor ? top : fmt::format("{}/rank-{}", top, cluster.rank());
+  if (!isConductor) parallax::makePrivateFolder(folder);
   const InstanceLock lock(folder);
   // Only a socket of ours may be replaced; anything else at the path is refused, never deleted.
-  parallax::socketPathInUse(config.controlSocketPath());
+  if (isConductor) parallax::socketPathInUse(config.controlSocketPath());
 
   const parallax::DisplayModel nominal = nominalDisplayOf(config.display);
-  std::string linkSpec = linkSpecOf(config.hardware, static_cast<int>(nominal.modules.size()));
+  const ModuleOwnership ownership =
+      ModuleOwnership::of(config.cluster, static_cast<int>(nominal.modules.size()), cluster.size());
+  std::string linkSpec = linkSpecOfRank(config.hardware, ownership, cluster.rank());
   std::unique_ptr<SimhwChild> simulator;
   std::string simulatorCamera;
-  if (linkSpec.empty()) {
-    simulator = std::make_unique<SimhwChild>(nominal, config.hardware, folder + "/simhw.sock",
-                                             config.cacheDirPath());
+  if (linkSpec.empty() && !ownership.modulesOf(cluster.rank()).empty()) {
+    // Each rank of a cluster simulates the modules its link would reach, with its own files.
+    HardwareConfig hardware = config.hardware;
+    const std::string rankFolder = clustered ? fmt::format("/rank-{}", cluster.rank()) : "";
+    if (!hardware.dump.empty()) hardware.dump += rankFolder;
+    simulator = std::make_unique<SimhwChild>(
+        displayOfModules(nominal, ownership.modulesOf(cluster.rank())), hardware,
+        folder + "/simhw.sock", config.cacheDirPath() + rankFolder);
     linkSpec = simulator->linkSpec();
     // What a real installation measures once; the daemon never sees the simulator's truth.
     // Kept apart from the config, so a reload that names no camera still has it.
@@ -131,25 +162,34 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
 
   std::atomic<bool> stop{false};
   ConductorOptions options;
+  options.cluster = &cluster;
+  options.ownership = ownership;
   options.config = config;
   options.linkSpec = linkSpec;
   options.simulatorCamera = simulatorCamera;
   options.simulatorPhotometric = simulator != nullptr && config.hardware.photometricVariation;
-  options.onReady = [&notifier] {
-    notifier.ready();
-    spdlog::info("parallaxd ready");
-  };
-  options.onHeartbeat = [&notifier] { notifier.watchdog(); };
-  options.onReloading = [&notifier] { notifier.reloading(); };
-  options.onReloaded = [&notifier] { notifier.ready(); };
+  // Only rank 0 speaks to systemd and serves the control socket and the panel.
+  if (isConductor) {
+    options.onReady = [&notifier] {
+      notifier.ready();
+      spdlog::info("parallaxd ready");
+    };
+    options.onHeartbeat = [&notifier] { notifier.watchdog(); };
+    options.onReloading = [&notifier] { notifier.reloading(); };
+    options.onReloaded = [&notifier] { notifier.ready(); };
+  }
   Conductor conductor(options);
-  auto control = std::make_unique<ControlServer>(
-      config.controlSocketPath(),
-      [&conductor](const nlohmann::json& r) { return conductor.handle(r); });
-  // The browser panel hands its requests to the same handler. It is a convenience: when it
-  // cannot start (the port is taken, the state folder is read-only) the daemon runs on without
-  // it and `parallax ctl panel` says why.
-  std::unique_ptr<ControlPanel> panel = startPanel(config, folder, conductor);
+  std::unique_ptr<ControlServer> control;
+  std::unique_ptr<ControlPanel> panel;
+  if (isConductor) {
+    control = std::make_unique<ControlServer>(
+        config.controlSocketPath(),
+        [&conductor](const nlohmann::json& r) { return conductor.handle(r); });
+    // The browser panel hands its requests to the same handler. It is a convenience: when it
+    // cannot start (the port is taken, the state folder is read-only) the daemon runs on
+    // without it and `parallax ctl panel` says why.
+    panel = startPanel(config, folder, conductor);
+  }
 
   std::thread supervisor([&] {
     while (!stop.load()) {
@@ -164,23 +204,24 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
       }
       if (conductor.shutdownRequested()) stop = true;
       // Polled: what `systemctl status` shows follows every state that lasts 100 ms.
-      notifier.status(serviceStatusOf(conductor.state()));
+      if (isConductor) notifier.status(serviceStatusOf(conductor.state()));
       if (simulator && !stop.load()) simulator->superviseOnce();
     }
   });
 
   conductor.run(stop);
-  if (!conductor.restartWith()) notifier.stopping();
+  if (!conductor.restartWith() && isConductor) notifier.stopping();
   stop = true;
   supervisor.join();
   panel.reset();
   control.reset();  // removes the socket
   if (simulator) simulator->stop();
+  if (!conductor.clusterFailure().empty()) throw ClusterEnded(conductor.clusterFailure());
   if (signals.stopRequested()) return std::nullopt;
   return conductor.restartWith();
 }
 
-int run(const std::string& configPath) {
+int run(const std::string& configPath, Cluster& cluster) {
   // Before anything else (config and display files are read next): see SignalWatcher.
   sigset_t signals;
   sigemptyset(&signals);
@@ -199,7 +240,7 @@ int run(const std::string& configPath) {
   SystemdNotifier notifier;
   std::optional<DaemonConfig> next = config;
   while (next && !watcher.stopRequested()) {
-    next = runPipeline(*next, configPath, watcher, notifier);
+    next = runPipeline(*next, configPath, watcher, notifier, cluster);
     if (next) {
       // RELOADING=1 was sent when the reload began; READY=1 follows from the new pipeline.
       spdlog::set_level(spdlog::level::from_str(next->logLevel));
@@ -211,8 +252,26 @@ int run(const std::string& configPath) {
 
 }  // namespace
 
+// A rank of a cluster that fails alone would leave the others waiting for it: the whole job
+// ends (mpirun reports it) once this rank has said why.
+int endOfRank(int code, Cluster* cluster) {
+  if (cluster && cluster->size() > 1) cluster->abort(code);
+  return code;
+}
+
 int main(int argc, char** argv) {
   parallax::daemon::setUpDaemonLogging("parallaxd");
+  // Before the command line is read: MPI_Init may take its own arguments out of argv.
+  std::unique_ptr<Cluster> cluster;
+  try {
+    cluster = joinCluster(argc, argv);
+  } catch (const std::exception& e) {
+    parallax::daemon::logFatal(std::string("parallaxd: error: ") + e.what());
+    return 1;
+  }
+  const std::string self =
+      cluster->size() > 1 ? fmt::format("parallaxd rank {}", cluster->rank()) : "parallaxd";
+  if (cluster->size() > 1) parallax::daemon::setUpDaemonLogging(self);
   CLI::App app{"parallaxd: calibrates the display, traces the scene, pushes frames to the modules",
                "parallaxd"};
   app.footer("Exit codes: 0 stopped cleanly, 1 runtime failure, 2 bad config or usage error.");
@@ -222,20 +281,23 @@ int main(int argc, char** argv) {
                  "parallax.toml (default: built-in demo display on a simulator)");
   try {
     app.parse(argc, argv);
-    return run(config);
+    return run(config, *cluster);
   } catch (const CLI::Success& e) {
     return app.exit(e);  // --help, --version
   } catch (const CLI::ParseError& e) {
     app.exit(e);
-    return parallax::cli::kExitUsage;
+    return endOfRank(parallax::cli::kExitUsage, cluster.get());
   } catch (const parallax::InputError& e) {
-    parallax::daemon::logFatal(std::string("parallaxd: ") + e.what());
-    return 2;
+    parallax::daemon::logFatal(self + ": " + e.what());
+    return endOfRank(2, cluster.get());
   } catch (const AlreadyRunning& e) {
-    parallax::daemon::logFatal(std::string("parallaxd: ") + e.what());
-    return 1;
+    parallax::daemon::logFatal(self + ": " + e.what());
+    return endOfRank(1, cluster.get());
+  } catch (const ClusterEnded& e) {
+    parallax::daemon::logFatal(self + ": " + e.what());
+    return endOfRank(1, cluster.get());
   } catch (const std::exception& e) {
-    parallax::daemon::logFatal(std::string("parallaxd: error: ") + e.what());
-    return 1;
+    parallax::daemon::logFatal(self + ": error: " + e.what());
+    return endOfRank(1, cluster.get());
   }
 }

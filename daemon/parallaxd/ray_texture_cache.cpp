@@ -91,6 +91,14 @@ std::string RayTextureCache::folderFor(uint64_t hash) const {
 std::vector<RayTextures> RayTextureCache::texturesFor(
     const DisplayModel& model, RayTextureCacheStats* stats,
     const std::function<void(int, int)>& progress) const {
+  std::vector<int> every(model.modules.size());
+  for (size_t i = 0; i < every.size(); ++i) every[i] = static_cast<int>(i);
+  return texturesFor(model, every, stats, progress);
+}
+
+std::vector<RayTextures> RayTextureCache::texturesFor(
+    const DisplayModel& model, const std::vector<int>& modules, RayTextureCacheStats* stats,
+    const std::function<void(int, int)>& progress) const {
   const std::string folder = folderFor(displayContentHash(model));
   std::error_code ec;
   std::filesystem::create_directories(folder, ec);
@@ -99,12 +107,13 @@ std::vector<RayTextures> RayTextureCache::texturesFor(
     spdlog::warn("ray-texture cache {} unusable ({}): generating without caching", folder,
                  ec.message());
   const RayFrame frame = rayFrameOf(model);
-  const int total = static_cast<int>(model.modules.size());
+  const int total = static_cast<int>(modules.size());
   std::vector<RayTextures> all;
-  all.reserve(model.modules.size());
+  all.reserve(modules.size());
   RayTextureCacheStats local;
-  for (int i = 0; i < total; ++i) {
-    const OpticalModule& m = model.modules[static_cast<size_t>(i)];
+  for (int done = 0; done < total; ++done) {
+    const int i = modules[static_cast<size_t>(done)];
+    const OpticalModule& m = model.modules.at(static_cast<size_t>(i));
     const FileHeader header = headerFor(m.width, m.height, frame);
     const std::string path = fmt::format("{}/module_{:03d}.rays", folder, i);
     RayTextures textures(m.width, m.height, frame);
@@ -128,7 +137,7 @@ std::vector<RayTextures> RayTextureCache::texturesFor(
       }
     }
     all.push_back(std::move(textures));
-    if (progress) progress(i + 1, total);
+    if (progress) progress(done + 1, total);
   }
   if (stats) *stats = local;
   return all;

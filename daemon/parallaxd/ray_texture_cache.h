@@ -38,6 +38,10 @@ class RayTextureCache {
   std::vector<RayTextures> texturesFor(const DisplayModel& model,
                                        RayTextureCacheStats* stats = nullptr,
                                        const std::function<void(int, int)>& progress = {}) const;
+  // The same for some modules only (in the order given): a cluster rank's own modules.
+  std::vector<RayTextures> texturesFor(const DisplayModel& model, const std::vector<int>& modules,
+                                       RayTextureCacheStats* stats = nullptr,
+                                       const std::function<void(int, int)>& progress = {}) const;
 
   std::string folderFor(uint64_t hash) const;
 

@@ -28,23 +28,33 @@ inline std::vector<std::string> currentEnvironment() {
 
 class DaemonProcess {
  public:
+  // `launcher`: a program parallaxd is started through, with its arguments (`mpirun -np 2`),
+  // found on $PATH; empty: parallaxd itself.
   DaemonProcess(const std::filesystem::path& config, const std::filesystem::path& log,
-                std::vector<std::string> env)
-      : log_(log) {
+                std::vector<std::string> env, std::vector<std::string> launcher = {})
+      : log_(log), launched_(!launcher.empty()) {
     std::vector<char*> envp;
     for (std::string& e : env) envp.push_back(e.data());
     envp.push_back(nullptr);
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
     posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    const std::string configPath = config.string();
-    std::vector<char*> argv = {const_cast<char*>(PARALLAXD_PATH), const_cast<char*>("--config"),
-                               const_cast<char*>(configPath.c_str()), nullptr};
-    EXPECT_EQ(posix_spawn(&pid_, PARALLAXD_PATH, &actions, nullptr, argv.data(), envp.data()), 0);
+    if (launched_) posix_spawn_file_actions_adddup2(&actions, 2, 1);  // its own messages too
+    std::vector<std::string> args = std::move(launcher);
+    args.insert(args.end(), {PARALLAXD_PATH, "--config", config.string()});
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    EXPECT_EQ(posix_spawnp(&pid_, argv[0], &actions, nullptr, argv.data(), envp.data()), 0);
     posix_spawn_file_actions_destroy(&actions);
   }
   ~DaemonProcess() {
     if (pid_ > 0) {
+      // A launcher forwards SIGTERM to what it started; SIGKILL would leave that running.
+      if (launched_) {
+        ::kill(pid_, SIGTERM);
+        if (waitExit(10000) != -1) return;
+      }
       ::kill(pid_, SIGKILL);
       ::waitpid(pid_, nullptr, 0);
     }
@@ -72,6 +82,7 @@ class DaemonProcess {
 
  private:
   std::filesystem::path log_;
+  bool launched_ = false;
   pid_t pid_ = -1;
 };
 

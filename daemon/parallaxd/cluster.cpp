@@ -14,11 +14,9 @@ std::string Cluster::host() const {
 }
 
 bool Cluster::all(bool mine, int timeoutMs) {
-  const std::vector<std::string> votes = gather(mine ? "1" : "0", timeoutMs);
-  std::string verdict = "1";
-  for (const std::string& v : votes) {
-    if (v != "1") verdict = "0";
-  }
+  bool every = true;
+  for (const std::string& vote : gather(mine ? "1" : "0", timeoutMs)) every = every && vote == "1";
+  std::string verdict(1, every ? '1' : '0');
   broadcast(verdict);
   return verdict == "1";
 }

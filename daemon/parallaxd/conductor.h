@@ -168,7 +168,8 @@ class Conductor {
   void turn();
   // What rank 0 decided in a turn (the script changed on disk, the animation's time, a frame to
   // render): every rank plays the same turn.
-  void playTurn(const nlohmann::json& plan);
+  // Returns the ms the ranks' reports took.
+  double playTurn(const nlohmann::json& plan);
   void renderAndPush();
   void push(const std::vector<std::shared_ptr<const hw::Image>>& images);
   void countFailedModuleFrame(int module,
@@ -236,8 +237,12 @@ class Conductor {
   // This rank's modules: its local module i (textures_, encoders_, currentImages_, the link's
   // module i) is the display's module owned_[i].
   std::vector<int> owned_;
-  std::vector<nlohmann::json> rankReports_;              // rank 0: the last report of every rank
-  StageTiming tellTiming_, agreeTiming_, reportTiming_;  // cluster sync, per display frame
+  std::vector<nlohmann::json> rankReports_;  // rank 0: the last report of every rank
+  // The cluster's exchanges, per display frame: rank 0 telling the turn, the verdict on the
+  // frame (waits for the slowest rank's render too), the reports (waits for the slowest push).
+  StageTiming tellTiming_, agreeTiming_, reportTiming_;
+  // Tell + report on turns without a frame (every rank idle): the messaging alone.
+  StageTiming idleSyncTiming_;
   std::string clusterFailure_;
   DisplayModel calibration_;  // the installed calibration, or the nominal when there is none
   std::string calibrationSource_;

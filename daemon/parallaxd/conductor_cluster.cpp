@@ -209,7 +209,8 @@ nlohmann::json Conductor::clusterJson() const {
           {"sync_ms",
            {{"tell", tellTiming_.toJson()},
             {"agree", agreeTiming_.toJson()},
-            {"report", reportTiming_.toJson()}}}};
+            {"report", reportTiming_.toJson()},
+            {"idle_turn", idleSyncTiming_.toJson()}}}};
 }
 
 }  // namespace parallax::daemon

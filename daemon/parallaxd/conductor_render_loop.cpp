@@ -57,12 +57,13 @@ void Conductor::turn() {
   }
   const auto told = Clock::now();
   tellOthers(plan);
-  if (plan.contains("render") && clustered())
-    tellTiming_.add(std::chrono::duration<double, std::milli>(Clock::now() - told).count());
-  playTurn(plan);
+  const double tellMs = std::chrono::duration<double, std::milli>(Clock::now() - told).count();
+  if (plan.contains("render") && clustered()) tellTiming_.add(tellMs);
+  const double reportMs = playTurn(plan);
+  if (!plan.contains("render") && clustered()) idleSyncTiming_.add(tellMs + reportMs);
 }
 
-void Conductor::playTurn(const nlohmann::json& plan) {
+double Conductor::playTurn(const nlohmann::json& plan) {
   if (!link_ && Clock::now() - lastLinkTry_ > std::chrono::seconds(2)) connectLink(0);
   if (!cluster_->isConductor() && script_) {
     // Rank 0 has reloaded and timed its copy of the script already.
@@ -81,8 +82,10 @@ void Conductor::playTurn(const nlohmann::json& plan) {
   }
   const auto reported = Clock::now();
   gatherRankReports(options_.config.cluster.timeoutMs);
-  if (plan.contains("render") && clustered())
-    reportTiming_.add(std::chrono::duration<double, std::milli>(Clock::now() - reported).count());
+  const double reportMs =
+      std::chrono::duration<double, std::milli>(Clock::now() - reported).count();
+  if (plan.contains("render") && clustered()) reportTiming_.add(reportMs);
+  return reportMs;
 }
 
 void Conductor::renderAndPush() {

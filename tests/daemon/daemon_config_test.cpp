@@ -122,6 +122,20 @@ TEST(DaemonConfig, ThePanelIsOnAndOnLoopbackUnlessConfigured) {
   const DaemonConfig state = parseDaemonConfig(
       "[calibration]\nfile = \"/var/lib/parallax/calibration.json\"\n", "parallax.toml");
   EXPECT_EQ(state.stateDirPath(), "/var/lib/parallax");
+  // So do the reports it links, unless the config names their folder.
+  EXPECT_EQ(state.reportsDirPath(), "/var/lib/parallax/reports");
+  const DaemonConfig reports = parseDaemonConfig(
+      "[calibration]\nfile = \"/var/lib/parallax/calibration.json\"\n"
+      "[panel]\nreports = \"/srv/reports\"\n",
+      "parallax.toml");
+  EXPECT_EQ(reports.reportsDirPath(), "/srv/reports");
+  EXPECT_EQ(sectionsNeedingRestart(state, reports), std::vector<std::string>{"panel"});
+  // The default stated or left out is the same folder: no restart.
+  const DaemonConfig stated = parseDaemonConfig(
+      "[calibration]\nfile = \"/var/lib/parallax/calibration.json\"\n"
+      "[panel]\nreports = \"/var/lib/parallax/reports\"\n",
+      "parallax.toml");
+  EXPECT_TRUE(sectionsNeedingRestart(state, stated).empty());
 }
 
 TEST(DaemonConfig, SyntaxErrorsNameTheLine) {

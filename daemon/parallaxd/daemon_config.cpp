@@ -387,7 +387,6 @@ DaemonConfig resolvedPaths(DaemonConfig c) {
   c.calibration.file = c.calibrationFilePath();
   c.controlSocket = c.controlSocketPath();
   c.cacheDir = c.cacheDirPath();
-  c.panel.reports = c.reportsDirPath();
   return c;
 }
 

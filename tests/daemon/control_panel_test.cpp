@@ -346,7 +346,9 @@ TEST_F(ControlPanelTest, LinksTheLatestReportAndServesItsFiles) {
     ASSERT_TRUE(r);
     EXPECT_EQ(r->status, 200) << path;
     EXPECT_EQ(r->get_header_value("Content-Type"), type) << path;
-    if (!body.empty()) EXPECT_EQ(r->body, body) << path;
+    if (!body.empty()) {
+      EXPECT_EQ(r->body, body) << path;
+    }
   }
   // Without the token, or with a wrong one, nothing.
   for (const std::string& wrong : {newPanelToken(), std::string()}) {

@@ -130,12 +130,6 @@ TEST(DaemonConfig, ThePanelIsOnAndOnLoopbackUnlessConfigured) {
       "parallax.toml");
   EXPECT_EQ(reports.reportsDirPath(), "/srv/reports");
   EXPECT_EQ(sectionsNeedingRestart(state, reports), std::vector<std::string>{"panel"});
-  // The default stated or left out is the same folder: no restart.
-  const DaemonConfig stated = parseDaemonConfig(
-      "[calibration]\nfile = \"/var/lib/parallax/calibration.json\"\n"
-      "[panel]\nreports = \"/var/lib/parallax/reports\"\n",
-      "parallax.toml");
-  EXPECT_TRUE(sectionsNeedingRestart(state, stated).empty());
 }
 
 TEST(DaemonConfig, SyntaxErrorsNameTheLine) {

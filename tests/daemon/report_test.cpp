@@ -222,9 +222,13 @@ TEST(TextMetrics, WidthsAreWhatThePngTwinDraws) {
       {"frame cache: memory against display frame rate", 15},
       {"RMS position error (mm, physical) 1e-5 0.0001 L0 L5 16 spp float16", 11},
       {"WWWWWWWWWWWWWWWWWWWWWWWWWWWWWWWW iiiiiiiiiiiiiiiiiiiiiiiiiii", 10}};
-  for (const auto& [text, size] : texts) {
+  for (size_t i = 0; i < texts.size(); ++i) {
+    const auto& [text, size] = texts[i];
     // One line on a canvas wider than it, black on white, starting at x = 10.
-    const std::string svg = (folder / "line.svg").string(), png = (folder / "line.png").string();
+    // A file name of its own: OpenImageIO's cache would hand back an earlier line's picture.
+    const std::string name = "line" + std::to_string(i);
+    const std::string svg = (folder / (name + ".svg")).string(),
+                      png = (folder / (name + ".png")).string();
     std::ofstream(svg) << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"1600\" height=\"40\" "
                           "font-family=\"DejaVu Sans, Verdana, sans-serif\"><rect width=\"100%\" "
                           "height=\"100%\" fill=\"white\"/><text x=\"10\" y=\"25\" font-size=\""

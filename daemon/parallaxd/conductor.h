@@ -57,6 +57,8 @@ struct ConductorOptions {
   // That simulator shows a photometric truth: `[calibration] photometric = "auto"` calibrates
   // the modules' colours too.
   bool simulatorPhotometric = false;
+  // Where that simulator's truth files are (simhw_child.h); `status` names it.
+  std::string simulatorFolder;
   // The ranks driving the display together (cluster.h) and which modules this one renders and
   // pushes (its link reaches exactly those). Null / unset: one rank with every module.
   Cluster* cluster = nullptr;

@@ -104,6 +104,7 @@ std::unique_ptr<ControlPanel> startPanel(const DaemonConfig& config, const std::
     options.port = config.panel.port;
     options.token = loadOrCreatePanelToken(config.stateDirPath());
     options.scratch = runtime + "/panel";
+    options.reports = config.reportsDirPath();
     parallax::makePrivateFolder(options.scratch);
     auto panel = std::make_unique<ControlPanel>(
         options, [&conductor](const nlohmann::json& r) { return conductor.handle(r); });
@@ -144,7 +145,7 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
       ModuleOwnership::of(config.cluster, static_cast<int>(nominal.modules.size()), cluster.size());
   std::string linkSpec = linkSpecOfRank(config.hardware, ownership, cluster.rank());
   std::unique_ptr<SimhwChild> simulator;
-  std::string simulatorCamera;
+  std::string simulatorCamera, simulatorFolder;
   if (linkSpec.empty() && !ownership.modulesOf(cluster.rank()).empty()) {
     // Each rank of a cluster simulates the modules its link would reach, with its own files.
     HardwareConfig hardware = config.hardware;
@@ -157,6 +158,7 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
     // What a real installation measures once; the daemon never sees the simulator's truth.
     // Kept apart from the config, so a reload that names no camera still has it.
     simulatorCamera = simulator->cameraMetadataPath();
+    simulatorFolder = std::filesystem::absolute(simulator->folder()).string();
   }
   if (signals.stopRequested()) return std::nullopt;
 
@@ -167,6 +169,7 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
   options.config = config;
   options.linkSpec = linkSpec;
   options.simulatorCamera = simulatorCamera;
+  options.simulatorFolder = simulatorFolder;
   options.simulatorPhotometric = simulator != nullptr && config.hardware.photometricVariation;
   // Only rank 0 speaks to systemd and serves the control socket and the panel.
   if (isConductor) {

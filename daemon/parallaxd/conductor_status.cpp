@@ -38,6 +38,7 @@ nlohmann::json Conductor::statusJson() const {
         {"sessions", linkSessions_},
         {"error", link_ || !linkError_.empty() ? linkError_ : "not connected"}}},
       {"fps", options_.config.scene.fps}};
+  if (!options_.simulatorFolder.empty()) j["simulated_display"] = options_.simulatorFolder;
   if (!s.lastError.empty()) j["last_error"] = {{"stage", s.lastErrorStage}, {"error", s.lastError}};
   if (script_) {
     j["scene"] = {{"name", sceneArgument_},
@@ -75,6 +76,10 @@ nlohmann::json Conductor::statsJson() const {
                       {"frames_cached", cache.framesCached},
                       {"frames_bypassed", cache.framesBypassed},
                       {"last_rebuild", cache.lastRebuild},
+                      {"payoff", cache.payoff},
+                      {"declined", cache.declined},
+                      {"frames_measured", cache.framesMeasured},
+                      {"bytes_freed", cache.bytesFreed},
                       {"bytes", cache.bytes},
                       {"pixels", cache.pixels},
                       {"bytes_per_pixel", cache.bytesPerPixel()},

@@ -11,10 +11,7 @@ local pace = px.param{name = "pace", default = 1.0, min = 0, max = 3,
 local turn = px.param{name = "turn", default = 0.1, min = 0, max = 1,
                       description = "turns a second about the vertical axis"}
 
-local stone = px.diffuse{name = "pedestal", color = {0.7, 0.68, 0.62}}
-px.box{size = {3.2, 0.4, 1.6}, material = stone, transform = px.translate(0, 0.2, 0)}
-local floor = px.mirror{name = "polished_floor", reflectance = {0.6, 0.6, 0.65}}
-px.grid{width = 4.0, height = 2.0, material = floor, transform = px.rotate_x(-math.pi / 2)}
+paper.pedestal_stage()
 
 local place = px.translate(-0.3, 0.4, 0.0)
 local _, wuson = px.model{path = "assimp:X/Testwuson.X", height = 1.2, transform = place}
@@ -26,12 +23,6 @@ local walk = 1
 for i, a in ipairs(px.animations(wuson)) do
   if a.name == "Wuson_Walk" then walk = i end
 end
-
-paper.add_lights()
-px.ambient({0.06, 0.06, 0.06})
-px.background({0.04, 0.05, 0.07})
-px.world_box{min = {-2.0, 0.0, -1.0}, max = {2.0, 2.25, 1.0}}
-px.max_depth(5)
 
 function update(t, dt)
   px.set_animation(wuson, walk, params.pace * t,

@@ -1,6 +1,7 @@
 #include "tracer/frame_cache.h"
 
 #include <fmt/format.h>
+#include <malloc.h>
 
 #include <algorithm>
 #include <bit>
@@ -26,7 +27,7 @@ bool sameLight(const PhysicalLight& a, const PhysicalLight& b) {
 }  // namespace
 
 std::vector<std::string> FrameCacheStats::lines() const {
-  return {
+  std::vector<std::string> out = {
       fmt::format("  frame cache: {} builds (last {:.1f} ms, all {:.1f} ms), {} frames through "
                   "it, {} without ({})",
                   builds, lastBuildMs, buildMs, framesCached, framesBypassed,
@@ -39,6 +40,12 @@ std::vector<std::string> FrameCacheStats::lines() const {
                   "traced against the dynamic objects only",
                   saved.pixelsReused, saved.shadowAnswered, saved.shadowDynamicOnly),
   };
+  out.push_back(fmt::format(
+      "  frame cache payoff: {} ({} frames re-traced in full to measure it; {:.1f} MiB freed in "
+      "all)",
+      payoff.empty() ? "not measured yet" : payoff, framesMeasured,
+      static_cast<double>(bytesFreed) / (1024.0 * 1024.0)));
+  return out;
 }
 
 const std::vector<bool>& FrameCache::dynamicInstances(const Scene& scene) {
@@ -105,6 +112,7 @@ std::uint64_t FrameCache::staticHash(const PhysicalScene& scene) const {
 bool FrameCache::prepare(PhysicalScene& scene, const std::vector<RayTextures>& textures,
                          std::uint64_t texturesVersion, const RenderOptions& options) {
   ++frame_;
+  frameKind_ = kUntimed;
   mapStaticMeshes(scene);
   stats_.staticInstances = static_cast<int>(staticInstances_.size());
   stats_.dynamicInstances =
@@ -118,14 +126,26 @@ bool FrameCache::prepare(PhysicalScene& scene, const std::vector<RayTextures>& t
     return false;
   }
   const std::uint64_t hash = staticHash(scene);
+  std::string stale;
+  if (stats_.declined) {
+    if (dynamic_ == declinedDynamic_ && hash == declinedHash_ &&
+        texturesVersion == declinedTexturesVersion_) {
+      ++stats_.framesBypassed;
+      return false;
+    }
+    // What it did not pay for has changed: try it again.
+    stats_.declined = false;
+    stale = "the scene changed since the cache did not pay";
+  }
   bool texturesSame =
       built_ && texturesVersion == builtTexturesVersion_ && records_.size() == textures.size();
   for (size_t m = 0; texturesSame && m < textures.size(); ++m) {
     texturesSame = records_[m].size() == static_cast<size_t>(textures[m].width()) *
                                              static_cast<size_t>(textures[m].height());
   }
-  std::string stale;
-  if (!built_) {
+  if (!stale.empty()) {
+    // (said above)
+  } else if (!built_) {
     stale = "first frame";
   } else if (builtDynamic_ != dynamic_) {
     stale = "an object held static moved";
@@ -147,8 +167,20 @@ bool FrameCache::prepare(PhysicalScene& scene, const std::vector<RayTextures>& t
     builtHash_ = hash;
     builtTexturesVersion_ = texturesVersion;
     stats_.lastRebuild = stale;
+    // A new basis: whether it pays is measured again (the build's own frame is not a sample).
+    trial_ = true;
+    cachedCost_.clear();
+    fullCost_.clear();
   } else {
     staleFrames_ = 0;
+    if (trial_ && cachedCost_.size() > fullCost_.size()) {
+      // The trial's full re-trace of this frame (the same image; the records stay).
+      frameKind_ = kTrialFull;
+      ++stats_.framesBypassed;
+      ++stats_.framesMeasured;
+      return false;
+    }
+    frameKind_ = kCached;
   }
   lightsValid_ = 0;
   const size_t lights = std::min<size_t>(scene.lights().size(), StaticHit::kCachedLights);
@@ -159,6 +191,43 @@ bool FrameCache::prepare(PhysicalScene& scene, const std::vector<RayTextures>& t
   stats_.cachedLights = std::popcount(lightsValid_);
   ++stats_.framesCached;
   return true;
+}
+
+void FrameCache::reportFrameCost(double cpuMs) {
+  if (!trial_ || frameKind_ == kUntimed) return;
+  (frameKind_ == kCached ? cachedCost_ : fullCost_).push_back(cpuMs);
+  frameKind_ = kUntimed;
+  if (cachedCost_.size() >= kTrialFrames && fullCost_.size() >= kTrialFrames) judge();
+}
+
+void FrameCache::judge() {
+  trial_ = false;
+  const auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  const double cached = median(cachedCost_), full = median(fullCost_);
+  const double gain = cached > 0.0 ? full / cached : 0.0;
+  const std::string measured = fmt::format(
+      "{:.1f} ms CPU a frame through it, {:.1f} ms without ({:.2f}x; medians of {} frames each)",
+      cached, full, gain, kTrialFrames);
+  if (gain >= kMinGain) {
+    stats_.payoff = "pays: " + measured;
+    return;
+  }
+  stats_.payoff = fmt::format(
+      "does not pay: {}, under {:.2f}x; its {:.1f} MiB freed, frames rendered in full until the "
+      "static geometry, the moving objects or the ray textures change",
+      measured, kMinGain, static_cast<double>(stats_.bytes) / (1024.0 * 1024.0));
+  stats_.bytesFreed += stats_.bytes;
+  declinedDynamic_ = builtDynamic_;
+  declinedHash_ = builtHash_;
+  declinedTexturesVersion_ = builtTexturesVersion_;
+  dropRecords();
+  // Back to the system, not only to the allocator: glibc keeps freed heap pages mapped (on
+  // `default` 648 MiB the daemon would go on holding).
+  malloc_trim(0);
+  stats_.declined = true;
 }
 
 void FrameCache::build(PhysicalScene& scene, const std::vector<RayTextures>& textures,
@@ -202,12 +271,18 @@ StaticVisibilityView FrameCache::view(std::size_t module) {
   return v;
 }
 
-void FrameCache::clear() {
+void FrameCache::dropRecords() {
   records_.clear();
   records_.shrink_to_fit();
   built_ = false;
   stats_.bytes = 0;
   stats_.pixels = 0;
+}
+
+void FrameCache::clear() {
+  dropRecords();
+  trial_ = false;
+  stats_.declined = false;
 }
 
 }  // namespace parallax

@@ -16,6 +16,15 @@
 // is built again for that frame; when that happens frame after frame (a scene whose world box
 // follows its moving objects), frames are rendered without the cache and the rebuilds back off.
 //
+// Whether it pays is measured, not assumed: where the moving objects or the moving lights are
+// most of a frame's work (orbit.lua: a turning key light re-shades every pixel), the cache
+// saves next to nothing and holds 12 bytes a pixel (648 MiB on `default`). When the caller
+// reports each frame's CPU time (reportFrameCost), the frames after a build alternate between
+// the cache and a full re-trace (the same images either way) until kTrialFrames of each are
+// timed; if the re-traces cost less than kMinGain times the cached frames, the records are
+// freed and frames are rendered in full until the cache's basis (static geometry, dynamic
+// objects, ray textures) changes. The decision and its figures are in stats().payoff.
+//
 // Use, once a frame, on the render thread:
 //   const auto& dynamic = cache.dynamicInstances(scene);
 //   PhysicalScene physical(scene, box, &dynamic);
@@ -46,6 +55,11 @@ struct FrameCacheStats {
   int cachedLights = 0;      // static lights whose shadows the records hold (last frame)
   std::string lastRebuild;   // why the cache was last built or bypassed
   FrameCacheCounters saved;  // over all frames rendered through it
+  // Whether it pays (reportFrameCost): empty until the trial after a build ends.
+  std::string payoff;
+  long framesMeasured = 0;     // trial frames rendered without the cache (of framesBypassed)
+  std::size_t bytesFreed = 0;  // records dropped because they did not pay (all trials)
+  bool declined = false;       // the records did not pay: frames are rendered in full
 
   double bytesPerPixel() const {
     return pixels > 0 ? static_cast<double>(bytes) / static_cast<double>(pixels) : 0.0;
@@ -65,9 +79,18 @@ class FrameCache {
   StaticVisibilityView view(std::size_t module);
   // The frame's counters: what the cache saved (adds to stats().saved).
   void count(const RenderCounters& frame) { stats_.saved += frame.cache; }
+  // The CPU time (ms) of the frame just prepared, through the cache or not: the trial's samples.
+  // A caller that never reports renders every frame through the cache (the tests' way).
+  void reportFrameCost(double cpuMs);
+
+  // The trial: this many frames each way after a build; the records stay when the re-traces
+  // cost at least kMinGain times the cached frames (medians).
+  static constexpr int kTrialFrames = 3;
+  static constexpr double kMinGain = 1.1;
 
   const FrameCacheStats& stats() const { return stats_; }
-  void clear();  // drops the records (memory freed); the next frame builds them again
+  // Drops the records (memory freed) and what the trial learnt; the next frame builds again.
+  void clear();
 
  private:
   void build(PhysicalScene& scene, const std::vector<RayTextures>& textures,
@@ -98,6 +121,19 @@ class FrameCache {
 
   int staleFrames_ = 0;  // consecutive frames that found the records stale
   long frame_ = 0, nextBuildFrame_ = 0;
+
+  void dropRecords();
+
+  // The payoff trial (reportFrameCost): what the frame just prepared was.
+  enum FrameKind { kUntimed, kCached, kTrialFull };  // kUntimed: a build's or a bypassed frame
+  FrameKind frameKind_ = kUntimed;
+  bool trial_ = false;
+  std::vector<double> cachedCost_, fullCost_;
+  void judge();
+  // The basis of the records that did not pay (stats_.declined): a change of any builds again.
+  std::vector<bool> declinedDynamic_;
+  std::uint64_t declinedHash_ = 0;
+  std::uint64_t declinedTexturesVersion_ = 0;
   FrameCacheStats stats_;
 };
 

@@ -69,9 +69,9 @@ nlohmann::json request(const std::string& socket, const nlohmann::json& r) {
   return daemon::tryAskDaemon(socket, r).value_or(nullptr);
 }
 
-// CPU seconds (user + system) and peak resident MiB of a process, from /proc.
+// CPU seconds (user + system), peak and current resident MiB of a process, from /proc.
 struct ProcessUse {
-  double cpuSeconds = 0.0, peakMiB = 0.0;
+  double cpuSeconds = 0.0, peakMiB = 0.0, residentMiB = 0.0;
 };
 ProcessUse processUse(pid_t pid) {
   ProcessUse u;
@@ -89,6 +89,7 @@ ProcessUse processUse(pid_t pid) {
   std::ifstream status(fmt::format("/proc/{}/status", pid));
   for (std::string line; std::getline(status, line);) {
     if (line.rfind("VmHWM:", 0) == 0) u.peakMiB = std::stod(line.substr(6)) / 1024.0;
+    if (line.rfind("VmRSS:", 0) == 0) u.residentMiB = std::stod(line.substr(6)) / 1024.0;
   }
   return u;
 }
@@ -249,10 +250,10 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
         windowMeanMs(first, last, "encode"), windowMeanMs(first, last, "push"),
         windowMeanMs(first, last, "end_to_end"), figures.cpuMsPerFrame);
     std::cout << fmt::format(
-        "  CPU: parallaxd {:.2f} cores, simulator {:.2f} cores; peak memory: parallaxd {:.0f} MiB, "
-        "simulator {:.0f} MiB\n",
+        "  CPU: parallaxd {:.2f} cores, simulator {:.2f} cores; peak memory: parallaxd {:.0f} MiB "
+        "({:.0f} MiB resident at the end), simulator {:.0f} MiB\n",
         (d1.cpuSeconds - d0.cpuSeconds) / dt, (s1.cpuSeconds - s0.cpuSeconds) / dt, d1.peakMiB,
-        s1.peakMiB);
+        d1.residentMiB, s1.peakMiB);
     if (frameCache && last.contains("frame_cache")) {
       for (const auto& line : last["frame_cache"]["lines"])
         std::cout << line.get<std::string>() << "\n";

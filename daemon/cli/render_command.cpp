@@ -23,6 +23,7 @@
 #include "calibration/display/display_presets.h"
 #include "calibration/display/ray_textures.h"
 #include "common/input_error.h"
+#include "common/process_cpu_time.h"
 #include "common/progress_bar.h"
 #include "daemon/cli/commands.h"
 #include "daemon/cli/module_argument.h"
@@ -114,6 +115,7 @@ void runAnimation(const RenderArgs& args, const Animation& animation, const Disp
     PhysicalScene& physical = *built;
     const bool cached = !args.noFrameCache && cache.prepare(physical, textures, 1, options);
     RenderCounters counters;
+    const double cpuStart = processCpuMs();
     for (size_t m = 0; m < textures.size(); ++m) {
       RenderCounters moduleCounters;
       if (cached) {
@@ -124,6 +126,7 @@ void runAnimation(const RenderArgs& args, const Animation& animation, const Disp
       counters += moduleCounters;
     }
     if (cached) cache.count(counters);
+    if (!args.noFrameCache) cache.reportFrameCost(processCpuMs() - cpuStart);
     total += counters;
     last = std::move(built);  // its textures serve the next frame
     renderMs +=

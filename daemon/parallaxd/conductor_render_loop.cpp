@@ -3,6 +3,7 @@
 
 #include <cmath>
 
+#include "common/process_cpu_time.h"
 #include "daemon/parallaxd/conductor.h"
 #include "daemon/parallaxd/installer_patterns.h"
 #include "daemon/parallaxd/module_renderer.h"
@@ -74,9 +75,13 @@ void Conductor::renderAndPush() {
         useCache && frameCache_.prepare(physical, textures_, texturesVersion_, options_.render);
     const double prepareMs =
         std::chrono::duration<double, std::milli>(Clock::now() - prepareStart).count();
+    const double cpuStart = processCpuMs();
     DisplayFrame frame = renderDisplayFrame(physical, textures_, options_.render, encoders_,
                                             cached ? &frameCache_ : nullptr);
     if (cached) frameCache_.count(frame.counters);
+    // The cache's trial compares frames through it with full re-traces by their CPU time, which
+    // hardly moves with what else the machine runs.
+    if (useCache) frameCache_.reportFrameCost(processCpuMs() - cpuStart);
     if (script_->script().animated()) {
       lastScene_ = std::move(built);
     } else {

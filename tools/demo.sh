@@ -30,7 +30,6 @@ run=$(mktemp -d /tmp/parallax-demo.XXXXXX)
 socket=$run/parallaxd.sock
 ctl() { "$parallax" ctl --socket "$socket" "$@"; }
 cache=${XDG_CACHE_HOME:-$HOME/.cache}/parallax
-simulated=$cache/simulated-display/seed-7
 
 cat >"$out/parallax.toml" <<EOC
 # The configuration this demo ran parallaxd with.
@@ -71,6 +70,8 @@ for _ in $(seq 1 1800); do
 done
 ctl status | tee "$out/status.json"
 ctl status | grep -q '"state": "playing"' || { echo "demo: the daemon is not playing"; exit 1; }
+# The simulator's truth files (a folder per display and seed, in the daemon's cache).
+simulated=$(sed -n 's/^ *"simulated_display": "\(.*\)",\{0,1\}$/\1/p' "$out/status.json")
 # The browser control panel (a convenience: a taken port does not stop the demo).
 if panel_url=$(ctl panel 2>&1); then
   echo "== control panel, while the demo runs: $panel_url"

@@ -17,7 +17,8 @@ void addReportCommand(CLI::App& app, const std::string& commandLine) {
   auto options = std::make_shared<report::ReportOptions>();
   options->commandLine = commandLine;
   CLI::App* command = app.add_subcommand(
-      "report", "error-against-run-time report: markdown, CSV tables, SVG plots");
+      "report",
+      "error-against-run-time report: markdown and HTML, CSV tables, SVG plots with PNG twins");
   command->add_option("--out", options->out, "output folder (created)");
   command->add_option("--display", options->display,
                       "display JSON file or built-in name (default: default; demo with --quick)");

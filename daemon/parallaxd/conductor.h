@@ -55,6 +55,8 @@ struct ConductorOptions {
   // That simulator shows a photometric truth: `[calibration] photometric = "auto"` calibrates
   // the modules' colours too.
   bool simulatorPhotometric = false;
+  // Where that simulator's truth files are (simhw_child.h); `status` names it.
+  std::string simulatorFolder;
   int connectTimeoutMs = 10000;  // at start (a simulator we started may take a moment)
   int keepAliveMs = 1000;        // idle link probe: how soon a reconnect is noticed
   // Called from the conductor thread: once when the first stage sequence has finished (with

@@ -38,6 +38,7 @@ nlohmann::json Conductor::statusJson() const {
         {"sessions", linkSessions_},
         {"error", link_ || !linkError_.empty() ? linkError_ : "not connected"}}},
       {"fps", options_.config.scene.fps}};
+  if (!options_.simulatorFolder.empty()) j["simulated_display"] = options_.simulatorFolder;
   if (!s.lastError.empty()) j["last_error"] = {{"stage", s.lastErrorStage}, {"error", s.lastError}};
   if (script_) {
     j["scene"] = {{"name", sceneArgument_},

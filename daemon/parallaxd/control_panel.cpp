@@ -18,6 +18,12 @@ namespace parallax::daemon {
 namespace {
 
 constexpr const char* kTokenHeader = "X-Parallax-Token";
+constexpr const char* kReportPrefix = "/report/";
+// A report is our own static document: no script may run in it, its <style> and the inline
+// plots' styles may apply, its pictures come from beside it.
+constexpr const char* kReportPolicy =
+    "default-src 'none'; style-src 'unsafe-inline'; img-src 'self'; frame-ancestors 'none'; "
+    "base-uri 'none'; form-action 'none'";
 // The largest PNG a view or frame request may make (8192² RGB, uncompressed, with room).
 constexpr size_t kMaxPictureBytes = size_t{256} << 20;
 
@@ -56,6 +62,7 @@ std::optional<nlohmann::json> numberParameter(const httplib::Request& request,
 
 ControlPanel::ControlPanel(ControlPanelOptions options, Handler handler)
     : options_(std::move(options)),
+      reports_(options_.reports),
       handler_(std::move(handler)),
       server_(std::make_unique<httplib::Server>()),
       loopback_(isLoopback(options_.address)) {
@@ -138,6 +145,22 @@ ControlPanel::ControlPanel(ControlPanelOptions options, Handler handler)
     servePicture({{"request", "frame"}, {"module", *module}}, response);
   });
 
+  s.Get("/api/report", [this](const httplib::Request&, httplib::Response& response) {
+    nlohmann::json reply = {{"ok", true}, {"folder", reports_.folder()}, {"latest", nullptr}};
+    if (const std::optional<ReportFolder> latest =
+            reports_.folder().empty() ? std::nullopt : reports_.latest()) {
+      reply["latest"] = {
+          {"name", latest->name},
+          {"date", latest->date},
+          {"url", fmt::format("report/{}/{}/report.html", options_.token, latest->name)}};
+    }
+    response.set_content(reply.dump() + "\n", "application/json");
+  });
+  s.Get(R"(/report/[^/]+/([^/]+)/([^/]*))",
+        [this](const httplib::Request& request, httplib::Response& response) {
+          serveReportFile(request, response);
+        });
+
   port_ = options_.port == 0
               ? s.bind_to_any_port(options_.address)
               : (s.bind_to_port(options_.address, options_.port) ? options_.port : -1);
@@ -185,6 +208,10 @@ bool ControlPanel::allowed(const httplib::Request& request, httplib::Response& r
   }
   std::string token = request.get_header_value(kTokenHeader);
   if (token.empty() && request.has_param("token")) token = request.get_param_value("token");
+  if (token.empty() && request.path.rfind(kReportPrefix, 0) == 0) {
+    const size_t from = std::char_traits<char>::length(kReportPrefix);
+    token = request.path.substr(from, request.path.find('/', from) - from);
+  }
   if (token.empty()) {
     refuse(response, 401,
            "the panel's token is required (`parallax ctl panel` prints the URL with it)");
@@ -252,6 +279,21 @@ void ControlPanel::servePicture(const nlohmann::json& controlRequest,
   }
   std::filesystem::remove(path);
   response.set_content(std::move(png), "image/png");
+}
+
+void ControlPanel::serveReportFile(const httplib::Request& request,
+                                   httplib::Response& response) const {
+  // /report/TOKEN/NAME/ is the report itself.
+  const std::string report = request.matches[1];
+  std::string file = request.matches[2];
+  if (file.empty()) file = "report.html";
+  std::string problem = "no reports folder";
+  const std::optional<ReportFile> found =
+      reports_.folder().empty() ? std::nullopt : reports_.read(report, file, &problem);
+  if (!found) return refuse(response, 404, problem);
+  response.headers.erase("Content-Security-Policy");
+  response.set_header("Content-Security-Policy", kReportPolicy);
+  response.set_content(found->body, found->contentType);
 }
 
 }  // namespace parallax::daemon

@@ -255,6 +255,7 @@ void readPanel(TableReader& r, PanelConfig* p) {
                        p->address));
   }
   r.readInt("port", &p->port, 0, 65535);
+  r.readString("reports", &p->reports);
   r.refuseUnknownKeys();
 }
 
@@ -293,6 +294,9 @@ std::string DaemonConfig::stateDirPath() const {
   const std::string folder =
       std::filesystem::absolute(calibrationFilePath()).parent_path().string();
   return folder.empty() ? "." : folder;
+}
+std::string DaemonConfig::reportsDirPath() const {
+  return panel.reports.empty() ? stateDirPath() + "/reports" : panel.reports;
 }
 
 DaemonConfig parseDaemonConfig(const std::string& text, const std::string& name) {

@@ -25,6 +25,8 @@
 //   [daemon]       socket = "...", cache_dir = "...", log_level = "info"
 //   [panel]        enabled = true, address = "127.0.0.1", port = 8470   (control_panel.h;
 //                  another address than loopback only when given here; port 0: any free one)
+//                  reports = "DIR"   (the `parallax report` folders the panel serves and links
+//                  the latest of; default <state folder>/reports — panel_reports.h)
 
 #include <map>
 #include <optional>
@@ -92,6 +94,7 @@ struct PanelConfig {
   bool enabled = true;
   std::string address = "127.0.0.1";  // an IPv4 or IPv6 address literal
   int port = 8470;                    // 0: any free port (`parallax ctl panel` says which)
+  std::string reports;                // empty: <state folder>/reports
   bool operator==(const PanelConfig&) const = default;
 };
 
@@ -114,6 +117,8 @@ struct DaemonConfig {
   std::string calibrationFilePath() const;
   // The daemon's state: the installed calibration's folder (/var/lib/parallax as installed).
   std::string stateDirPath() const;
+  // The folder of `parallax report` folders the panel serves (panel_reports.h).
+  std::string reportsDirPath() const;
 };
 
 // What a running daemon takes from a reloaded config without being built again: the scene and

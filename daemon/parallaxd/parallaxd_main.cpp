@@ -86,6 +86,7 @@ std::unique_ptr<ControlPanel> startPanel(const DaemonConfig& config, const std::
     options.port = config.panel.port;
     options.token = loadOrCreatePanelToken(config.stateDirPath());
     options.scratch = runtime + "/panel";
+    options.reports = config.reportsDirPath();
     parallax::makePrivateFolder(options.scratch);
     auto panel = std::make_unique<ControlPanel>(
         options, [&conductor](const nlohmann::json& r) { return conductor.handle(r); });
@@ -118,7 +119,7 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
   const parallax::DisplayModel nominal = nominalDisplayOf(config.display);
   std::string linkSpec = linkSpecOf(config.hardware, static_cast<int>(nominal.modules.size()));
   std::unique_ptr<SimhwChild> simulator;
-  std::string simulatorCamera;
+  std::string simulatorCamera, simulatorFolder;
   if (linkSpec.empty()) {
     simulator = std::make_unique<SimhwChild>(nominal, config.hardware, folder + "/simhw.sock",
                                              config.cacheDirPath());
@@ -126,6 +127,7 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
     // What a real installation measures once; the daemon never sees the simulator's truth.
     // Kept apart from the config, so a reload that names no camera still has it.
     simulatorCamera = simulator->cameraMetadataPath();
+    simulatorFolder = std::filesystem::absolute(simulator->folder()).string();
   }
   if (signals.stopRequested()) return std::nullopt;
 
@@ -134,6 +136,7 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
   options.config = config;
   options.linkSpec = linkSpec;
   options.simulatorCamera = simulatorCamera;
+  options.simulatorFolder = simulatorFolder;
   options.simulatorPhotometric = simulator != nullptr && config.hardware.photometricVariation;
   options.onReady = [&notifier] {
     notifier.ready();

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -27,6 +28,7 @@
 #include "calibration/simulation/photometric_truth.h"
 #include "calibration/simulation/simulated_session.h"
 #include "common/private_folder.h"
+#include "daemon/parallaxd/ray_texture_cache.h"
 
 extern char** environ;
 
@@ -46,13 +48,21 @@ std::string SimhwChild::findBinary() {
       "parallax-simhw not found next to {}: build it or configure [hardware]", self.string()));
 }
 
-std::string SimhwChild::folderFor(const std::string& cacheDir, int seed) {
-  return fmt::format("{}/simulated-display/seed-{}", cacheDir, seed);
+std::string SimhwChild::folderFor(const std::string& cacheDir, const DisplayModel& nominal,
+                                  int seed) {
+  // The name for a reader (a display file may name itself anything: kept to a plain word), the
+  // hash of every parameter for the key (the same preset with other overrides differs).
+  std::string name;
+  for (char c : nominal.name.substr(0, 40))
+    name += std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' ? c : '_';
+  if (name.empty()) name = "display";
+  return fmt::format("{}/simulated-display/{}-{}/seed-{}", cacheDir, name,
+                     hashHex(displayContentHash(nominal)), seed);
 }
 
 SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardware,
                        const std::string& socketPath, const std::string& cacheDir)
-    : socketPath_(socketPath), folder_(folderFor(cacheDir, hardware.seed)) {
+    : socketPath_(socketPath), folder_(folderFor(cacheDir, nominal, hardware.seed)) {
   // The seeded truth and camera rig, as `parallax simulate` makes them: a 640×360 camera with
   // the default's field of view at five stations spread over four times the module row's half
   // width. The outermost modules light only the far side of the observer line; spread that

@@ -5,11 +5,13 @@
 // a seeded camera rig (calibration/simulation/simulated_session.h). The daemon is given only the
 // camera's metadata (camera.json: intrinsics calibrated from the camera's own checkerboard
 // pictures, tape-measured stations), never the truth; the truth files are written beside it for
-// tests and reports:
-//   <cache_dir>/simulated-display/seed-N/{ground_truth,camera_truth,camera,checkerboard}.json
-//   <cache_dir>/simulated-display/seed-N/checkerboard/board_NN.png
-//   <cache_dir>/simulated-display/seed-N/photometric_truth.json   ([hardware]
-//       photometric_variation: its modules differ in response, colour, brightness, vignetting)
+// tests and reports, in a folder keyed by the nominal display and the seed (two daemons on
+// different displays with one seed and cache must not overwrite each other's truth):
+//   F = <cache_dir>/simulated-display/<display name>-<display content hash>/seed-N
+//   F/{ground_truth,camera_truth,camera,checkerboard}.json, F/checkerboard/board_NN.png
+//   F/photometric_truth.json   ([hardware] photometric_variation: its modules differ in
+//       response, colour, brightness, vignetting)
+// `status` names F (`simulated_display`).
 // If it dies (a crash fault, a kill), it is
 // started again on the same socket — the simulated equivalent of a module rebooting — and the
 // link reconnects by itself. Stopped with SIGTERM (then SIGKILL after a grace period).
@@ -38,7 +40,8 @@ class SimhwChild {
   std::string cameraMetadataPath() const { return folder_ + "/camera.json"; }
   std::string groundTruthPath() const { return folder_ + "/ground_truth.json"; }
   std::string photometricTruthPath() const { return folder_ + "/photometric_truth.json"; }
-  static std::string folderFor(const std::string& cacheDir, int seed);
+  const std::string& folder() const { return folder_; }
+  static std::string folderFor(const std::string& cacheDir, const DisplayModel& nominal, int seed);
   std::string linkSpec() const { return "simhw:" + socketPath_; }
   pid_t pid() const { return pid_; }
   // Restarts the child if it has exited (call now and then); returns true if it did.

@@ -71,9 +71,7 @@ void writeAntialiasingSection(Report& report) {
     table.rows.push_back({std::to_string(n), fixed(t.ms, 1), fixed(t.partsMs[0], 1),
                           fixed(t.partsMs[1], 1), general(rms), general(max),
                           rms > 0.0 ? fixed(psnr, 2) : "identical"});
-    curve.x.push_back(t.partsMs[0]);
-    curve.y.push_back(rms);
-    curve.pointLabels.push_back(fmt::format("{} spp", n));
+    curve.add(t.partsMs[0], rms, fmt::format("{} spp", n));
     progress.advance();
   }
   progress.finish();
@@ -89,13 +87,14 @@ void writeAntialiasingSection(Report& report) {
       "listed apart (both are parts of the frame's time).",
       module, referenceSamples));
   report.table("antialiasing", table);
-  SvgPlot plot;
-  plot.title = fmt::format("anti-aliasing: image error against trace time (module {})", module);
-  plot.xLabel = "trace ms / frame";
-  plot.yLabel = fmt::format("RMS error vs {} spp (sRGB)", referenceSamples);
-  plot.logX = plot.logY = true;
-  plot.series.push_back(curve);
-  report.figure("antialiasing", plot);
+  report.figure(
+      "antialiasing",
+      {.title = fmt::format("anti-aliasing: image error against trace time (module {})", module),
+       .xLabel = "trace ms / frame",
+       .yLabel = fmt::format("RMS error vs {} spp (sRGB)", referenceSamples),
+       .logX = true,
+       .logY = true,
+       .series = {curve}});
 }
 
 }  // namespace parallax::report

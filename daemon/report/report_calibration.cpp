@@ -134,9 +134,7 @@ void writeCalibrationSection(Report& report) {
     f.maxIterations = n;
     const FitRow r = fitOnce(nominal, truth, base, f);
     byIterations.rows.push_back(cells(std::to_string(n), r));
-    iterationCurve.x.push_back(r.fitSeconds);
-    iterationCurve.y.push_back(r.rays.rmsPx);
-    iterationCurve.pointLabels.push_back(fmt::format("{} it.", n));
+    iterationCurve.add(r.fitSeconds, r.rays.rmsPx, fmt::format("{} it.", n));
     progress.advance();
   }
   Table byStations{kHeader, {}, kRule};
@@ -147,8 +145,7 @@ void writeCalibrationSection(Report& report) {
     s.rig.stations = n;
     const FitRow r = fitOnce(nominal, truth, s, fit);
     byStations.rows.push_back(cells(std::to_string(n), r));
-    stationCurve.x.push_back(n);
-    stationCurve.y.push_back(r.rays.rmsPx);
+    stationCurve.add(n, r.rays.rmsPx);
     progress.advance();
   }
   progress.finish();
@@ -172,22 +169,19 @@ void writeCalibrationSection(Report& report) {
       nominal.modules.size(), base.rig.stations, base.rowStepPx));
   report.table("calibration_iterations", byIterations);
   report.table("calibration_stations", byStations);
-  SvgPlot a;
-  a.title = "calibration: ray error against solver time (max iterations varied)";
-  a.xLabel = "fit wall s";
-  a.logX = true;
-  a.yLabel = "ray error RMS (module px)";
-  a.logY = true;
-  a.series = {iterationCurve};
-  report.figure("calibration_iterations", a);
-  SvgPlot b;
-  b.title = "calibration: ray error against camera stations";
-  b.xLabel = "camera stations";
-  b.integerX = true;
-  b.yLabel = "ray error RMS (module px)";
-  b.logY = true;
-  b.series = {stationCurve};
-  report.figure("calibration_stations", b);
+  report.figure("calibration_iterations",
+                {.title = "calibration: ray error against solver time (max iterations varied)",
+                 .xLabel = "fit wall s",
+                 .yLabel = "ray error RMS (module px)",
+                 .logX = true,
+                 .logY = true,
+                 .series = {iterationCurve}});
+  report.figure("calibration_stations", {.title = "calibration: ray error against camera stations",
+                                         .xLabel = "camera stations",
+                                         .yLabel = "ray error RMS (module px)",
+                                         .logY = true,
+                                         .integerX = true,
+                                         .series = {stationCurve}});
 }
 
 }  // namespace parallax::report

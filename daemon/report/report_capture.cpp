@@ -119,9 +119,7 @@ void writeCaptureSection(Report& report) {
          general(r.rays.rmsPx), general(r.rays.maxPx), general(r.rays.rmsObserverMm),
          general(r.rays.maxObserverMm), r.bounded ? general(r.predictedBoundPx) : "none bounded",
          r.bounded ? general(r.predictedBoundMm) : "none bounded", r.passes ? "pass" : "refused"});
-    curve.x.push_back(r.total());
-    curve.y.push_back(r.rays.rmsPx);
-    curve.pointLabels.push_back(fmt::format("{} stations", n));
+    curve.add(r.total(), r.rays.rmsPx, fmt::format("{} stations", n));
     progress.advance();
   }
   progress.finish();
@@ -143,13 +141,12 @@ void writeCaptureSection(Report& report) {
       nominal.name, kModules, kModuleWidth, kModuleHeight, kCameraWidth, kCameraHeight,
       kCameraFocalPx, kSpanM, kPixelStep, kLinkMsPerPicture));
   report.table("calibration_capture", table);
-  SvgPlot plot;
-  plot.title = "calibration: true ray error against session time (stations varied)";
-  plot.xLabel = "capture + decode + fit s";
-  plot.yLabel = "true ray error RMS (module px)";
-  plot.logY = true;
-  plot.series = {curve};
-  report.figure("calibration_capture", plot);
+  report.figure("calibration_capture",
+                {.title = "calibration: true ray error against session time (stations varied)",
+                 .xLabel = "capture + decode + fit s",
+                 .yLabel = "true ray error RMS (module px)",
+                 .logY = true,
+                 .series = {curve}});
 }
 
 }  // namespace parallax::report

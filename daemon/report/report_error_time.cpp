@@ -153,12 +153,12 @@ void writeErrorVsTimeSection(Report& report) {
     rows.push_back(tracer);
     rows.push_back(shallow);
 
-    SvgPlot plot;
-    plot.title = fmt::format("{}: position error against time (module {} of {})", name, module,
-                             report.options().display);
-    plot.xLabel = "ms / frame";
-    plot.yLabel = "RMS position error (mm, physical)";
-    plot.logX = plot.logY = true;
+    SvgPlot plot{.title = fmt::format("{}: position error against time (module {} of {})", name,
+                                      module, report.options().display),
+                 .xLabel = "ms / frame",
+                 .yLabel = "RMS position error (mm, physical)",
+                 .logX = true,
+                 .logY = true};
     for (const char* method :
          {"raster linear", "raster perspective", "tracer", "tracer (depth 1)"}) {
       PlotSeries s;
@@ -166,10 +166,8 @@ void writeErrorVsTimeSection(Report& report) {
       s.lines = std::string(method).rfind("raster", 0) == 0;
       for (const Row& r : rows) {
         if (r.scene != name || r.method != method) continue;
-        s.x.push_back(r.ms);
         // The tracer's error is float rounding (~1e-7 m); a log axis shows it as it is.
-        s.y.push_back(r.error.rmsMm);
-        if (r.level >= 0) s.pointLabels.push_back(fmt::format("L{}", r.level));
+        s.add(r.ms, r.error.rmsMm, r.level >= 0 ? fmt::format("L{}", r.level) : "");
       }
       plot.series.push_back(s);
     }

@@ -140,12 +140,10 @@ void writeFrameCacheSection(Report& report) {
   for (const std::string& r : ratios) report.bullet(r);
   for (const std::string& n : notes) report.bullet(n);
   if (series.empty()) return;
-  SvgPlot plot;
-  plot.title = "frame cache: memory against display frame rate";
-  plot.xLabel = "cache memory MiB";
-  plot.yLabel = "display frames / s";
-  plot.series = series;
-  report.figure("frame_cache", plot);
+  report.figure("frame_cache", {.title = "frame cache: memory against display frame rate",
+                                .xLabel = "cache memory MiB",
+                                .yLabel = "display frames / s",
+                                .series = series});
 }
 
 }  // namespace parallax::report

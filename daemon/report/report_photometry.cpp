@@ -120,10 +120,8 @@ void writePhotometrySection(Report& report) {
     const Row row = measure(captures, PhotometricFitOptions{}).first;
     byLevels.rows.push_back(
         cells(fmt::format("{} ({})", levels.size(), fmt::join(levels, " ")), row));
-    levelCurve.x.push_back(row.captureSeconds);
-    levelCurve.y.push_back(100.0 * row.seen.nonUniformity);
-    levelCurve.pointLabels.push_back(
-        fmt::format("{} level{}", levels.size(), levels.size() == 1 ? "" : "s"));
+    levelCurve.add(row.captureSeconds, 100.0 * row.seen.nonUniformity,
+                   fmt::format("{} level{}", levels.size(), levels.size() == 1 ? "" : "s"));
     richest = std::move(captures);
     progress.advance();
   }
@@ -137,8 +135,7 @@ void writePhotometrySection(Report& report) {
     fit.gainGridHeight = std::max(2, g * 3 / 4);
     auto [row, cal] = measure(richest, fit);
     byGrid.rows.push_back(cells(fmt::format("{}x{}", fit.gainGridWidth, fit.gainGridHeight), row));
-    gridCurve.x.push_back(g);
-    gridCurve.y.push_back(100.0 * row.seen.nonUniformity);
+    gridCurve.add(g, 100.0 * row.seen.nonUniformity);
     finest = std::move(cal);
     progress.advance();
   }
@@ -168,21 +165,20 @@ void writePhotometrySection(Report& report) {
       rig.geometry().modules.size(), 240, 135, 5, viewers.size()));
   report.table("photometry_levels", byLevels);
   report.table("photometry_gain_map", byGrid);
-  SvgPlot a;
-  a.title = "photometry: non-uniformity against capture time (levels per channel varied)";
-  a.xLabel = "capture s";
-  a.yLabel = "non-uniformity %";
-  a.logY = true;
-  a.series = {levelCurve};
-  report.figure("photometry_levels", a);
-  SvgPlot b;
-  b.title = "photometry: non-uniformity against gain-map nodes across";
-  b.xLabel = "gain map nodes across";
-  b.integerX = true;
-  b.yLabel = "non-uniformity %";
-  b.logY = true;
-  b.series = {gridCurve};
-  report.figure("photometry_gain_map", b);
+  report.figure(
+      "photometry_levels",
+      {.title = "photometry: non-uniformity against capture time (levels per channel varied)",
+       .xLabel = "capture s",
+       .yLabel = "non-uniformity %",
+       .logY = true,
+       .series = {levelCurve}});
+  report.figure("photometry_gain_map",
+                {.title = "photometry: non-uniformity against gain-map nodes across",
+                 .xLabel = "gain map nodes across",
+                 .yLabel = "non-uniformity %",
+                 .logY = true,
+                 .integerX = true,
+                 .series = {gridCurve}});
   report.images({{"photometry_before.png",
                   "a viewer at x = 0: colour bars and a grey ramp on every module (in module image "
                   "coordinates, not traced: the bars' slanted edges are the modules' own), "

@@ -144,9 +144,7 @@ void writePrecisionSection(Report& report) {
                           fixed(mb * static_cast<double>(display.modules.size()), 1), fixed(ms, 2),
                           general(e.rmsMm), general(e.maxMm), general(e.rmsPx), general(e.maxPx),
                           std::to_string(e.candidateOnly + e.exactOnly)});
-    memory.x.push_back(mb);
-    memory.y.push_back(e.rmsMm);
-    memory.pointLabels.push_back(f.shortName);
+    memory.add(mb, e.rmsMm, f.shortName);
     progress.advance();
   }
   progress.finish();
@@ -161,13 +159,11 @@ void writePrecisionSection(Report& report) {
       "line) and s.z (the sag) exact, so they spend their bits only where rays differ.",
       module));
   report.table("ray_texture_precision", table);
-  SvgPlot plot;
-  plot.title = "ray-texture precision: error against memory";
-  plot.xLabel = "MB per module";
-  plot.yLabel = "RMS position error (mm)";
-  plot.logY = true;
-  plot.series.push_back(memory);
-  report.figure("ray_texture_precision", plot);
+  report.figure("ray_texture_precision", {.title = "ray-texture precision: error against memory",
+                                          .xLabel = "MB per module",
+                                          .yLabel = "RMS position error (mm)",
+                                          .logY = true,
+                                          .series = {memory}});
 }
 
 }  // namespace parallax::report

@@ -63,7 +63,7 @@ void writeTracerOverheadSection(Report& report) {
     const double fullMs = t.partsMs[0], rawMedian = median(rawMs), ratio = median(ratios);
     table.rows.push_back({name, std::to_string(rays), fixed(fullMs, 2), fixed(rawMedian, 2),
                           fixed(ratio, 2), fixed(100.0 * (1.0 - 1.0 / ratio), 0)});
-    full.x.push_back(rawMedian), full.y.push_back(fullMs), full.pointLabels.push_back(name);
+    full.add(rawMedian, fullMs, name);
     longest = std::max({longest, rawMedian, fullMs});
     progress.advance();
   }
@@ -81,12 +81,12 @@ void writeTracerOverheadSection(Report& report) {
       module, traversalName(options.traversal)));
   report.table("tracer_vs_embree", table);
   for (const std::string& n : notes) report.bullet(n);
-  SvgPlot plot;
-  plot.title = fmt::format("full frame against raw Embree on the same rays (module {})", module);
-  plot.xLabel = "raw Embree ms / frame";
-  plot.yLabel = "full frame ms";
-  plot.series = {full, raw};
-  report.figure("tracer_vs_embree", plot);
+  report.figure(
+      "tracer_vs_embree",
+      {.title = fmt::format("full frame against raw Embree on the same rays (module {})", module),
+       .xLabel = "raw Embree ms / frame",
+       .yLabel = "full frame ms",
+       .series = {full, raw}});
 }
 
 }  // namespace parallax::report

@@ -10,6 +10,20 @@
 #include "daemon/report/report.h"
 
 namespace parallax::report {
+namespace {
+
+// "2nd", "4th": the steps in the prose.
+std::string ordinal(int n) {
+  const int tens = n % 100, units = n % 10;
+  const char* suffix = tens >= 11 && tens <= 13 ? "th"
+                       : units == 1             ? "st"
+                       : units == 2             ? "nd"
+                       : units == 3             ? "rd"
+                                                : "th";
+  return std::to_string(n) + suffix;
+}
+
+}  // namespace
 
 void writeTransferSection(Report& report) {
   DisplayModel linear = report.display(), conical = report.display();
@@ -59,14 +73,14 @@ void writeTransferSection(Report& report) {
                           countBack ? fixed(worstBack, 3) : "",
                           countFront ? fixed(sumFront / static_cast<double>(countFront), 3) : "",
                           countFront ? fixed(worstFront, 3) : "", std::to_string(count)});
-    meanMm.x.push_back(row), meanMm.y.push_back(sumMm / static_cast<double>(count));
-    maxMm.x.push_back(row), maxMm.y.push_back(worstMm);
-    if (countBack) backPx.x.push_back(row), backPx.y.push_back(worstBack);
-    if (countFront) frontPx.x.push_back(row), frontPx.y.push_back(worstFront);
+    meanMm.add(row, sumMm / static_cast<double>(count));
+    maxMm.add(row, worstMm);
+    if (countBack) backPx.add(row, worstBack);
+    if (countFront) frontPx.add(row, worstFront);
   }
   report.heading("Screen transfer: linear against conical");
   report.text(fmt::format(
-      "Module {} of the same display under both transfers. For every {}th row, over every {}th "
+      "Module {} of the same display under both transfers. For every {} row, over every {} "
       "column: how far "
       "apart the two rays of the same pixel land on the observer line (|Δo.x|, mm), and, in the "
       "module image, "
@@ -79,22 +93,20 @@ void writeTransferSection(Report& report) {
       "observer line's height. Rows whose module rays all miss the screen (a 4:3 image covering a "
       "16:9 screen's "
       "width overshoots its height) are left out.",
-      module, rowStep, columnStep, zBack, zFront));
+      module, ordinal(rowStep), ordinal(columnStep), zBack, zFront));
   report.table("transfer_linear_vs_conical", table);
-  SvgPlot mmPlot;
-  mmPlot.title = "linear vs conical: distance at the observer line, by module row";
-  mmPlot.xLabel = "module row";
-  mmPlot.integerX = true;
-  mmPlot.yLabel = "|Δo.x| (mm)";
-  mmPlot.series = {meanMm, maxMm};
-  report.figure("transfer_observer_line", mmPlot);
-  SvgPlot pxPlot;
-  pxPlot.title = "linear vs conical: distance in the module image, by row";
-  pxPlot.xLabel = "module row";
-  pxPlot.integerX = true;
-  pxPlot.yLabel = "module px";
-  pxPlot.series = {backPx, frontPx};
-  report.figure("transfer_module_image", pxPlot);
+  report.figure("transfer_observer_line",
+                {.title = "linear vs conical: distance at the observer line, by module row",
+                 .xLabel = "module row",
+                 .yLabel = "|Δo.x| (mm)",
+                 .integerX = true,
+                 .series = {meanMm, maxMm}});
+  report.figure("transfer_module_image",
+                {.title = "linear vs conical: distance in the module image, by row",
+                 .xLabel = "module row",
+                 .yLabel = "module px",
+                 .integerX = true,
+                 .series = {backPx, frontPx}});
 }
 
 }  // namespace parallax::report

@@ -7,6 +7,7 @@
 // rendered from it (png_twin.h).
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace parallax::report {
@@ -19,6 +20,12 @@ struct PlotSeries {
   // Empty, or one per point: the setting the point is ("4 spp", "float16"), written beside it.
   std::vector<std::string> pointLabels = {};
   bool markers = true;  // false: a line only (a reference such as y = x)
+
+  // A point, with the setting it is when `setting` is given.
+  void add(double px, double py, std::string setting = {}) {
+    x.push_back(px), y.push_back(py);
+    if (!setting.empty()) pointLabels.push_back(std::move(setting));
+  }
 };
 
 // A text element's box on the canvas, px, y down.
@@ -27,13 +34,14 @@ struct TextBox {
   double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
 };
 
+// An aggregate: sections write one as designated initializers, naming only what they set.
 struct SvgPlot {
-  std::string title;
-  std::string xLabel, yLabel;
+  std::string title = {};
+  std::string xLabel = {}, yLabel = {};
   bool logX = false, logY = false;
   bool integerX = false, integerY = false;  // counts: ticks on whole numbers only
-  std::string caption;  // small print under the plot (provenance), wrapped to the canvas
-  std::vector<PlotSeries> series;
+  std::string caption = {};  // small print under the plot (provenance), wrapped to the canvas
+  std::vector<PlotSeries> series = {};
 
   struct Layout {
     double width = 0, height = 0;

@@ -13,6 +13,7 @@
 #include <opencv2/videoio.hpp>
 #include <opencv2/videoio/registry.hpp>
 
+#include "hw/camera/image_from_mat.h"
 #include "hw/link/link_client.h"
 
 namespace parallax::hw {
@@ -265,16 +266,7 @@ Image OpenCvCamera::capture(std::string* error) {
     cv::cvtColor(frame, rgb, cv::COLOR_BGR2RGB);  // OpenCV delivers BGR
   }
   if (rgb.depth() != CV_8U) rgb.convertTo(rgb, CV_8U);
-  Image image;
-  image.width = rgb.cols;
-  image.height = rgb.rows;
-  image.format = PixelFormat::kRgb8;
-  image.pixels.resize(image.byteSize());
-  for (int y = 0; y < rgb.rows; ++y) {
-    std::copy_n(rgb.ptr<uint8_t>(y), static_cast<size_t>(rgb.cols) * 3,
-                image.pixels.data() + static_cast<size_t>(y) * rgb.cols * 3);
-  }
-  return image;
+  return imageFromMat(rgb);
 }
 
 }  // namespace parallax::hw

@@ -8,6 +8,7 @@
 
 #include "calibration/capture/camera_picture.h"
 #include "common/input_error.h"
+#include "hw/camera/image_from_mat.h"
 
 namespace parallax::hw {
 namespace fs = std::filesystem;
@@ -107,17 +108,7 @@ Image FolderCamera::capture(std::string* error) {
   for (;;) {
     if (fs::exists(path, ec)) {
       try {
-        const cv::Mat grey = readCameraPicture(path, key_.pictureWidth, key_.pictureHeight);
-        Image image;
-        image.width = grey.cols;
-        image.height = grey.rows;
-        image.format = PixelFormat::kGray8;
-        image.pixels.resize(image.byteSize());
-        for (int y = 0; y < grey.rows; ++y) {
-          std::copy_n(grey.ptr<uint8_t>(y), grey.cols,
-                      image.pixels.data() + static_cast<size_t>(y) * grey.cols);
-        }
-        return image;
+        return imageFromMat(readCameraPicture(path, key_.pictureWidth, key_.pictureHeight));
       } catch (const InputError& e) {
         if (!options_.waitForPictures) {
           *error = e.what();

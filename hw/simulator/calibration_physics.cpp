@@ -6,6 +6,7 @@
 
 #include "calibration/simulation/colour_picture_renderer.h"
 #include "common/input_error.h"
+#include "hw/camera/image_from_mat.h"
 
 namespace parallax::hw {
 
@@ -84,24 +85,8 @@ Image CalibrationPhysics::render(std::span<const Image* const> frames, int /*vie
   // The exposure scales the light only where the modules' light is physical (10 ms = 1).
   const double exposure = photometry_ ? settings.exposureUs / 10000.0 : 1.0;
   if (settings.colour) {
-    const cv::Mat recorded =
-        renderColourPicture(view(station), images, camera_.sensor, exposure, random_);
-    Image image;
-    image.width = recorded.cols;
-    image.height = recorded.rows;
-    image.format = PixelFormat::kRgb8;
-    image.pixels.resize(image.byteSize());
-    for (int y = 0; y < recorded.rows; ++y) {
-      const cv::Vec3f* in = recorded.ptr<cv::Vec3f>(y);
-      for (int x = 0; x < recorded.cols; ++x)
-        for (int c = 0; c < 3; ++c)
-          image.pixels[(static_cast<size_t>(y) * static_cast<size_t>(image.width) +
-                        static_cast<size_t>(x)) *
-                           3 +
-                       static_cast<size_t>(c)] =
-              static_cast<uint8_t>(std::lround(255.0f * in[x][c]));
-    }
-    return image;
+    return imageFromMat(
+        renderColourPicture(view(station), images, camera_.sensor, exposure, random_));
   }
   if (photometry_) {
     // A grey camera sees the light's luminance.
@@ -112,21 +97,7 @@ Image CalibrationPhysics::render(std::span<const Image* const> frames, int /*vie
       light = grey * exposure;
     }
   }
-  const cv::Mat recorded = renderFrame(view(station), images, camera_.sensor, random_);
-  Image image;
-  image.width = recorded.cols;
-  image.height = recorded.rows;
-  image.format = PixelFormat::kGray8;
-  image.pixels.resize(image.byteSize());
-  for (int y = 0; y < recorded.rows; ++y) {
-    const float* in = recorded.ptr<float>(y);
-    for (int x = 0; x < recorded.cols; ++x) {
-      image.pixels[static_cast<size_t>(y) * static_cast<size_t>(image.width) +
-                   static_cast<size_t>(x)] =
-          static_cast<uint8_t>(std::lround(255.0f * std::clamp(in[x], 0.0f, 1.0f)));
-    }
-  }
-  return image;
+  return imageFromMat(renderFrame(view(station), images, camera_.sensor, random_));
 }
 
 }  // namespace parallax::hw

@@ -13,9 +13,11 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <tuple>
 #include <vector>
 
 #include "daemon/parallaxd/control_request.h"
@@ -82,6 +84,7 @@ class ControlPanelTest : public ::testing::Test {
     options.port = 0;
     options.token = token_;
     options.scratch = (folder_ / "scratch").string();
+    options.reports = (folder_ / "reports").string();
     panel_ = std::make_unique<ControlPanel>(options, [this](const json& request) {
       std::lock_guard lock(mutex_);
       received_.push_back(request);
@@ -290,6 +293,108 @@ TEST_F(ControlPanelTest, PicturesComeFromTheViewAndFrameRequests) {
     EXPECT_EQ(r->status, 400) << bad;
   }
   EXPECT_EQ(handled(), 2u);
+}
+
+// A report folder as `parallax report --out` leaves it, written `age` seconds ago.
+void writeReport(const fs::path& folder, const std::string& title, int age) {
+  fs::create_directories(folder);
+  std::ofstream(folder / "report.html") << "<html><body>" << title << "<img src=\"plot.png\"/>";
+  std::ofstream(folder / "plot.png") << "png of " << title;
+  std::ofstream(folder / "table.csv") << "# machine: x\na,b\n1,2\n";
+  fs::last_write_time(folder / "report.html",
+                      fs::file_time_type::clock::now() - std::chrono::seconds(age));
+}
+
+TEST_F(ControlPanelTest, LinksTheLatestReportAndServesItsFiles) {
+  auto r = client_->Get("/api/report", withToken());
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200);
+  EXPECT_EQ(json::parse(r->body)["latest"], nullptr) << "no reports folder yet";
+  EXPECT_EQ(json::parse(r->body)["folder"], (folder_ / "reports").string());
+
+  writeReport(folder_ / "reports" / "2026-12-01", "older", 3600);
+  writeReport(folder_ / "reports" / "2026-12-03", "newest", 60);
+  fs::create_directories(folder_ / "reports" / "no-report-here");  // a folder without report.html
+  // A newer report reached through a symlink is not one of the folder's own.
+  writeReport(folder_ / "outside", "outside", 0);
+  fs::create_directory_symlink(folder_ / "outside", folder_ / "reports" / "zz-link");
+  r = client_->Get("/api/report", withToken());
+  ASSERT_TRUE(r);
+  const json latest = json::parse(r->body)["latest"];
+  ASSERT_TRUE(latest.is_object()) << r->body;
+  EXPECT_EQ(latest["name"], "2026-12-03");
+  EXPECT_EQ(latest["url"], "report/" + token_ + "/2026-12-03/report.html");
+  EXPECT_EQ(latest["date"].get<std::string>().size(), std::string("2026-12-03 06:55 UTC").size());
+
+  // The report and the files it links, by relative URLs that carry the token in their path.
+  r = client_->Get("/" + latest["url"].get<std::string>());
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_NE(r->body.find("newest"), std::string::npos);
+  EXPECT_EQ(r->get_header_value("Content-Type"), "text/html; charset=utf-8");
+  ASSERT_EQ(r->get_header_value_count("Content-Security-Policy"), 1u);
+  EXPECT_NE(r->get_header_value("Content-Security-Policy").find("default-src 'none'"),
+            std::string::npos);
+  EXPECT_EQ(r->get_header_value("Content-Security-Policy").find("script"), std::string::npos);
+  const std::string base = "/report/" + token_ + "/";
+  for (const auto& [path, type, body] :
+       std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"2026-12-03/plot.png", "image/png", "png of newest"},
+           {"2026-12-01/plot.png", "image/png", "png of older"},
+           {"2026-12-01/", "text/html; charset=utf-8", ""}}) {
+    r = client_->Get(base + path);
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 200) << path;
+    EXPECT_EQ(r->get_header_value("Content-Type"), type) << path;
+    if (!body.empty()) {
+      EXPECT_EQ(r->body, body) << path;
+    }
+  }
+  // Without the token, or with a wrong one, nothing.
+  for (const std::string& wrong : {newPanelToken(), std::string()}) {
+    r = client_->Get("/report/" + wrong + "/2026-12-03/report.html");
+    ASSERT_TRUE(r);
+    EXPECT_TRUE(r->status == 401 || r->status == 403) << wrong << ": " << r->status;
+    EXPECT_EQ(r->body.find("newest"), std::string::npos);
+  }
+  r = client_->Get("/api/report");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 401);
+  EXPECT_EQ(handled(), 0u) << "reports are the panel's, not control requests";
+}
+
+TEST_F(ControlPanelTest, ServesNoFileOutsideTheReportsFolder) {
+  writeReport(folder_ / "reports" / "r1", "one", 0);
+  writeReport(folder_ / "outside", "outside", 0);
+  std::ofstream(folder_ / "secret.csv") << "root:x:0:0";
+  std::ofstream(folder_ / "reports" / "r1" / "notes.txt") << "root:x:0:0";  // not a report kind
+  std::ofstream(folder_ / "reports" / "r1" / ".hidden.csv") << "root:x:0:0";
+  fs::create_symlink(folder_ / "secret.csv", folder_ / "reports" / "r1" / "escape.csv");
+  fs::create_directory_symlink(folder_ / "outside", folder_ / "reports" / "linked");
+  ASSERT_EQ(::mkfifo((folder_ / "reports" / "r1" / "fifo.csv").c_str(), 0600), 0);
+  const std::string host = "127.0.0.1:" + std::to_string(panel_->port());
+  const std::string base = "/report/" + token_;
+  for (const std::string& path :
+       {base + "/../../secret.csv", base + "/r1/../../secret.csv",
+        base + "/r1/..%2f..%2fsecret.csv", base + "/%2e%2e/secret.csv", base + "/r1/%2e%2e",
+        base + "/..", base + "/r1/escape.csv", base + "/r1/fifo.csv", base + "/r1/notes.txt",
+        base + "/r1/.hidden.csv", base + "/linked/report.html", base + "/linked/plot.png",
+        base + "/r1/sub/table.csv", base + "/" + (folder_ / "secret.csv").string(),
+        base + "//secret.csv", base + "/r1%2f..%2f..%2fsecret.csv/x",
+        base + "/r1/table.csv%00.png"}) {
+    const std::string raw =
+        "GET " + path + " HTTP/1.1\r\nHost: " + host + "\r\nConnection: close\r\n\r\n";
+    const std::string reply = rawExchange(panel_->port(), raw);
+    const int status = statusOf(reply);
+    EXPECT_TRUE(status == 404 || status == 400) << path << ": " << status;
+    EXPECT_EQ(reply.find("root:"), std::string::npos) << path;
+    EXPECT_EQ(reply.find("outside"), std::string::npos) << path;
+  }
+  // The same report's own files are served (the refusals above are not a server that serves none).
+  auto r = client_->Get(base + "/r1/table.csv");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 200);
+  EXPECT_EQ(r->get_header_value("Content-Type"), "text/csv; charset=utf-8");
 }
 
 TEST(PanelToken, IsPrivateKeptAndReplacedWhenOthersCouldReadIt) {

@@ -122,6 +122,14 @@ TEST(DaemonConfig, ThePanelIsOnAndOnLoopbackUnlessConfigured) {
   const DaemonConfig state = parseDaemonConfig(
       "[calibration]\nfile = \"/var/lib/parallax/calibration.json\"\n", "parallax.toml");
   EXPECT_EQ(state.stateDirPath(), "/var/lib/parallax");
+  // So do the reports it links, unless the config names their folder.
+  EXPECT_EQ(state.reportsDirPath(), "/var/lib/parallax/reports");
+  const DaemonConfig reports = parseDaemonConfig(
+      "[calibration]\nfile = \"/var/lib/parallax/calibration.json\"\n"
+      "[panel]\nreports = \"/srv/reports\"\n",
+      "parallax.toml");
+  EXPECT_EQ(reports.reportsDirPath(), "/srv/reports");
+  EXPECT_EQ(sectionsNeedingRestart(state, reports), std::vector<std::string>{"panel"});
 }
 
 TEST(DaemonConfig, SyntaxErrorsNameTheLine) {

@@ -146,7 +146,7 @@ TEST(EndToEnd, CalibratedThroughTheLinkTheViewersSeeTheGroundTruthsViews) {
 
   // The physics of the truth (the daemon never read it), the scene, three viewers.
   const DisplayModel truth =
-      loadDisplayModel((folder / "cache/simulated-display/seed-7/ground_truth.json").string());
+      loadDisplayModel(status["simulated_display"].get<std::string>() + "/ground_truth.json");
   const DisplayModel nominal = resolveDisplay("demo");
   const Scene scene = loadSceneArgument("cornell", {}, 0.0);
   std::vector<Frame> received;
@@ -215,7 +215,7 @@ TEST(EndToEnd, PhotometricVariationCalibratedTheViewersSeeTheTargetsViews) {
       p["delta_e_mean"].get<double>(), p["delta_e_worst"].get<double>(),
       100.0 * p["non_uniformity"].get<double>());
 
-  const std::string simulated = (folder / "cache/simulated-display/seed-7").string();
+  const std::string simulated = status["simulated_display"];
   const DisplayModel truth = loadDisplayModel(simulated + "/ground_truth.json");
   const PhotometricTruth photometry = loadPhotometricTruth(simulated + "/photometric_truth.json");
   const DisplayModel calibrated = loadDisplayModel((folder / "calibration.json").string());

@@ -4,7 +4,10 @@ chromium-driver by Debian's selenium, against a parallaxd on its own simulated d
 
 Loads the panel from the URL `parallax ctl panel` gives, moves the observer slider and a scene
 parameter's slider, presses identify and pause, and checks each effect where it lands: the
-daemon's `status` over the control socket, and the viewer preview's picture changing.
+daemon's `status` over the control socket, and the viewer preview's picture changing. Then
+follows the footer's link to the latest report in the state folder's reports/ (issue 25): its
+picture loads through its relative link (the token travels in the path), its inline style
+applies, its script does not run.
 Screenshots go to OUT (artifacts); the panel's request round-trip times, measured in the
 browser, are printed.
 
@@ -19,7 +22,9 @@ import socket
 import statistics
 import subprocess
 import sys
+import struct
 import time
+import zlib
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
@@ -120,6 +125,31 @@ def round_trips(driver, script_body, runs):
         """ % script_body, runs)
 
 
+def png(width, height, rgb):
+    """A solid-colour PNG, written by hand (no imaging module in the test's Python)."""
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data +
+                struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+    rows = b"".join(b"\0" + bytes(rgb) * width for _ in range(height))
+    return (b"\x89PNG\r\n\x1a\n" +
+            chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)) +
+            chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
+
+
+def write_report(folder):
+    """A report folder as `parallax report --out` leaves one: report.html, a picture beside it."""
+    os.makedirs(folder)
+    with open(os.path.join(folder, "plot.png"), "wb") as f:
+        f.write(png(4, 3, (200, 30, 30)))
+    with open(os.path.join(folder, "report.html"), "w") as f:
+        f.write("""<!DOCTYPE html>
+<html xmlns="http://www.w3.org/1999/xhtml"><head><meta charset="utf-8"/>
+<title>Parallax: error against run time</title><style>body{background:rgb(1,2,3)}</style></head>
+<body><img id="plot" src="plot.png" alt="plot"/>
+<script>document.title = "a script ran";</script></body></html>
+""")
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--parallaxd", required=True)
@@ -150,6 +180,7 @@ cache_dir = "{work}/cache"
 [panel]
 port = 0
 """)
+    write_report(os.path.join(work, "state", "reports", "2026-12-03-quick"))
     env = dict(os.environ, XDG_RUNTIME_DIR=os.path.join(work, "run"))
     sock = os.path.join(work, "run", "parallax", "parallaxd.sock")
     log = open(os.path.join(out, "parallaxd.log"), "w")
@@ -266,6 +297,24 @@ port = 0
         errors = [e for e in browser_log if e.get("level") == "SEVERE"]
         if errors:
             fail("the page logged errors: " + json.dumps(errors))
+
+        # The latest report, from the footer's link, as a reader opens it.
+        wait_for("the footer's report link", lambda: driver.find_elements(By.ID, "report-link"))
+        link = driver.find_element(By.ID, "report-link")
+        if not link.text.startswith("2026-12-03-quick ("):
+            fail("the report link reads " + repr(link.text))
+        driver.get(link.get_attribute("href"))
+        wait_for("the report's picture",
+                 lambda: driver.execute_script(
+                     "const i = document.getElementById('plot');"
+                     "return i && i.complete && i.naturalWidth === 4;"), 10)
+        if driver.title != "Parallax: error against run time":
+            fail("a script in the report ran (title " + repr(driver.title) + ")")
+        if driver.execute_script(
+                "return getComputedStyle(document.body).backgroundColor") != "rgb(1, 2, 3)":
+            fail("the report's inline style did not apply")
+        driver.save_screenshot(os.path.join(out, "5_report.png"))
+        driver.get_log("browser")  # the refused script's CSP message, expected
         print("screenshots in", out)
     except Failure as e:
         print("FAILED: " + str(e), file=sys.stderr)

@@ -255,12 +255,28 @@ TEST_F(ParallaxdProcess, SighupRebuildsForANewDisplayRefusesABadOne) {
     }
     return status;
   };
+  // The simulator's truth files, in a folder of this display's (and seed's) own.
+  const json first = ask(socket_, {{"request", "status"}});
+  const fs::path firstTruth = first.value("simulated_display", "");
+  ASSERT_TRUE(fs::exists(firstTruth / "ground_truth.json")) << first.dump();
+  EXPECT_EQ(firstTruth.filename(), "seed-7");
+  EXPECT_EQ(firstTruth.parent_path().parent_path(), folder_ / "cache" / "simulated-display");
   // Three modules: the display changed, so simulator, link and loop are built again.
   std::ofstream(folder_ / "parallax.toml")
       << withDisplay("preset = \"demo\"\nmodules = 3\nresolution = [64, 48]\n");
   ASSERT_EQ(::kill(daemon.pid(), SIGHUP), 0);
   json status = waitForModules(3);
   EXPECT_EQ(status["display"]["modules"], 3) << status.dump() << daemon.log();
+  // Another display with the same seed and cache: its own truth, the first's left as it was
+  // (they shared seed-7/ and the second overwrote the first's ground truth).
+  const fs::path secondTruth = status.value("simulated_display", "");
+  EXPECT_NE(secondTruth, firstTruth);
+  auto modulesIn = [](const fs::path& truth) {
+    std::ifstream in(truth / "ground_truth.json");
+    return json::parse(in, nullptr, false).value("modules", json::array()).size();
+  };
+  EXPECT_EQ(modulesIn(firstTruth), 4u);
+  EXPECT_EQ(modulesIn(secondTruth), 3u);
   waitForStats(socket_, [](const json& s) { return s["module_frames_sent"] == 3; });
   // A display file that does not exist: refused before anything stops; three modules play on.
   std::ofstream(folder_ / "parallax.toml")

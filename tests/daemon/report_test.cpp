@@ -4,20 +4,26 @@
 
 #include "daemon/report/report.h"
 
+#include <OpenImageIO/imagebuf.h>
 #include <gtest/gtest.h>
 #include <sched.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <random>
 #include <regex>
 #include <set>
 #include <thread>
 
 #include "daemon/report/plot_axis.h"
+#include "daemon/report/png_twin.h"
 #include "daemon/report/provenance.h"
 #include "daemon/report/report_timing.h"
 #include "daemon/report/svg_plot.h"
+#include "daemon/report/text_metrics.h"
 
 namespace parallax::report {
 namespace {
@@ -200,6 +206,45 @@ TEST(SvgPlot, SeriesDifferInMarkerShapeAndColour) {
   ASSERT_TRUE(std::regex_search(svg, b, polygon));
   EXPECT_NE(a[1].str(), b[1].str());
   EXPECT_TRUE(std::regex_search(svg, std::regex("<rect x=[^>]*fill=\"white\"")));  // squares
+}
+
+// The layout is only as good as its widths: each text drawn by the PNG twin's renderer must end
+// where the writer measured it to (a caption measured 740 px wide drew 753, past its canvas).
+TEST(TextMetrics, WidthsAreWhatThePngTwinDraws) {
+  ASSERT_FALSE(plotFontFile().empty()) << "fonts-dejavu-core is not installed";
+  const std::filesystem::path folder =
+      std::filesystem::temp_directory_path() / ("plx-text-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(folder);
+  const std::vector<std::pair<std::string, int>> texts = {
+      {"machine: Intel(R) Xeon(R) Processor, 2 cores available, Linux 6.18.44-fc-v1045 x86_64, "
+       "load average 3.51 at the start; build: parallax 0.1.0 (03e8781),",
+       10},
+      {"frame cache: memory against display frame rate", 15},
+      {"RMS position error (mm, physical) 1e-5 0.0001 L0 L5 16 spp float16", 11},
+      {"WWWWWWWWWWWWWWWWWWWWWWWWWWWWWWWW iiiiiiiiiiiiiiiiiiiiiiiiiii", 10}};
+  for (size_t i = 0; i < texts.size(); ++i) {
+    const auto& [text, size] = texts[i];
+    // One line on a canvas wider than it, black on white, starting at x = 10.
+    // A file name of its own: OpenImageIO's cache would hand back an earlier line's picture.
+    const std::string name = "line" + std::to_string(i);
+    const std::string svg = (folder / (name + ".svg")).string(),
+                      png = (folder / (name + ".png")).string();
+    std::ofstream(svg) << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"1600\" height=\"40\" "
+                          "font-family=\"DejaVu Sans, Verdana, sans-serif\"><rect width=\"100%\" "
+                          "height=\"100%\" fill=\"white\"/><text x=\"10\" y=\"25\" font-size=\""
+                       << size << "\">" << text << "</text></svg>";
+    ASSERT_EQ(writePngTwin(svg, png), "") << "rsvg-convert (librsvg2-bin)";
+    OIIO::ImageBuf picture(png);
+    ASSERT_TRUE(picture.read()) << picture.geterror();
+    int right = 0;  // the last column with ink
+    for (int y = 0; y < picture.spec().height; ++y)
+      for (int x = 0; x < picture.spec().width; ++x)
+        if (picture.getchannel(x, y, 0, 0) < 0.5f) right = std::max(right, x + 1);
+    const double measured = 10.0 + textWidth(text, size);
+    EXPECT_GE(measured, right - 1.5) << size << " px: " << text;
+    EXPECT_LE(measured, right + 0.02 * (right - 10) + 2.0) << size << " px: " << text;
+  }
+  std::filesystem::remove_all(folder);
 }
 
 TEST(Provenance, CoresComeFromTheAffinityMask) {

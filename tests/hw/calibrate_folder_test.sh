@@ -13,28 +13,12 @@ set -euo pipefail
 parallax=$1
 simhw=$2
 stations=${3:-}
-dir=$(mktemp -d)
-sock=$dir/simhw.sock
-pid=
 operator=
-cleanup() {
-  if [ -n "$operator" ]; then kill "$operator" 2>/dev/null || true; fi
-  if [ -n "$pid" ]; then kill "$pid" 2>/dev/null || true; wait "$pid" 2>/dev/null || true; fi
-  rm -rf "$dir"
-}
-trap cleanup EXIT
+before_cleanup() { if [ -n "$operator" ]; then kill "$operator" 2>/dev/null || true; fi; }
+source "$(dirname "${BASH_SOURCE[0]}")/simulated_display.sh"
+simulate_display "$parallax"
+start_simhw "$simhw" --camera-feed "$dir/camera.png" --camera-feed-station "$dir/station"
 
-"$parallax" simulate --display demo --seed 7 --out "$dir" --camera-resolution 640x360 --synthetic > /dev/null
-"$simhw" --socket "$sock" --truth "$dir/ground_truth.json" --camera "$dir/camera_truth.json" \
-  --camera-feed "$dir/camera.png" --camera-feed-station "$dir/station" &
-pid=$!
-for _ in $(seq 1 600); do
-  [ -S "$sock" ] && [ -f "$dir/camera.png" ] && break
-  kill -0 "$pid" 2>/dev/null || { echo "FAIL: parallax-simhw exited"; exit 1; }
-  sleep 0.1
-done
-
-rms_of() { sed -n 's/.*ray error \([0-9.]*\) module px RMS.*/\1/p' "$1"; }
 common=(--camera-metadata "$dir/camera.json" --nominal "$dir/nominal.json" --truth "$dir/ground_truth.json"
         --pixel-step 6)
 [ -z "$stations" ] || common+=(--stations "$stations")

@@ -7,26 +7,9 @@
 set -euo pipefail
 parallax=$1
 simhw=$2
-dir=$(mktemp -d)
-sock=$dir/simhw.sock
-pid=
-cleanup() {
-  if [ -n "$pid" ]; then kill "$pid" 2>/dev/null || true; wait "$pid" 2>/dev/null || true; fi
-  rm -rf "$dir"
-}
-trap cleanup EXIT
-
-# Only the truth files and camera.json are needed: --synthetic skips rendering pictures here.
-"$parallax" simulate --display demo --seed 7 --out "$dir" --camera-resolution 640x360 --synthetic > /dev/null
-"$simhw" --socket "$sock" --truth "$dir/ground_truth.json" --camera "$dir/camera_truth.json" &
-pid=$!
-# The simulator's socket appears only once it listens (listenPrivately), so seeing it is enough.
-for _ in $(seq 1 600); do
-  [ -S "$sock" ] && break
-  kill -0 "$pid" 2>/dev/null || { echo "FAIL: parallax-simhw exited"; exit 1; }
-  sleep 0.1
-done
-[ -S "$sock" ] || { echo "FAIL: parallax-simhw never listened on $sock"; exit 1; }
+source "$(dirname "${BASH_SOURCE[0]}")/simulated_display.sh"
+simulate_display "$parallax"
+start_simhw "$simhw"
 
 # (The interrupted run names the metadata the old way, --camera camera.json, which still works.)
 # Interrupted (Ctrl-C) once the pictures have started: it stops with a clear message, installs

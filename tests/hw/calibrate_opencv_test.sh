@@ -13,26 +13,11 @@ for element in multifilesrc pngdec videoconvert queue appsink; do
   gst-inspect-1.0 "$element" > /dev/null 2>&1 ||
     { echo "FAIL: GStreamer element $element missing (tools/debian-packages.txt)"; exit 1; }
 done
-dir=$(mktemp -d)
-sock=$dir/simhw.sock
-pid=
-cleanup() {
-  if [ -n "$pid" ]; then kill "$pid" 2>/dev/null || true; wait "$pid" 2>/dev/null || true; fi
-  rm -rf "$dir"
-}
-trap cleanup EXIT
+source "$(dirname "${BASH_SOURCE[0]}")/simulated_display.sh"
+simulate_display "$parallax"
+start_simhw "$simhw" --camera-feed "$dir/camera.png" --camera-feed-station "$dir/station" \
+  --camera-feed-auto-exposure
 
-"$parallax" simulate --display demo --seed 7 --out "$dir" --camera-resolution 640x360 --synthetic > /dev/null
-"$simhw" --socket "$sock" --truth "$dir/ground_truth.json" --camera "$dir/camera_truth.json" \
-  --camera-feed "$dir/camera.png" --camera-feed-station "$dir/station" --camera-feed-auto-exposure &
-pid=$!
-for _ in $(seq 1 600); do
-  [ -S "$sock" ] && [ -f "$dir/camera.png" ] && break
-  kill -0 "$pid" 2>/dev/null || { echo "FAIL: parallax-simhw exited"; exit 1; }
-  sleep 0.1
-done
-
-rms_of() { sed -n 's/.*ray error \([0-9.]*\) module px RMS.*/\1/p' "$1"; }
 # The gate's limits doubled: this compares rays against the truth, and the gate's prediction for
 # the noisier auto-exposed pictures can refuse one edge module (4.6 px predicted, 0.7 px true).
 common=(--camera-metadata "$dir/camera.json" --nominal "$dir/nominal.json" --truth "$dir/ground_truth.json"

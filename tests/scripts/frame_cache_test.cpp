@@ -123,11 +123,20 @@ void expectSameImages(const Comparison& c) {
   EXPECT_LE(c.differing * 10000, c.pixels) << c.differing << " of " << c.pixels;
 }
 
-TEST(FrameCache, OrbitFramesEqualAFullRetrace) {
-  ScriptedScene script(testing::sceneLibrary() + "/orbit.lua", scriptOptions());
-  FrameCache cache;
-  const Comparison c = playAndCompare(script, 30, 0.13, &cache);
+// The script file played frame by frame, each frame rendered with the cache and by a full
+// re-trace: the same images expected; what was compared returned for the test's own checks.
+Comparison playExpectingSameImages(const std::string& path, int frames, double dt,
+                                   FrameCache* cache) {
+  ScriptedScene script(path, scriptOptions());
+  const Comparison c = playAndCompare(script, frames, dt, cache);
   expectSameImages(c);
+  return c;
+}
+
+TEST(FrameCache, OrbitFramesEqualAFullRetrace) {
+  FrameCache cache;
+  const Comparison c =
+      playExpectingSameImages(testing::sceneLibrary() + "/orbit.lua", 30, 0.13, &cache);
   // The cache was used and saved work: one build, the floor and wall static, three of the
   // four lights static (the key light turns).
   EXPECT_EQ(cache.stats().builds, 1);
@@ -142,10 +151,9 @@ TEST(FrameCache, OrbitFramesEqualAFullRetrace) {
 // The cache's good case: two models, a pedestal and a mirror floor stand still, one ball moves
 // (hits on the static mirror are taken from the cache, their reflections traced in full).
 TEST(FrameCache, SentinelFramesEqualAFullRetrace) {
-  ScriptedScene script(testing::sceneLibrary() + "/sentinel.lua", scriptOptions());
   FrameCache cache;
-  const Comparison c = playAndCompare(script, 10, 0.4, &cache);
-  expectSameImages(c);
+  const Comparison c =
+      playExpectingSameImages(testing::sceneLibrary() + "/sentinel.lua", 10, 0.4, &cache);
   EXPECT_EQ(cache.stats().builds, 1);
   EXPECT_EQ(cache.stats().dynamicInstances, 1);
   EXPECT_EQ(cache.stats().cachedLights, 4);
@@ -187,10 +195,9 @@ end
 
 TEST(FrameCache, ScriptsThatMoveStaticThingsAndLightsStillRenderCorrectly) {
   TempFolder folder;
-  ScriptedScene script(folder.write("restless.lua", kRestless), scriptOptions());
   FrameCache cache;
-  const Comparison c = playAndCompare(script, 30, 0.12, &cache);
-  expectSameImages(c);
+  const Comparison c =
+      playExpectingSameImages(folder.write("restless.lua", kRestless), 30, 0.12, &cache);
   // The floor and the pillar joined the dynamic objects when they first moved: built again.
   EXPECT_GE(cache.stats().builds, 3);
   EXPECT_GT(c.counters.cache.pixelsReused, 0);
@@ -211,10 +218,8 @@ end
 
 TEST(FrameCache, AWorldBoxThatFollowsTheMotionBypassesTheCache) {
   TempFolder folder;
-  ScriptedScene script(folder.write("drifting.lua", kNoWorldBox), scriptOptions());
   FrameCache cache;
-  const Comparison c = playAndCompare(script, 20, 0.2, &cache);
-  expectSameImages(c);
+  playExpectingSameImages(folder.write("drifting.lua", kNoWorldBox), 20, 0.2, &cache);
   EXPECT_LT(cache.stats().builds, 8);
   EXPECT_GT(cache.stats().framesBypassed, 10);
 }

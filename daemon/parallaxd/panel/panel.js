@@ -248,6 +248,29 @@ async function refreshStats() {
   $('summary').textContent = s.summary;
 }
 
+// ---- the latest `parallax report` (served by the panel from its reports folder) -------------
+
+async function refreshReport() {
+  let r;
+  try {
+    const response = await fetch('api/report', {headers: {'X-Parallax-Token': token}});
+    r = await response.json();
+  } catch (e) { return; }
+  const span = $('report');
+  span.textContent = '';
+  if (r.latest) {
+    const a = document.createElement('a');
+    a.id = 'report-link';
+    a.href = r.latest.url;
+    a.target = '_blank';
+    a.rel = 'noopener';
+    a.textContent = r.latest.name + ' (' + r.latest.date + ')';
+    span.append(a);
+  } else {
+    span.textContent = 'none yet (parallax report --out ' + r.folder + '/NAME)';
+  }
+}
+
 // ---- wiring ----------------------------------------------------------------------------------
 
 async function loadScenes() {
@@ -288,6 +311,7 @@ async function start() {
   await refreshStatus();
   await loadScenes();
   requestPreview();
+  refreshReport();
   setInterval(refreshStatus, 500);
   setInterval(refreshStats, 1000);
   // An animated scene changes under the viewer: a new picture every 2 s while playing.
@@ -295,6 +319,7 @@ async function start() {
     if (status && status.state === 'playing' && status.scene && status.scene.animated) requestPreview();
   }, 2000);
   setInterval(refreshThumbnails, 10000);
+  setInterval(refreshReport, 30000);
 }
 
 start();

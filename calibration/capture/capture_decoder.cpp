@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "calibration/camera/calibration_geometry.h"
+#include "calibration/capture/stripe_curve.h"
 #include "calibration/capture/stripe_peak.h"
 #include "common/check.h"
 #include "common/input_error.h"
@@ -18,6 +20,12 @@ void CaptureDecoderOptions::validate() const {
   if (pixelStep < 1 || pixelStep > 64) throw InputError({"", "pixel_step", 0}, "must be 1..64");
   if (minStripePixels < 1) throw InputError({"", "min_stripe_pixels", 0}, "must be >= 1");
   if (!(lobeWidthTolerance > 1.0)) throw InputError({"", "lobe_width_tolerance", 0}, "must be > 1");
+  if (stripeCurve.degree < 1 || stripeCurve.degree > 5)
+    throw InputError({"", "stripe_curve.degree", 0}, "must be 1..5");
+  if (stripeCurve.minRows < stripeCurve.degree + 2)
+    throw InputError({"", "stripe_curve.min_rows", 0}, "must be at least the degree + 2");
+  if (!(stripeCurve.outlierSigmas > 0.0) || !(stripeCurve.minOutlierPx >= 0.0))
+    throw InputError({"", "stripe_curve", 0}, "outlier limits must be positive");
   if (!(saturatedLinear > 0.0 && saturatedLinear <= 1.0))
     throw InputError({"", "saturated_linear", 0}, "must be in (0, 1]");
 }
@@ -111,10 +119,16 @@ void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<c
   if (all.empty()) return;
   std::nth_element(all.begin(), all.begin() + static_cast<long>(all.size() / 2), all.end());
   const double median = all[all.size() / 2];
+  std::map<int, std::vector<Eigen::Vector2d>> stripeOf;  // per module, its centres in row order
   for (const auto& c : candidates) {
     if (c.width >= median / options.lobeWidthTolerance &&
         c.width <= median * options.lobeWidthTolerance)
-      obs->stripes.push_back(c.centre);
+      stripeOf[c.centre.module].push_back(c.centre.cameraPx);
+  }
+  for (const auto& [module, centres] : stripeOf) {
+    const std::vector<bool> kept = stripeCentresOnCurve(centres, options.stripeCurve);
+    for (size_t i = 0; i < centres.size(); ++i)
+      if (kept[i]) obs->stripes.push_back({station, module, centres[i]});
   }
 }
 

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "calibration/camera/calibration_observations.h"
+#include "calibration/capture/stripe_curve.h"
 #include "calibration/capture/structured_light.h"
 #include "calibration/display/display_model.h"
 
@@ -32,6 +33,8 @@ struct CaptureDecoderOptions {
   // A stripe centre is kept when its lobe's fitted width is within this factor of the picture
   // set's median lobe width.
   double lobeWidthTolerance = 1.5;
+  // Each stripe's centres are checked against the smooth curve through them (stripe_curve.h).
+  StripeCurveOptions stripeCurve;
   // Linear picture values at or above this were clipped by the sensor (decodeCaptures sets it
   // from the camera's response: the top 8-bit code). A clipped pixel says only "at least this
   // bright": it is left out of the stripe-peak fits (a flattened lobe top pulls the peak toward

@@ -12,7 +12,7 @@ namespace {
 
 const char* const kTransformType = "parallax.transform";
 const char* const kHandleType = "parallax.handle";
-const char* const kHandleNames[] = {"material", "object", "light", "texture"};
+const char* const kHandleNames[] = {"material", "object", "light", "texture", "model"};
 
 // Userdata is only aligned for doubles, Eigen's fixed-size matrices want 16 bytes: keep the
 // plain 4×4 column-major numbers and copy them in and out.

@@ -59,9 +59,10 @@ void registerTransformType(lua_State* L);
 void pushTransform(lua_State* L, const Eigen::Affine3d& transform);
 Eigen::Affine3d toTransform(lua_State* L, int index, const std::string& what);
 
-// Handles to what the script added (a material, an object, a light, a texture): typed
+// Handles to what the script added (a material, an object, a light, a texture, a model file's
+// animations): typed
 // userdata, so passing a light where a material belongs is a clear error.
-enum class HandleKind : int { kMaterial, kObject, kLight, kTexture };
+enum class HandleKind : int { kMaterial, kObject, kLight, kTexture, kModel };
 void registerHandleType(lua_State* L);
 void pushHandle(lua_State* L, HandleKind kind, int index);
 int toHandle(lua_State* L, int index, HandleKind kind, const std::string& what);

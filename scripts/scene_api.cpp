@@ -376,13 +376,31 @@ const std::vector<ApiFunction>& apiFunctions() {
         "white}"},
        apiMesh,
        true},
-      {{"model", "px.model{path =, height =, transform =} -> {object, ...}",
-        "Meshes, materials and textures of a model file (OBJ, glTF, ... through assimp), scaled to "
-        "`height` with its "
-        "base at the origin (0: its own units), then placed by transform; watched for hot reload.",
+      {{"model", "px.model{path =, height =, transform =} -> {object, ...}, model",
+        "Meshes, materials and textures of a model file (OBJ, glTF, FBX, COLLADA, ... through "
+        "assimp), scaled to `height` with its base at the origin (0: its own units), then placed "
+        "by transform; watched for hot reload. The second result is the model, for "
+        "px.animations and px.set_animation; an animated file shows its rest pose until posed, "
+        "and the scene's bounds (px.world_box(), an unset world box) cover all its animations.",
         R"(local wuson = px.model{path = "assimp:OBJ/WusonOBJ.obj", height = 1.1, transform = px.translate(-0.55, 0.4, 0)})"},
        apiModel,
        true},
+      {{"animations", "px.animations(model) -> {{name =, duration =}, ...}",
+        "The model file's animations (node and skeletal; morph targets are not played) with "
+        "their lengths in seconds; an unnamed one is called \"animation N\". Empty for a still "
+        "file.",
+        R"(local _, walker = px.model{path = "assimp:X/Testwuson.X", height = 1}; for i, a in ipairs(px.animations(walker)) do print(i, a.name, a.duration) end)"},
+       apiAnimations,
+       false},
+      {{"set_animation", "px.set_animation(model, animation, t [, transform])",
+        "Poses the model at time t (seconds) of an animation, named or numbered as "
+        "px.animations lists it; t outside [0, duration] wraps (the animation loops). Keys are "
+        "interpolated linearly (rotations spherically), skinned meshes deformed by their bones; "
+        "transform, if given, places the whole model anew (it replaces px.model's). Call it in "
+        "update(t, dt) to play the animation.",
+        R"(function update(t) px.set_animation(walker, "Wuson_Walk", t, px.rotate_y(0.4 * t)) end)"},
+       apiSetAnimation,
+       false},
       {{"instance", "px.instance(object, transform) -> object",
         "Draws an object's mesh once more, elsewhere.",
         "local copy = px.instance(tree, px.translate(2, 0, 0))"},

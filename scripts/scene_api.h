@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "tracer/model_animation.h"
 #include "tracer/scene.h"
 
 namespace parallax {
@@ -31,7 +32,8 @@ struct SceneBuild {
   bool loading = true;  // geometry, materials and parameters can be added only while loading
   std::map<std::string, double> overrides;  // parameter values given before loading
   std::vector<ScriptParameter> parameters;
-  std::vector<std::string> assets;  // files read through the API (canonical), for hot reload
+  std::vector<std::string> assets;     // files read through the API (canonical), for hot reload
+  std::vector<ModelAnimation> models;  // per px.model: its animations (none for a still file)
   // Trusted folders a script may read below by prefix, e.g. "assimp:OBJ/spider.obj".
   std::map<std::string, std::string> assetRoots;
   // Set while a px function runs: a finalizer (__gc) the collector starts inside it must not

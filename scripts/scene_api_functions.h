@@ -22,6 +22,8 @@ int apiCylinder(lua_State* L, SceneBuild& b);
 int apiCone(lua_State* L, SceneBuild& b);
 int apiMesh(lua_State* L, SceneBuild& b);
 int apiModel(lua_State* L, SceneBuild& b);
+int apiAnimations(lua_State* L, SceneBuild& b);
+int apiSetAnimation(lua_State* L, SceneBuild& b);
 int apiInstance(lua_State* L, SceneBuild& b);
 int apiSetTransform(lua_State* L, SceneBuild& b);
 int apiTriangleCount(lua_State* L, SceneBuild& b);

@@ -301,8 +301,10 @@ int apiModel(lua_State* L, SceneBuild& b) {
   b.assets.push_back(path);
   // Loaded into a scratch scene first, so a model over the triangle limit never lands.
   Scene scratch = b.scene;
+  ModelAnimation animation;
+  animation.file = path;
   try {
-    appendModel(path, load, &scratch);
+    appendModel(path, load, &scratch, &animation);
   } catch (const InputError& e) {
     throw ScriptArgumentError(e.what());
   }
@@ -312,12 +314,14 @@ int apiModel(lua_State* L, SceneBuild& b) {
   checkTriangleBudget(L, b, added);
   const size_t firstInstance = b.scene.instances.size();
   b.scene = std::move(scratch);
+  b.models.push_back(std::move(animation));
   lua_createtable(L, static_cast<int>(b.scene.instances.size() - firstInstance), 0);
   for (size_t i = firstInstance; i < b.scene.instances.size(); ++i) {
     pushHandle(L, HandleKind::kObject, static_cast<int>(i));
     lua_rawseti(L, -2, static_cast<lua_Integer>(i - firstInstance + 1));
   }
-  return 1;
+  pushHandle(L, HandleKind::kModel, static_cast<int>(b.models.size() - 1));
+  return 2;
 }
 
 int apiInstance(lua_State* L, SceneBuild& b) {

@@ -28,19 +28,42 @@ struct AnimatedState {
   std::vector<Material> materials;
   std::vector<Light> lights;
   Rgb background, ambient;
+  std::vector<Box3> motionBounds;
+  struct Deformed {
+    int mesh;
+    std::vector<Eigen::Vector3d> positions;
+    std::vector<Eigen::Vector3f> normals;
+  };
+  std::vector<Deformed> skinned;            // meshes px.set_animation deforms
+  std::vector<Eigen::Affine3d> placements;  // each model's, which px.set_animation may change
 
-  explicit AnimatedState(const Scene& s)
+  AnimatedState(const Scene& s, const std::vector<ModelAnimation>& models)
       : instances(s.instances),
         materials(s.materials),
         lights(s.lights),
         background(s.background),
-        ambient(s.ambient) {}
-  void restore(Scene* s) const {
+        ambient(s.ambient),
+        motionBounds(s.motionBounds) {
+    for (const ModelAnimation& model : models) {
+      placements.push_back(model.placement);
+      for (const SkinnedPart& part : model.skinnedParts) {
+        const Mesh& mesh = s.meshes[static_cast<size_t>(part.mesh)];
+        skinned.push_back({part.mesh, mesh.positions, mesh.normals});
+      }
+    }
+  }
+  void restore(Scene* s, std::vector<ModelAnimation>* models) const {
     s->instances = instances;
     s->materials = materials;
     s->lights = lights;
     s->background = background;
     s->ambient = ambient;
+    s->motionBounds = motionBounds;
+    for (const Deformed& d : skinned) {
+      s->meshes[static_cast<size_t>(d.mesh)].positions = d.positions;
+      s->meshes[static_cast<size_t>(d.mesh)].normals = d.normals;
+    }
+    for (size_t i = 0; i < models->size(); ++i) (*models)[i].placement = placements[i];
   }
 };
 
@@ -146,7 +169,7 @@ void SceneScript::setTime(double t) {
     time_ = t;
     return;
   }
-  const AnimatedState before(build_.scene);
+  const AnimatedState before(build_.scene, build_.models);
   try {
     build_.inCall = false;
     sandbox_->startBudget(sandbox_->limits().updateInstructions,
@@ -156,7 +179,7 @@ void SceneScript::setTime(double t) {
                    sandbox_->limits().updateAllocationBytes);
     build_.scene.validate();
   } catch (const InputError& e) {
-    before.restore(&build_.scene);
+    before.restore(&build_.scene, &build_.models);
     if (e.location().file.empty()) throw e.inFile(name_);
     throw;
   }

@@ -13,12 +13,13 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
-#include <functional>
 #include <limits>
 #include <map>
+#include <set>
 
 #include "calibration/display/srgb_transfer.h"
 #include "common/input_error.h"
+#include "tracer/model_animation_import.h"
 #include "tracer/scene_fixtures.h"
 
 namespace parallax {
@@ -132,8 +133,8 @@ std::string resolveTexturePath(const std::string& reference, const std::string& 
   return candidate.string();
 }
 
-ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& options,
-                            Scene* scene) {
+ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& options, Scene* scene,
+                            ModelAnimation* animation) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw InputError({path, "", 0}, "no such model file");
   if (fs::file_size(path, ec) == 0)
@@ -267,26 +268,60 @@ ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& opt
     meshIndex[i] = scene->addMesh(std::move(mesh), false);
   }
 
-  // Instances from the node hierarchy, with the model's own transforms.
-  std::vector<std::pair<int, Eigen::Affine3d>> placed;
-  std::function<void(const aiNode&, const Eigen::Affine3d&)> visit =
-      [&](const aiNode& node, const Eigen::Affine3d& parent) {
-        Eigen::Affine3d here = parent * Eigen::Affine3d(toEigen(node.mTransformation));
-        if (!here.matrix().allFinite()) here = parent;
-        for (unsigned k = 0; k < node.mNumMeshes; ++k) {
-          const unsigned m = node.mMeshes[k];
-          if (m < meshIndex.size() && meshIndex[m] >= 0) placed.emplace_back(meshIndex[m], here);
-        }
-        for (unsigned c = 0; c < node.mNumChildren; ++c) visit(*node.mChildren[c], here);
-      };
-  visit(*model->mRootNode, Eigen::Affine3d::Identity());
+  // Instances from the node hierarchy, with the model's own transforms (parents first).
+  const std::vector<FlatNode> nodes = flattenNodes(*model, path);
+  struct Placed {
+    int mesh;
+    Eigen::Affine3d transform;
+    int node;
+    unsigned source;
+  };
+  std::vector<Placed> placed;
+  std::vector<Eigen::Affine3d> global(nodes.size());
+  for (size_t n = 0; n < nodes.size(); ++n) {
+    const aiNode& node = *nodes[n].node;
+    const Eigen::Affine3d parent = nodes[n].parent >= 0
+                                       ? global[static_cast<size_t>(nodes[n].parent)]
+                                       : Eigen::Affine3d::Identity();
+    global[n] = parent * Eigen::Affine3d(toEigen(node.mTransformation));
+    if (!global[n].matrix().allFinite()) global[n] = parent;
+    if (node.mNumMeshes > 0 && !node.mMeshes) continue;
+    for (unsigned k = 0; k < node.mNumMeshes; ++k) {
+      const unsigned m = node.mMeshes[k];
+      if (m < meshIndex.size() && meshIndex[m] >= 0)
+        placed.push_back({meshIndex[m], global[n], static_cast<int>(n), m});
+    }
+  }
   if (placed.empty()) throw InputError({path, "", 0}, "the model holds no triangles");
+
+  // An animated model starts in its rest pose as the animation evaluates it: rigid parts at
+  // their nodes' transforms, skinned meshes deformed by their bones (in model space).
+  const bool animate = animation && model->mNumAnimations > 0;
+  if (animate) {
+    std::vector<PlacedMesh> instances;
+    const int firstInstance = static_cast<int>(scene->instances.size());
+    for (size_t i = 0; i < placed.size(); ++i)
+      instances.push_back({firstInstance + static_cast<int>(i), placed[i].node, placed[i].source});
+    *animation =
+        importAnimation(*model, nodes, meshIndex, instances, *scene, path, &report.warnings);
+    const std::vector<Eigen::Affine3d> rest = animation->nodeTransforms(-1, 0.0);
+    for (Placed& p : placed) p.transform = rest[static_cast<size_t>(p.node)];
+    for (const SkinnedPart& part : animation->skinnedParts) {
+      Mesh& mesh = scene->meshes[static_cast<size_t>(part.mesh)];
+      animation->skin(part, rest, &mesh.positions, &mesh.normals);
+    }
+    std::set<int> skinnedMeshes;
+    for (const SkinnedPart& part : animation->skinnedParts) skinnedMeshes.insert(part.mesh);
+    for (Placed& p : placed) {
+      if (skinnedMeshes.count(p.mesh)) p.transform = Eigen::Affine3d::Identity();
+    }
+  }
 
   // Normalise: bounding box in model space → bottom centre at the origin, `targetHeight` tall.
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-  for (const auto& [mesh, transform] : placed) {
-    for (const Eigen::Vector3d& p : scene->meshes[static_cast<size_t>(mesh)].positions) {
-      const Eigen::Vector3d q = transform * p;
+  for (const Placed& p : placed) {
+    for (const Eigen::Vector3d& v : scene->meshes[static_cast<size_t>(p.mesh)].positions) {
+      const Eigen::Vector3d q = p.transform * v;
       lo = lo.cwiseMin(q);
       hi = hi.cwiseMax(q);
     }
@@ -298,11 +333,23 @@ ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& opt
     normalise = Eigen::Affine3d(Eigen::Scaling(scale)) *
                 Eigen::Translation3d(-0.5 * (lo.x() + hi.x()), -lo.y(), -0.5 * (lo.z() + hi.z()));
   }
-  for (const auto& [mesh, transform] : placed) {
-    scene->addInstance(mesh, options.worldFromModel * normalise * transform);
+  for (const Placed& p : placed) {
+    scene->addInstance(p.mesh, options.worldFromModel * normalise * p.transform);
     ++report.meshes;
     report.triangles +=
-        static_cast<long>(scene->meshes[static_cast<size_t>(mesh)].triangles.size());
+        static_cast<long>(scene->meshes[static_cast<size_t>(p.mesh)].triangles.size());
+  }
+  if (animate) {
+    animation->normalisation = normalise;
+    animation->placement = options.worldFromModel;
+    animation->measureMotionBounds(*scene);
+    if (!animation->motionBounds.min.allFinite() || !animation->motionBounds.max.allFinite())
+      throw InputError({path, "animations", 0},
+                       "the animation moves vertices to non-finite places");
+    animation->motionBoundsIndex = static_cast<int>(scene->motionBounds.size());
+    scene->motionBounds.push_back(animation->placedMotionBounds());
+    report.animations = static_cast<int>(animation->clips.size());
+    report.skinnedMeshes = static_cast<int>(animation->skinnedParts.size());
   }
   for (const std::string& w : report.warnings) spdlog::warn("{}", w);
   return report;

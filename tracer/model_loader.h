@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "tracer/model_animation.h"
 #include "tracer/scene.h"
 
 namespace parallax {
@@ -29,12 +30,19 @@ struct ModelLoadReport {
   int textures = 0;          // texture references added to the scene
   int texturesMissing = 0;   // files not found: the material's colour is the fallback
   int generatedNormals = 0;  // meshes that had no normals
+  int animations = 0;        // clips read (only when an animation was asked for)
+  int skinnedMeshes = 0;
   std::vector<std::string> warnings;
 };
 
 // Appends the model's meshes, materials, textures and instances to `scene`. Throws InputError
-// naming the file when it cannot be read or holds no triangles.
-ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& options, Scene* scene);
+// naming the file when it cannot be read or holds no triangles. With `animation` and a file that
+// has animations, also reads them (model_animation_import.h: InputError for bad ones), shows
+// the rest pose as they evaluate it (skinned meshes deformed by their bones) and adds the
+// bounds of every clip's motion to Scene::motionBounds; a file without animations leaves
+// `animation` untouched and loads as without it.
+ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& options, Scene* scene,
+                            ModelAnimation* animation = nullptr);
 
 // A scene of one model, lit by the paper's four directional lights, B_W = its bounds.
 Scene loadModelScene(const std::string& path, ModelLoadReport* report = nullptr);

@@ -215,6 +215,10 @@ Box3 Scene::geometryBounds() const {
     }
   }
   if (!any) return Box3{};
+  for (const Box3& motion : motionBounds) {
+    box.min = box.min.cwiseMin(motion.min);
+    box.max = box.max.cwiseMax(motion.max);
+  }
   return box;
 }
 
@@ -276,6 +280,10 @@ void Scene::validate() const {
     fail("max_depth", fmt::format("must be in 1..64, got {}", maxDepth));
   if (triangleCount() == 0)
     fail("meshes", "the scene has nothing to draw (no instanced triangles)");
+  for (size_t i = 0; i < motionBounds.size(); ++i) {
+    if (!motionBounds[i].min.allFinite() || !motionBounds[i].max.allFinite())
+      fail(fmt::format("motion_bounds[{}]", i), "must be finite");
+  }
   if (worldBox) {
     if (!worldBox->min.allFinite() || !worldBox->max.allFinite())
       fail("world_box", "must be finite");

@@ -123,6 +123,10 @@ struct Scene {
   // correctness.
   std::set<int> movedInstances;
   int maxDepth = 5;  // Whitted recursion limit (1: primary rays only)
+  // World-space boxes that animated models (model_animation.h) fill over all their clips, so
+  // geometryBounds(), and with it an unset B_W, covers the whole motion and does not follow it
+  // frame by frame. Each model keeps its entry placed as it moves the model.
+  std::vector<Box3> motionBounds;
 
   // Small builders for fixtures, loaders and bindings. Each returns the new index.
   int addMaterial(Material material);
@@ -135,7 +139,8 @@ struct Scene {
   void addLight(const Light& light) { lights.push_back(light); }
 
   long triangleCount() const;  // drawn triangles (over instances)
-  // Bounds of the drawn geometry in world space (empty box when there is none).
+  // Bounds of the drawn geometry and of motionBounds in world space (empty box when there is
+  // no geometry).
   Box3 geometryBounds() const;
   // B_W as used: worldBox, or geometryBounds().
   Box3 effectiveWorldBox() const;

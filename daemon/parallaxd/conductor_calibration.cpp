@@ -20,10 +20,11 @@ namespace {
 std::string scriptPathOf(const std::string& argument) {
   if (const std::string library = librarySceneScript(argument); !library.empty()) return library;
   if (isSceneScript(argument)) return argument;
-  throw InputError({"", "scene", 0}, fmt::format("\"{}\" is not a scene script: give a library "
-                                                 "name (cornell, shapes, statue, orbit, sentinel) "
-                                                 "or a .lua file",
-                                                 argument));
+  throw InputError({"", "scene", 0},
+                   fmt::format("\"{}\" is not a scene script: give a library "
+                               "name (cornell, shapes, statue, orbit, sentinel, walker) "
+                               "or a .lua file",
+                               argument));
 }
 
 }  // namespace

@@ -9,10 +9,7 @@ px.name("sentinel")
 local speed = px.param{name = "speed", default = 0.2, min = 0, max = 2,
                        description = "ball turns per second"}
 
-local stone = px.diffuse{name = "pedestal", color = {0.7, 0.68, 0.62}}
-px.box{size = {3.2, 0.4, 1.6}, material = stone, transform = px.translate(0, 0.2, 0)}
-local floor = px.mirror{name = "polished_floor", reflectance = {0.6, 0.6, 0.65}}
-px.grid{width = 4.0, height = 2.0, material = floor, transform = px.rotate_x(-math.pi / 2)}
+paper.pedestal_stage()
 px.model{path = "assimp:OBJ/WusonOBJ.obj", height = 1.1,
          transform = px.translate(-0.55, 0.4, 0.0) * px.rotate_y(-1.25)}
 px.model{path = "assimp:OBJ/spider.obj", height = 0.6,
@@ -21,12 +18,6 @@ px.model{path = "assimp:OBJ/spider.obj", height = 0.6,
 local red = px.phong{name = "ball", color = {0.8, 0.2, 0.2}, specular = {0.5, 0.5, 0.5},
                      shininess = 30}
 local ball = px.sphere{radius = 0.12, material = red, name = "ball"}
-
-paper.add_lights()
-px.ambient({0.06, 0.06, 0.06})
-px.background({0.04, 0.05, 0.07})
-px.world_box{min = {-2.0, 0.0, -1.0}, max = {2.0, 2.25, 1.0}}
-px.max_depth(5)
 
 function update(t, dt)
   local angle = 2 * math.pi * params.speed * t

@@ -21,6 +21,20 @@ function paper.add_lights()
   }
 end
 
+-- The stage of the animated library scenes (sentinel, walker): a stone pedestal on a polished
+-- floor under the paper's lights, and the world box around them.
+function paper.pedestal_stage()
+  local stone = px.diffuse{name = "pedestal", color = {0.7, 0.68, 0.62}}
+  px.box{size = {3.2, 0.4, 1.6}, material = stone, transform = px.translate(0, 0.2, 0)}
+  local floor = px.mirror{name = "polished_floor", reflectance = {0.6, 0.6, 0.65}}
+  px.grid{width = 4.0, height = 2.0, material = floor, transform = px.rotate_x(-math.pi / 2)}
+  paper.add_lights()
+  px.ambient({0.06, 0.06, 0.06})
+  px.background({0.04, 0.05, 0.07})
+  px.world_box{min = {-2.0, 0.0, -1.0}, max = {2.0, 2.25, 1.0}}
+  px.max_depth(5)
+end
+
 -- Adds an object made by `shape` (px.box, px.grid, ...) with `options`, placed by
 -- parent * local_transform: the scene's own frame composed with the object's placement.
 function paper.placer(parent)

@@ -123,9 +123,10 @@ PrimaryRayCounts MakePrimaryRays(const PrimaryRayRow& row, StagedRays* staged) {
                         hn::Mul(toZ, inverseLength),
                         hn::Mul(advance, length)};
     for (size_t f = 0; f < sizeof(values) / sizeof(values[0]); ++f)
-      hn::CompressStore(values[f], traced, d, field[f] + kept);
+      CompressAppend(d, values[f], traced, field[f] + kept);
     const auto pixel = hn::Add(hn::Iota(di, 0), hn::Set(di, row.firstPixel + static_cast<int>(j)));
-    kept += hn::CompressStore(hn::BitCast(d, pixel), traced, d, pixels + kept);
+    CompressAppend(d, hn::BitCast(d, pixel), traced, pixels + kept);
+    kept += hn::CountTrue(d, traced);
   }
   staged->setSize(kept);
   return counts;

@@ -39,6 +39,16 @@ HWY_INLINE V MaxCoeff3(V r, V g, V b) {
   return StdMax(r, StdMax(g, b));
 }
 
+// The lanes of `v` that `keep` selects, written in order from `to` on, followed by whatever
+// fills the rest of the vector (the destination has room for a whole vector). Compressing in a
+// register and storing the whole vector: AVX-512's compress-to-memory, which Highway's
+// CompressStore uses, took a third of the shadow-ray kernel's time in the profile.
+template <class D, class V, class M>
+HWY_INLINE void CompressAppend(D d, V v, M keep, hwy::HWY_NAMESPACE::TFromD<D>* to) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  hn::StoreU(hn::Compress(v, keep), d, to);
+}
+
 // The Phong highlight's x^e for x in [0, 1], in the lanes of `active`: whole exponents up to 256
 // (every fixture's) by repeated squaring, a few ulps from std::pow and several times cheaper;
 // any other exponent through std::pow, one lane at a time.

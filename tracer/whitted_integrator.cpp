@@ -532,7 +532,6 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
   }
   const bool canBranch = generation + 1 < depth_;
   const float coneWidth = path.coneWidth + t * std::max(path.coneSpread, 0.0f);
-  const Eigen::Vector3f above = offsetRayOrigin(h.position, h.geometricNormal);
 
   if (m.emission.maxCoeff() > 0.0f || m.kind == MaterialKind::kEmissive) {
     Rgb e = m.emission.cwiseProduct(h.vertexColor);
@@ -558,7 +557,7 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
           staticLights = primaryLights_[i];
         }
       }
-      lit_.push(h.position, above, h.shadingNormal, h.geometricNormal, weightedAlbedo, path.pixel,
+      lit_.push(h.position, h.shadingNormal, h.geometricNormal, weightedAlbedo, path.pixel,
                 staticLights);
       if (m.specular.maxCoeff() > 0.0f) {
         lit_.setHighlight(reflect(d, h.shadingNormal), weight.cwiseProduct(m.specular),
@@ -569,6 +568,7 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
     case MaterialKind::kMirror: {
       if (!canBranch) return;
       ++c->reflection;
+      const Eigen::Vector3f above = offsetRayOrigin(h.position, h.geometricNormal);
       pushBranch(path, weight.cwiseProduct(m.reflectance), above, reflect(d, h.shadingNormal),
                  path.inside, coneWidth, c);
       return;
@@ -585,6 +585,7 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
       const bool transmits = refract(d, n, eta, &refracted, &cosT);
       const float reflectance = transmits ? fresnelDielectric(cosI, cosT, eta) : 1.0f;
       ++c->reflection;
+      const Eigen::Vector3f above = offsetRayOrigin(h.position, h.geometricNormal);
       pushBranch(path, weight * reflectance, above, reflect(d, n), path.inside, coneWidth, c);
       if (transmits) {
         ++c->refraction;

@@ -1,5 +1,8 @@
 #include "tracer/ray_packets.h"
 
+#include <algorithm>
+#include <cstring>
+
 #include "tracer/glass_shadows.h"
 
 namespace parallax {
@@ -70,6 +73,28 @@ void OcclusionPackets::grow() {
     p.id[lane] = first + lane;
     p.flags[lane] = 0;
   }
+}
+
+void OcclusionPackets::assign(const StagedRays& staged) {
+  const size_t n = staged.size();
+  reserveRays(n);
+  // StagedRays pads each field, so the last packet's 16 floats can be read whole.
+  const auto copy16 = [](float* to, const float* from) {
+    std::memcpy(to, from, 16 * sizeof(float));
+  };
+  for (size_t p = 0; 16 * p < n; ++p) {
+    RTCRay16& q = packets_[p];
+    const size_t first = 16 * p;
+    copy16(q.org_x, staged.field(StagedRays::kOx) + first);
+    copy16(q.org_y, staged.field(StagedRays::kOy) + first);
+    copy16(q.org_z, staged.field(StagedRays::kOz) + first);
+    copy16(q.dir_x, staged.field(StagedRays::kDx) + first);
+    copy16(q.dir_y, staged.field(StagedRays::kDy) + first);
+    copy16(q.dir_z, staged.field(StagedRays::kDz) + first);
+    copy16(q.tfar, staged.field(StagedRays::kTfar) + first);
+    std::fill(q.tnear, q.tnear + 16, 0.0f);
+  }
+  size_ = n;
 }
 
 RTCRayHit RayHitPackets::get(size_t i) const {

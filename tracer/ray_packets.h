@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "tracer/ray_batch.h"
+#include "tracer/staged_rays.h"
 
 namespace parallax {
 
@@ -116,6 +117,8 @@ class OcclusionPackets {
     p.tfar[lane] = tfar;
   }
   void setSize(size_t n) { size_ = n; }
+  // Exactly the rays of `staged` (origin, direction, tfar), a 64-byte copy per field and packet.
+  void assign(const StagedRays& staged);
 
   // Embree sets tfar to -inf on an occluded ray.
   bool occluded(size_t i) const { return !(packets_[i / 16].tfar[i % 16] >= 0.0f); }

@@ -18,6 +18,7 @@
 #include "tracer/optics.h"
 #include "tracer/ray_log.h"
 #include "tracer/ray_packets.h"
+#include "tracer/shadow_ray_kernel.h"
 
 namespace parallax {
 namespace {
@@ -35,29 +36,6 @@ struct Path {
   int inside = -1;          // material index of the glass the ray travels in, -1 in air
 };
 
-struct PendingShadow {
-  int pixel;
-  Rgb contribution;
-};
-
-// A diffuse hit waiting for its shadow rays: what every light's test needs, with the path's
-// weight folded into the colours. Shading gathers these, then each light's rays are made in
-// one tight loop over them (no per-hit branching on the light, no per-light indexing).
-struct LitSurface {
-  Eigen::Vector3f position;   // on the surface (point lights measure from here)
-  Eigen::Vector3f above;      // offset off the surface: the shadow rays' origin
-  Eigen::Vector3f normal;     // shading normal
-  Eigen::Vector3f geometric;  // geometric normal (light from behind the face is cut)
-  Eigen::Vector3f reflected;  // the view direction mirrored about the normal (highlights only)
-  Rgb diffuse;                // weight × albedo
-  Rgb specular;               // weight × specular colour (highlights only)
-  float shininess;
-  int pixel;
-  bool highlight;
-  // The frame cache's answers for the static lights (StaticHit::lights()), 0 when it has none.
-  std::uint8_t staticLights;
-};
-
 // Slab test: does o + t d (t > 0) meet the box? If so, *entry is the t where it comes in.
 bool hitsBox(const Eigen::Vector3f& o, const Eigen::Vector3f& d, const Eigen::Vector3f& lo,
              const Eigen::Vector3f& hi, float* entry) {
@@ -73,19 +51,6 @@ bool hitsBox(const Eigen::Vector3f& o, const Eigen::Vector3f& d, const Eigen::Ve
   }
   *entry = t0;
   return true;
-}
-
-// x^e for x in [0, 1]: whole exponents up to 256 (every fixture's) by repeated squaring, a few
-// ulps from std::pow and several times cheaper; any other exponent through std::pow.
-inline float phongPower(float x, float e) {
-  const int n = static_cast<int>(e);
-  if (static_cast<float>(n) != e || n < 1 || n > 256) return std::pow(x, e);
-  float result = 1.0f;
-  for (int k = n; k > 0; k >>= 1) {
-    if (k & 1) result *= x;
-    x *= x;
-  }
-  return result;
 }
 
 // Adds the time since the previous lap to the phase that just ended (when timing is on).
@@ -108,18 +73,20 @@ class PhaseClock {
   std::chrono::steady_clock::time_point last_;
 };
 
-// One light's shadow rays toward one scene, with what each adds to its pixel.
+// One light's shadow rays toward one scene: as the kernel made them (with what each adds to
+// its pixel), then as Embree's packets.
 struct ShadowBatch {
+  StagedRays staged;
   OcclusionPackets rays;
-  std::vector<PendingShadow> pending;
   // Per shadow ray: what glass let through (only in scenes with glass shadows).
   std::vector<ShadowTransmittance> transmittance;
 
-  // Room for n rays (written by slot, kept by setSize).
-  void reserve(size_t n, bool glass) {
-    rays.reserveRays(n);
-    if (pending.size() < n) pending.resize(n);
-    if (glass && transmittance.size() < n) transmittance.resize(n);
+  // The staged rays as packets, each with a fresh glass state.
+  void load(bool glass) {
+    rays.assign(staged);
+    if (!glass) return;
+    if (transmittance.size() < staged.size()) transmittance.resize(staged.size());
+    for (size_t i = 0; i < staged.size(); ++i) transmittance[i].reset();
   }
 };
 
@@ -134,7 +101,7 @@ struct CachedHit {
 struct TileBuffers {
   std::vector<Path> paths, nextPaths;
   RayHitPackets rays, nextRays;
-  std::vector<LitSurface> lit;
+  LitSurfaces lit;
   // Shadow rays are made and traced light after light: a packet then holds neighbouring
   // pixels' rays toward the same light, which traverse the BVH together. With the frame cache,
   // rays from static hits toward static lights that no static surface blocks go to a second
@@ -176,7 +143,6 @@ class TileRenderer {
   void initialRays(int x0, int x1, int y0, int y1, RenderCounters* c);
   void cone(int pixel, Path* path) const;
   void shade(size_t i, int generation, RenderCounters* c);
-  template <bool kPoint>
   void makeShadowRays(const PhysicalLight& light, int lightIndex, int generation,
                       RenderCounters* c);
   void traceShadowRays(ShadowBatch& batch, RTCScene scene, bool coherent, int generation,
@@ -209,9 +175,7 @@ class TileRenderer {
   std::vector<Path>& nextPaths_;
   RayHitPackets& rays_;
   RayHitPackets& nextRays_;
-  std::vector<LitSurface>&
-      lit_;  // the first litCount_ are this generation's (the vector only grows)
-  size_t litCount_ = 0;
+  LitSurfaces& lit_;  // this generation's diffuse hits
   ShadowBatch& shadows_;
   ShadowBatch& dynamicShadows_;
   std::vector<CachedHit>& cachedHits_;
@@ -341,23 +305,16 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
     clock.lap(RenderPhase::kIntersect);
     nextPaths_.clear();
     nextRays_.clear();
-    // Sized up front and written by index: emplace_back's value-initialisation of each
-    // surface was a fifth of the shading time.
-    litCount_ = 0;
-    if (lit_.size() < rays_.size()) lit_.resize(rays_.size());
+    lit_.reset(rays_.size());
     for (size_t i = 0; i < rays_.size(); ++i) shade(i, generation, c);
-    if (litCount_ > 0) {
+    if (lit_.size() > 0) {
       const bool build = cache_ && cache_->build;
       RTCScene shadowScene = build ? scene_.staticHandle() : scene_.handle();
       for (size_t k = 0; k < scene_.lights().size(); ++k) {
         const PhysicalLight& light = scene_.lights()[k];
         const int index = static_cast<int>(k);
         if (build && index >= StaticHit::kCachedLights) break;  // never cached
-        if (light.kind == LightKind::kPoint) {
-          makeShadowRays<true>(light, index, generation, c);
-        } else {
-          makeShadowRays<false>(light, index, generation, c);
-        }
+        makeShadowRays(light, index, generation, c);
         traceShadowRays(shadows_, shadowScene, coherent, generation, c, &clock);
         if (build) recordStaticShadows(shadows_, index);
         if (!dynamicShadows_.rays.empty()) {
@@ -372,21 +329,16 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
   }
 }
 
-// Every lit surface's shadow ray toward `light`: each surface's ray goes into the next free
-// slot, and the slot is kept only if the light reaches the surface's front and contributes.
-// (Measured no faster than skipping unlit surfaces with a branch, but one loop per light over
-// the surfaces needs no per-light buffers.)
+// Every lit surface's shadow ray toward `light`, made by the SIMD kernel (shadow_ray_kernel.h).
 //
 // The frame cache: a surface whose static hit came from the cache has the static geometry's
 // answer for a static light that has not moved: blocked (no ray), or clear (a ray against
 // the dynamic instances only). Building the cache, every ray the light's direction allows is
 // made, whatever the material gives it, so a later frame finds an answer for every ray it
 // makes.
-template <bool kPoint>
 void TileRenderer::makeShadowRays(const PhysicalLight& light, int lightIndex, int generation,
                                   RenderCounters* c) {
-  const size_t n = litCount_;
-  shadows_.reserve(n, glassShadows_);
+  const size_t n = lit_.size();
   const bool build = cache_ && cache_->build;
   // Rays of this light that the cache answers (first generation, a static light that stayed).
   const std::uint8_t cachedBit = cache_ && !build && generation == 0 &&
@@ -394,57 +346,19 @@ void TileRenderer::makeShadowRays(const PhysicalLight& light, int lightIndex, in
                                          (cache_->lightsValid >> lightIndex & 1u)
                                      ? static_cast<std::uint8_t>(1u << lightIndex)
                                      : 0;
-  if (cachedBit) dynamicShadows_.reserve(n, glassShadows_);
-  const float worldPerPhysical = scene_.worldPerPhysical();
-  size_t kept = 0, keptDynamic = 0;
-  for (size_t j = 0; j < n; ++j) {
-    const LitSurface& s = lit_[j];
-    Eigen::Vector3f l = light.toLight;
-    float tfar = kInf;
-    Rgb irradiance = light.intensity;
-    bool reaches = true;
-    if constexpr (kPoint) {
-      const Eigen::Vector3f toLight = light.position - s.position;
-      const float distance = toLight.norm();
-      reaches = distance > 0.0f;
-      l = toLight / distance;
-      tfar = distance;
-      const float worldDistance = distance * worldPerPhysical;
-      irradiance /= worldDistance * worldDistance;
-    }
-    const float cosine = s.normal.dot(l);
-    // Light from behind the geometric face cannot reach this side.
-    reaches = reaches & (cosine > 0.0f) & (s.geometric.dot(l) > 0.0f);
-    Rgb response = s.diffuse * cosine;
-    if (s.highlight) {
-      // pow(0, s) = 0 for s > 0: no pow call for a highlight facing away (most of them).
-      const float alignment = std::max(0.0f, s.reflected.dot(l));
-      if (alignment > 0.0f || s.shininess == 0.0f)
-        response += s.specular * phongPower(alignment, s.shininess);
-    }
-    const Rgb contribution = response.cwiseProduct(irradiance);
-    if (!build) reaches = reaches & (contribution.maxCoeff() > 0.0f);
-    if (cachedBit && (s.staticLights & StaticHit::kLightsKnown)) {
-      if (!reaches) continue;
-      if (!(s.staticLights & cachedBit)) {
-        ++c->cache.shadowAnswered;  // a static surface blocks it
-        continue;
-      }
-      dynamicShadows_.rays.write(keptDynamic, s.above, l, tfar);
-      dynamicShadows_.pending[keptDynamic] = {s.pixel, contribution};
-      if (glassShadows_) dynamicShadows_.transmittance[keptDynamic].reset();
-      ++keptDynamic;
-      continue;
-    }
-    shadows_.rays.write(kept, s.above, l, tfar);
-    shadows_.pending[kept] = {s.pixel, contribution};
-    if (glassShadows_) {
-      shadows_.transmittance[kept].reset();  // indexed like the ray (its id is its slot)
-    }
-    kept += reaches ? 1 : 0;
-  }
-  shadows_.rays.setSize(kept);
-  dynamicShadows_.rays.setSize(keptDynamic);
+  shadows_.staged.reserve(n);
+  dynamicShadows_.staged.reserve(cachedBit ? n : 0);
+  ShadowRayJob job;
+  job.surfaces = &lit_;
+  job.light = &light;
+  job.worldPerPhysical = scene_.worldPerPhysical();
+  job.build = build;
+  job.cachedBit = cachedBit;
+  job.rays = &shadows_.staged;
+  job.dynamic = &dynamicShadows_.staged;
+  c->cache.shadowAnswered += parallax::makeShadowRays(job);
+  shadows_.load(glassShadows_);
+  dynamicShadows_.load(glassShadows_);
 }
 
 void TileRenderer::traceShadowRays(ShadowBatch& batch, RTCScene scene, bool coherent,
@@ -454,7 +368,10 @@ void TileRenderer::traceShadowRays(ShadowBatch& batch, RTCScene scene, bool cohe
   if (log_) logBatch(generation, rays);
   clock->lap(RenderPhase::kShade);
   Rgb* pixels = frame_->pixels.data();
-  const PendingShadow* pending = batch.pending.data();
+  const int* pixel = batch.staged.pixels();
+  const float* red = batch.staged.field(StagedRays::kR);
+  const float* green = batch.staged.field(StagedRays::kG);
+  const float* blue = batch.staged.field(StagedRays::kB);
   if (glassShadows_) {
     ShadowQueryContext query =
         shadowQueryContext(coherent, &scene_, batch.transmittance.data(), &c->glassShadowHits);
@@ -464,16 +381,16 @@ void TileRenderer::traceShadowRays(ShadowBatch& batch, RTCScene scene, bool cohe
       if (rays.occluded(i)) continue;
       const ShadowTransmittance& state = batch.transmittance[i];
       // Most shadow rays cross no glass: no exp() for them.
-      pixels[pending[i].pixel] += state.crossings == 0
-                                      ? pending[i].contribution
-                                      : Rgb(pending[i].contribution.cwiseProduct(state.factor()));
+      const Rgb contribution(red[i], green[i], blue[i]);
+      pixels[pixel[i]] +=
+          state.crossings == 0 ? contribution : Rgb(contribution.cwiseProduct(state.factor()));
     }
   } else {
     // No glass: the plain query, no per-ray state.
     occludedPackets(scene, rays, options_.traversal, coherent);
     clock->lap(RenderPhase::kOcclude);
     for (size_t i = 0; i < rays.size(); ++i) {
-      if (!rays.occluded(i)) pixels[pending[i].pixel] += pending[i].contribution;
+      if (!rays.occluded(i)) pixels[pixel[i]] += Rgb(red[i], green[i], blue[i]);
     }
   }
   clock->lap(RenderPhase::kGather);
@@ -485,7 +402,7 @@ void TileRenderer::traceShadowRays(ShadowBatch& batch, RTCScene scene, bool cohe
 void TileRenderer::recordStaticShadows(const ShadowBatch& batch, int lightIndex) {
   const std::uint8_t bit = static_cast<std::uint8_t>(1u << lightIndex);
   for (size_t i = 0; i < batch.rays.size(); ++i) {
-    StaticHit& hit = cache_->hits[static_cast<size_t>(batch.pending[i].pixel)];
+    StaticHit& hit = cache_->hits[static_cast<size_t>(batch.staged.pixels()[i])];
     if (glassShadows_ && batch.transmittance[i].crossings > 0) {
       hit.setLights(0);
     } else if (!batch.rays.occluded(i) && (hit.lights() & StaticHit::kLightsKnown)) {
@@ -657,28 +574,21 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
       const Rgb weightedAlbedo = weight.cwiseProduct(albedo);
       out += weightedAlbedo.cwiseProduct(scene_.ambient());
       if (scene_.lights().empty()) return;
-      LitSurface& s = lit_[litCount_++];
-      s.position = h.position;
-      s.above = above;
-      s.normal = h.shadingNormal;
-      s.geometric = h.geometricNormal;
-      s.diffuse = weightedAlbedo;
-      s.pixel = path.pixel;
-      s.staticLights = 0;
+      std::uint8_t staticLights = 0;
       if (generation == 0 && cache_) {
         if (cache_->build) {
           // Its static lights are answered by the shadow rays about to be traced.
-          s.staticLights = StaticHit::kLightsKnown;
+          staticLights = StaticHit::kLightsKnown;
           cache_->hits[static_cast<size_t>(path.pixel)].setLights(StaticHit::kLightsKnown);
         } else {
-          s.staticLights = primaryLights_[i];
+          staticLights = primaryLights_[i];
         }
       }
-      s.highlight = m.specular.maxCoeff() > 0.0f;
-      if (s.highlight) {
-        s.reflected = reflect(d, h.shadingNormal);
-        s.specular = weight.cwiseProduct(m.specular);
-        s.shininess = m.shininess;
+      lit_.push(h.position, above, h.shadingNormal, h.geometricNormal, weightedAlbedo, path.pixel,
+                staticLights);
+      if (m.specular.maxCoeff() > 0.0f) {
+        lit_.setHighlight(reflect(d, h.shadingNormal), weight.cwiseProduct(m.specular),
+                          m.shininess);
       }
       return;
     }

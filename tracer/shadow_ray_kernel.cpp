@@ -1,0 +1,171 @@
+// Compiled once per instruction set by Highway's foreach_target (HWY_TARGET_INCLUDE): the code in
+// HWY_NAMESPACE is each target's; the dispatch at the end runs the best the CPU supports.
+// SSSE3 without SSE4 is left out (CPUs before 2008): one compile less.
+#ifndef HWY_DISABLED_TARGETS
+#define HWY_DISABLED_TARGETS HWY_SSSE3
+#endif
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "tracer/shadow_ray_kernel.cpp"
+#include "tracer/shadow_ray_kernel.h"
+
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+#include <cmath>
+#include <limits>
+
+#include "tracer/simd_math-inl.h"
+#include "tracer/static_visibility.h"
+
+HWY_BEFORE_NAMESPACE();
+namespace parallax {
+namespace HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+template <bool kPoint>
+long MakeShadowRaysFor(const ShadowRayJob& job) {
+  const hn::ScalableTag<float> d;
+  const hn::RebindToSigned<decltype(d)> di;
+  using V = hn::Vec<decltype(d)>;
+  const size_t lanes = hn::Lanes(d);
+  const LitSurfaces& s = *job.surfaces;
+  const PhysicalLight& light = *job.light;
+  const size_t n = s.size();
+  auto in = [&](LitSurfaces::Field f, size_t j) { return hn::LoadU(d, s.field(f) + j); };
+
+  const V zero = hn::Zero(d);
+  const V lightX = hn::Set(d, kPoint ? light.position.x() : light.toLight.x());
+  const V lightY = hn::Set(d, kPoint ? light.position.y() : light.toLight.y());
+  const V lightZ = hn::Set(d, kPoint ? light.position.z() : light.toLight.z());
+  const V intensityR = hn::Set(d, light.intensity.x());
+  const V intensityG = hn::Set(d, light.intensity.y());
+  const V intensityB = hn::Set(d, light.intensity.z());
+  const V worldPerPhysical = hn::Set(d, job.worldPerPhysical);
+  const V infinity = hn::Set(d, std::numeric_limits<float>::infinity());
+  const auto highlightBit = hn::Set(di, LitSurfaces::kHighlight);
+  const auto knownBit =
+      hn::Set(di, static_cast<int>(StaticHit::kLightsKnown) << LitSurfaces::kStaticLightsShift);
+  const auto cachedBit =
+      hn::Set(di, static_cast<int>(job.cachedBit) << LitSurfaces::kStaticLightsShift);
+
+  StagedRays& out = *job.rays;
+  float* const outField[StagedRays::kFields] = {
+      out.field(StagedRays::kOx),   out.field(StagedRays::kOy), out.field(StagedRays::kOz),
+      out.field(StagedRays::kDx),   out.field(StagedRays::kDy), out.field(StagedRays::kDz),
+      out.field(StagedRays::kTfar), out.field(StagedRays::kR),  out.field(StagedRays::kG),
+      out.field(StagedRays::kB)};
+  float* dynField[StagedRays::kFields] = {};
+  if (job.cachedBit) {
+    for (int f = 0; f < StagedRays::kFields; ++f)
+      dynField[f] = job.dynamic->field(static_cast<StagedRays::Field>(f));
+  }
+  size_t kept = 0, keptDynamic = 0;
+  long answered = 0;
+
+  for (size_t j = 0; j < n; j += lanes) {
+    const auto valid = hn::FirstN(d, n - j);
+    const V px = in(LitSurfaces::kPx, j), py = in(LitSurfaces::kPy, j),
+            pz = in(LitSurfaces::kPz, j);
+    V lx = lightX, ly = lightY, lz = lightZ, tfar = infinity;
+    V irradianceR = intensityR, irradianceG = intensityG, irradianceB = intensityB;
+    auto reaches = valid;
+    if constexpr (kPoint) {
+      const V tx = hn::Sub(lightX, px), ty = hn::Sub(lightY, py), tz = hn::Sub(lightZ, pz);
+      const V distance = hn::Sqrt(Dot3(tx, ty, tz, tx, ty, tz));
+      reaches = hn::And(reaches, hn::Gt(distance, zero));
+      lx = hn::Div(tx, distance);
+      ly = hn::Div(ty, distance);
+      lz = hn::Div(tz, distance);
+      tfar = distance;
+      const V worldDistance = hn::Mul(distance, worldPerPhysical);
+      const V square = hn::Mul(worldDistance, worldDistance);
+      irradianceR = hn::Div(intensityR, square);
+      irradianceG = hn::Div(intensityG, square);
+      irradianceB = hn::Div(intensityB, square);
+    }
+    const V cosine =
+        Dot3(in(LitSurfaces::kNx, j), in(LitSurfaces::kNy, j), in(LitSurfaces::kNz, j), lx, ly, lz);
+    const V facing =
+        Dot3(in(LitSurfaces::kGx, j), in(LitSurfaces::kGy, j), in(LitSurfaces::kGz, j), lx, ly, lz);
+    // Light from behind the geometric face cannot reach this side.
+    reaches = hn::And(reaches, hn::And(hn::Gt(cosine, zero), hn::Gt(facing, zero)));
+    V responseR = hn::Mul(in(LitSurfaces::kDr, j), cosine);
+    V responseG = hn::Mul(in(LitSurfaces::kDg, j), cosine);
+    V responseB = hn::Mul(in(LitSurfaces::kDb, j), cosine);
+    const auto flags = hn::LoadU(di, s.flags() + j);
+    const auto highlight =
+        hn::And(valid, hn::RebindMask(d, hn::Ne(hn::And(flags, highlightBit), hn::Zero(di))));
+    if (!hn::AllFalse(d, highlight)) {
+      // std::max(0, r·l): NaN gives 0, as in the scalar code.
+      const V dot = Dot3(in(LitSurfaces::kRx, j), in(LitSurfaces::kRy, j), in(LitSurfaces::kRz, j),
+                         lx, ly, lz);
+      const V alignment = hn::IfThenElseZero(hn::Gt(dot, zero), dot);
+      const V shininess = in(LitSurfaces::kShininess, j);
+      // pow(0, s) = 0 for s > 0: only lanes facing the highlight (or s = 0) add it.
+      const auto adds =
+          hn::And(highlight, hn::Or(hn::Gt(alignment, zero), hn::Eq(shininess, zero)));
+      if (!hn::AllFalse(d, adds)) {
+        const V power = PhongPower(d, alignment, shininess, adds);
+        responseR = hn::IfThenElse(
+            adds, hn::Add(responseR, hn::Mul(in(LitSurfaces::kSr, j), power)), responseR);
+        responseG = hn::IfThenElse(
+            adds, hn::Add(responseG, hn::Mul(in(LitSurfaces::kSg, j), power)), responseG);
+        responseB = hn::IfThenElse(
+            adds, hn::Add(responseB, hn::Mul(in(LitSurfaces::kSb, j), power)), responseB);
+      }
+    }
+    const V contributionR = hn::Mul(responseR, irradianceR);
+    const V contributionG = hn::Mul(responseG, irradianceG);
+    const V contributionB = hn::Mul(responseB, irradianceB);
+    if (!job.build) {
+      reaches =
+          hn::And(reaches, hn::Gt(MaxCoeff3(contributionR, contributionG, contributionB), zero));
+    }
+    const V ax = in(LitSurfaces::kAx, j), ay = in(LitSurfaces::kAy, j),
+            az = in(LitSurfaces::kAz, j);
+    const V pixel = hn::BitCast(d, hn::LoadU(di, s.pixels() + j));
+    const V values[StagedRays::kFields] = {
+        ax, ay, az, lx, ly, lz, tfar, contributionR, contributionG, contributionB};
+    auto keep = reaches;
+    if (job.cachedBit) {
+      // Known static answers: blocked by a static surface (no ray), or clear (a ray against the
+      // dynamic objects only).
+      const auto known = hn::RebindMask(d, hn::Ne(hn::And(flags, knownBit), hn::Zero(di)));
+      const auto clear = hn::RebindMask(d, hn::Ne(hn::And(flags, cachedBit), hn::Zero(di)));
+      const auto toDynamic = hn::And(reaches, hn::And(known, clear));
+      answered += static_cast<long>(hn::CountTrue(d, hn::AndNot(clear, hn::And(reaches, known))));
+      keep = hn::AndNot(known, reaches);
+      if (!hn::AllFalse(d, toDynamic)) {
+        for (int f = 0; f < StagedRays::kFields; ++f)
+          hn::CompressStore(values[f], toDynamic, d, dynField[f] + keptDynamic);
+        keptDynamic += hn::CompressStore(
+            pixel, toDynamic, d, reinterpret_cast<float*>(job.dynamic->pixels()) + keptDynamic);
+      }
+    }
+    for (int f = 0; f < StagedRays::kFields; ++f)
+      hn::CompressStore(values[f], keep, d, outField[f] + kept);
+    kept += hn::CompressStore(pixel, keep, d, reinterpret_cast<float*>(out.pixels()) + kept);
+  }
+  out.setSize(kept);
+  if (job.cachedBit) job.dynamic->setSize(keptDynamic);
+  return answered;
+}
+
+long MakeShadowRays(const ShadowRayJob& job) {
+  return job.light->kind == LightKind::kPoint ? MakeShadowRaysFor<true>(job)
+                                              : MakeShadowRaysFor<false>(job);
+}
+
+}  // namespace HWY_NAMESPACE
+}  // namespace parallax
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace parallax {
+
+HWY_EXPORT(MakeShadowRays);
+
+long makeShadowRays(const ShadowRayJob& job) { return HWY_DYNAMIC_DISPATCH(MakeShadowRays)(job); }
+
+}  // namespace parallax
+#endif

@@ -1,0 +1,36 @@
+#pragma once
+// Every lit surface's shadow ray toward one light, a SIMD vector of surfaces at a time (Google
+// Highway, the widest instruction set the CPU has, chosen at run time): the light's direction
+// and distance, the Lambert and Phong response, and which rays are kept, compress-stored into
+// StagedRays. The arithmetic is the scalar integrator's, operation for operation and without
+// fused multiply-adds, so the frames are bit-identical whichever target runs.
+//
+// A ray is kept when the light reaches the surface's front (and, unless building the frame
+// cache, adds something). With the frame cache (`cachedBit`: this static light's bit, 0 when
+// the cache does not answer for it), a surface whose static answers are known gets no ray when
+// a static surface blocks the light (counted in `answered`), and a ray against the dynamic
+// objects only (`dynamic`) when none does.
+
+#include <cstddef>
+#include <cstdint>
+
+#include "tracer/lit_surfaces.h"
+#include "tracer/physical_scene.h"
+#include "tracer/staged_rays.h"
+
+namespace parallax {
+
+struct ShadowRayJob {
+  const LitSurfaces* surfaces = nullptr;
+  const PhysicalLight* light = nullptr;
+  float worldPerPhysical = 1.0f;
+  bool build = false;  // filling the frame cache: every ray the light's direction allows
+  std::uint8_t cachedBit = 0;
+  StagedRays* rays = nullptr;     // reserved for surfaces->size() rays
+  StagedRays* dynamic = nullptr;  // likewise, when cachedBit != 0
+};
+
+// Returns the rays the frame cache answered (no ray made).
+long makeShadowRays(const ShadowRayJob& job);
+
+}  // namespace parallax

@@ -1,0 +1,81 @@
+// The scalar integrator's small vector formulas, lane-wise for Highway kernels (included once
+// per target, inside each kernel's HWY_NAMESPACE; no include guard of the usual kind). Each
+// evaluates in the order Eigen does for a Vector3f, so a kernel's results are bit-identical to
+// the scalar code's: Eigen sums three terms as e0 + (e1 + e2) (its reduction splits in halves),
+// and std::max(a, b) is (a < b ? b : a). No MulAdd: a fused multiply-add rounds once, not twice.
+
+#if defined(PARALLAX_TRACER_SIMD_MATH_INL_H_) == defined(HWY_TARGET_TOGGLE)
+#ifdef PARALLAX_TRACER_SIMD_MATH_INL_H_
+#undef PARALLAX_TRACER_SIMD_MATH_INL_H_
+#else
+#define PARALLAX_TRACER_SIMD_MATH_INL_H_
+#endif
+
+#include <hwy/highway.h>
+
+#include <cmath>
+
+HWY_BEFORE_NAMESPACE();
+namespace parallax {
+namespace HWY_NAMESPACE {
+
+// a · b of Eigen::Vector3f.
+template <class V>
+HWY_INLINE V Dot3(V ax, V ay, V az, V bx, V by, V bz) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  return hn::Add(hn::Mul(ax, bx), hn::Add(hn::Mul(ay, by), hn::Mul(az, bz)));
+}
+
+// std::max(a, b) with its NaN behaviour (a when the comparison fails).
+template <class V>
+HWY_INLINE V StdMax(V a, V b) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  return hn::IfThenElse(hn::Lt(a, b), b, a);
+}
+
+// Eigen's maxCoeff() of (r, g, b).
+template <class V>
+HWY_INLINE V MaxCoeff3(V r, V g, V b) {
+  return StdMax(r, StdMax(g, b));
+}
+
+// The Phong highlight's x^e for x in [0, 1], in the lanes of `active`: whole exponents up to 256
+// (every fixture's) by repeated squaring, a few ulps from std::pow and several times cheaper;
+// any other exponent through std::pow, one lane at a time.
+template <class D, class V = hwy::HWY_NAMESPACE::Vec<D>, class M>
+HWY_INLINE V PhongPower(D d, V x, V e, M active) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  const hn::RebindToSigned<D> di;
+  const auto whole = hn::ConvertTo(di, e);  // truncates, as static_cast<int> does
+  const auto isWhole = hn::And(
+      hn::Eq(hn::ConvertTo(d, whole), e),
+      hn::RebindMask(d, hn::And(hn::Gt(whole, hn::Zero(di)), hn::Lt(whole, hn::Set(di, 257)))));
+  V result = hn::Set(d, 1.0f);
+  V square = x;
+  const auto one = hn::Set(di, 1);
+  for (int bit = 0; bit < 9; ++bit) {
+    const auto set = hn::RebindMask(d, hn::Eq(hn::And(hn::ShiftRightSame(whole, bit), one), one));
+    result = hn::IfThenElse(set, hn::Mul(result, square), result);
+    square = hn::Mul(square, square);
+  }
+  const auto other = hn::AndNot(isWhole, active);
+  if (!hn::AllFalse(d, other)) {
+    constexpr size_t kMaxLanes = HWY_MAX_BYTES / sizeof(float);
+    HWY_ALIGN float xs[kMaxLanes], es[kMaxLanes], rs[kMaxLanes];
+    hn::Store(x, d, xs);
+    hn::Store(e, d, es);
+    hn::Store(result, d, rs);
+    HWY_ALIGN std::int32_t mask[kMaxLanes];
+    hn::Store(hn::VecFromMask(di, hn::RebindMask(di, other)), di, mask);
+    for (size_t i = 0; i < hn::Lanes(d); ++i)
+      if (mask[i]) rs[i] = std::pow(xs[i], es[i]);
+    result = hn::Load(d, rs);
+  }
+  return result;
+}
+
+}  // namespace HWY_NAMESPACE
+}  // namespace parallax
+HWY_AFTER_NAMESPACE();
+
+#endif  // PARALLAX_TRACER_SIMD_MATH_INL_H_

@@ -442,9 +442,9 @@ void SimulatedHardware::present(Module& m, int index, uint32_t displayFrame, int
       m.shown.format = m.ready.begin.format;
       std::swap(m.shown.pixels, m.ready.pixels);
       m.shownHash = m.ready.begin.contentHash;
+      ++m.counters.framesShown;  // new content (a reused frame is the one already counted)
     }
     m.shownFrame = displayFrame;
-    ++m.counters.framesShown;
     switched = true;
   } else {
     ++m.counters.presentsMissed;

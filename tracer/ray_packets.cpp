@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstring>
+#include <limits>
 
 #include "tracer/glass_shadows.h"
 
@@ -50,6 +51,22 @@ void traceBatch(Packets& rays, Traversal traversal, One traceOne, Sixteen traceS
   }
 }
 
+// Packet p's origin and direction from `staged` (which pads each field, so the last packet's 16
+// floats can be read whole), tnear 0.
+void copyStagedRays(const StagedRays& staged, size_t p, RTCRay16* q) {
+  const size_t first = 16 * p;
+  const auto copy16 = [&](float* to, StagedRays::Field f) {
+    std::memcpy(to, staged.field(f) + first, 16 * sizeof(float));
+  };
+  copy16(q->org_x, StagedRays::kOx);
+  copy16(q->org_y, StagedRays::kOy);
+  copy16(q->org_z, StagedRays::kOz);
+  copy16(q->dir_x, StagedRays::kDx);
+  copy16(q->dir_y, StagedRays::kDy);
+  copy16(q->dir_z, StagedRays::kDz);
+  std::fill(q->tnear, q->tnear + 16, 0.0f);
+}
+
 }  // namespace
 
 void RayHitPackets::grow() {
@@ -75,24 +92,25 @@ void OcclusionPackets::grow() {
   }
 }
 
+void RayHitPackets::assign(const StagedRays& staged) {
+  const size_t n = staged.size();
+  while (16 * packets_.size() < n) grow();
+  for (size_t p = 0; 16 * p < n; ++p) {
+    RTCRayHit16& q = packets_[p];
+    copyStagedRays(staged, p, &q.ray);
+    std::fill(q.ray.tfar, q.ray.tfar + 16, std::numeric_limits<float>::infinity());
+    // Embree writes the hit record only on a hit; this marks a miss.
+    std::fill(q.hit.geomID, q.hit.geomID + 16, RTC_INVALID_GEOMETRY_ID);
+  }
+  size_ = n;
+}
+
 void OcclusionPackets::assign(const StagedRays& staged) {
   const size_t n = staged.size();
   reserveRays(n);
-  // StagedRays pads each field, so the last packet's 16 floats can be read whole.
-  const auto copy16 = [](float* to, const float* from) {
-    std::memcpy(to, from, 16 * sizeof(float));
-  };
   for (size_t p = 0; 16 * p < n; ++p) {
-    RTCRay16& q = packets_[p];
-    const size_t first = 16 * p;
-    copy16(q.org_x, staged.field(StagedRays::kOx) + first);
-    copy16(q.org_y, staged.field(StagedRays::kOy) + first);
-    copy16(q.org_z, staged.field(StagedRays::kOz) + first);
-    copy16(q.dir_x, staged.field(StagedRays::kDx) + first);
-    copy16(q.dir_y, staged.field(StagedRays::kDy) + first);
-    copy16(q.dir_z, staged.field(StagedRays::kDz) + first);
-    copy16(q.tfar, staged.field(StagedRays::kTfar) + first);
-    std::fill(q.tnear, q.tnear + 16, 0.0f);
+    copyStagedRays(staged, p, &packets_[p]);
+    std::memcpy(packets_[p].tfar, staged.field(StagedRays::kTfar) + 16 * p, 16 * sizeof(float));
   }
   size_ = n;
 }

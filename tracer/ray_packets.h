@@ -46,6 +46,10 @@ class RayHitPackets {
     ++size_;
   }
 
+  // Exactly the rays of `staged` (origin, direction; tfar infinite, no hit yet), a 64-byte copy
+  // per field and packet.
+  void assign(const StagedRays& staged);
+
   // Lane i (in push order).
   unsigned geomID(size_t i) const { return packets_[i / 16].hit.geomID[i % 16]; }
   unsigned primID(size_t i) const { return packets_[i / 16].hit.primID[i % 16]; }

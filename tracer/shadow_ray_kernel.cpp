@@ -121,8 +121,10 @@ long MakeShadowRaysFor(const ShadowRayJob& job) {
       reaches =
           hn::And(reaches, hn::Gt(MaxCoeff3(contributionR, contributionG, contributionB), zero));
     }
-    const V ax = in(LitSurfaces::kAx, j), ay = in(LitSurfaces::kAy, j),
-            az = in(LitSurfaces::kAz, j);
+    // The ray starts off the surface (offsetRayOrigin), along the geometric normal.
+    const V ax = OffsetCoordinate(d, px, in(LitSurfaces::kGx, j));
+    const V ay = OffsetCoordinate(d, py, in(LitSurfaces::kGy, j));
+    const V az = OffsetCoordinate(d, pz, in(LitSurfaces::kGz, j));
     const V pixel = hn::BitCast(d, hn::LoadU(di, s.pixels() + j));
     const V values[StagedRays::kFields] = {
         ax, ay, az, lx, ly, lz, tfar, contributionR, contributionG, contributionB};
@@ -137,14 +139,17 @@ long MakeShadowRaysFor(const ShadowRayJob& job) {
       keep = hn::AndNot(known, reaches);
       if (!hn::AllFalse(d, toDynamic)) {
         for (int f = 0; f < StagedRays::kFields; ++f)
-          hn::CompressStore(values[f], toDynamic, d, dynField[f] + keptDynamic);
-        keptDynamic += hn::CompressStore(
-            pixel, toDynamic, d, reinterpret_cast<float*>(job.dynamic->pixels()) + keptDynamic);
+          CompressAppend(d, values[f], toDynamic, dynField[f] + keptDynamic);
+        CompressAppend(d, pixel, toDynamic,
+                       reinterpret_cast<float*>(job.dynamic->pixels()) + keptDynamic);
+        keptDynamic += hn::CountTrue(d, toDynamic);
       }
     }
+    if (hn::AllFalse(d, keep)) continue;
     for (int f = 0; f < StagedRays::kFields; ++f)
-      hn::CompressStore(values[f], keep, d, outField[f] + kept);
-    kept += hn::CompressStore(pixel, keep, d, reinterpret_cast<float*>(out.pixels()) + kept);
+      CompressAppend(d, values[f], keep, outField[f] + kept);
+    CompressAppend(d, pixel, keep, reinterpret_cast<float*>(out.pixels()) + kept);
+    kept += hn::CountTrue(d, keep);
   }
   out.setSize(kept);
   if (job.cachedBit) job.dynamic->setSize(keptDynamic);

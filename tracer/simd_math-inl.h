@@ -39,6 +39,30 @@ HWY_INLINE V MaxCoeff3(V r, V g, V b) {
   return StdMax(r, StdMax(g, b));
 }
 
+// offsetRayOrigin (ray_batch.h) of one coordinate: p moved 256·n ulps along the normal, or by
+// n/65536 near the origin (where ulps are too small).
+template <class D, class V>
+HWY_INLINE V OffsetCoordinate(D d, V p, V n) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  const hn::RebindToSigned<D> di;
+  const auto steps = hn::ConvertTo(di, hn::Mul(hn::Set(d, 256.0f), n));  // truncates, as the cast
+  const auto negative = hn::RebindMask(di, hn::Lt(p, hn::Zero(d)));
+  const V moved =
+      hn::BitCast(d, hn::Add(hn::BitCast(di, p), hn::IfThenElse(negative, hn::Neg(steps), steps)));
+  const V near = hn::Add(p, hn::Mul(hn::Set(d, 1.0f / 65536.0f), n));
+  return hn::IfThenElse(hn::Lt(hn::Abs(p), hn::Set(d, 1.0f / 32.0f)), near, moved);
+}
+
+// The lanes of `v` that `keep` selects, written in order from `to` on, followed by whatever
+// fills the rest of the vector (the destination has room for a whole vector). Compressing in a
+// register and storing the whole vector: AVX-512's compress-to-memory, which Highway's
+// CompressStore uses, took a third of the shadow-ray kernel's time in the profile.
+template <class D, class V, class M>
+HWY_INLINE void CompressAppend(D d, V v, M keep, hwy::HWY_NAMESPACE::TFromD<D>* to) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  hn::StoreU(hn::Compress(v, keep), d, to);
+}
+
 // The Phong highlight's x^e for x in [0, 1], in the lanes of `active`: whole exponents up to 256
 // (every fixture's) by repeated squaring, a few ulps from std::pow and several times cheaper;
 // any other exponent through std::pow, one lane at a time.

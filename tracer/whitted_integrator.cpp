@@ -16,6 +16,7 @@
 #include "tracer/glass_shadows.h"
 #include "tracer/hit_info.h"
 #include "tracer/optics.h"
+#include "tracer/primary_ray_kernel.h"
 #include "tracer/ray_log.h"
 #include "tracer/ray_packets.h"
 #include "tracer/shadow_ray_kernel.h"
@@ -23,7 +24,6 @@
 namespace parallax {
 namespace {
 
-constexpr float kInf = std::numeric_limits<float>::infinity();
 // Path::coneSpread of a primary ray whose footprint has not been computed yet.
 constexpr float kConeUnknown = -1.0f;
 
@@ -35,23 +35,6 @@ struct Path {
   float coneSpread = 0.0f;  // growth of that width per metre travelled
   int inside = -1;          // material index of the glass the ray travels in, -1 in air
 };
-
-// Slab test: does o + t d (t > 0) meet the box? If so, *entry is the t where it comes in.
-bool hitsBox(const Eigen::Vector3f& o, const Eigen::Vector3f& d, const Eigen::Vector3f& lo,
-             const Eigen::Vector3f& hi, float* entry) {
-  float t0 = 0.0f, t1 = kInf;
-  for (int i = 0; i < 3; ++i) {
-    const float inv = 1.0f / d[i];
-    float a = (lo[i] - o[i]) * inv, b = (hi[i] - o[i]) * inv;
-    if (a > b) std::swap(a, b);
-    // NaN from 0·inf (ray in the slab's plane) leaves the interval unchanged.
-    t0 = a > t0 ? a : t0;
-    t1 = b < t1 ? b : t1;
-    if (t0 > t1) return false;
-  }
-  *entry = t0;
-  return true;
-}
 
 // Adds the time since the previous lap to the phase that just ended (when timing is on).
 class PhaseClock {
@@ -110,6 +93,7 @@ struct TileBuffers {
   // The frame cache, per primary ray: its static hit, and that hit's static-light answers.
   std::vector<CachedHit> cachedHits;
   std::vector<std::uint8_t> primaryLights;
+  StagedRays primary;  // the first generation as the kernel made it
 };
 
 class TileRenderer {
@@ -135,6 +119,7 @@ class TileRenderer {
         dynamicShadows_(buffers->dynamicShadows),
         cachedHits_(buffers->cachedHits),
         primaryLights_(buffers->primaryLights),
+        primaryStaged_(buffers->primary),
         cache_(cache) {}
 
   void render(int x0, int x1, int y0, int y1, RenderCounters* c);
@@ -180,6 +165,7 @@ class TileRenderer {
   ShadowBatch& dynamicShadows_;
   std::vector<CachedHit>& cachedHits_;
   std::vector<std::uint8_t>& primaryLights_;
+  StagedRays& primaryStaged_;
   // The frame cache: null without one; build mode fills it from the static scene, else the
   // first generation reads it and traces against the dynamic instances only.
   const StaticVisibilityView* cache_;
@@ -220,11 +206,7 @@ void TileRenderer::cone(int pixel, Path* path) const {
 }
 
 void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c) {
-  const RayFrame& f = textures_.frame();
-  const Eigen::Vector3f lo = scene_.boundsMin(), hi = scene_.boundsMax();
-  const Rgb background = scene_.background();
   paths_.clear();
-  rays_.clear();
   const size_t capacity = static_cast<size_t>(x1 - x0) * static_cast<size_t>(y1 - y0);
   // A tile's rows are short runs far apart in the ray texture and the frame (12 B a pixel, a
   // row of 1024 pixels 12 KB): too short for the hardware prefetcher, so every row started
@@ -239,47 +221,39 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
     for (size_t b = 0; b < columns * sizeof(Rgb) + kLine - 1; b += kLine)
       __builtin_prefetch(pixels + b, 1);
   }
+  // The rays, row by row, by the SIMD kernel (primary_ray_kernel.h). Each starts just before
+  // the scene's box rather than on the observer line, metres away: Embree intersects in float
+  // relative to the origin, so a near origin keeps the hit (and the attributes interpolated
+  // there) exact to float precision of the scene's size, where a far one loses digits in
+  // proportion to the distance (the outer modules' rays start up to several metres to the side).
+  StagedRays& staged = primaryStaged_;
+  staged.reserve(capacity);
+  PrimaryRayRow job;
+  job.count = x1 - x0;
+  job.frame = textures_.frame();
+  job.boundsMin = scene_.boundsMin();
+  job.boundsMax = scene_.boundsMax();
+  job.boxMargin = boxMargin_;
+  job.background = scene_.background();
   for (int row = y0; row < y1; ++row) {
-    // The frame is reused from frame to frame: every pixel of the tile is written here.
-    Rgb* out = &frame_->pixels[static_cast<size_t>(row) * static_cast<size_t>(textures_.width())];
-    for (int column = x0; column < x1; ++column) {
-      const CompactRay& r = textures_.at(column, row);
-      if (r.masked()) {
-        ++c->masked;
-        out[column] = Rgb::Zero();
-        continue;
-      }
-      Eigen::Vector3f o, toScreen;
-      expand(f, r, &o, &toScreen);
-      // The box test needs no unit direction; most pixels of a small scene stop here, so the
-      // square root of the normalisation is paid only by the rays that are traced.
-      float entry;
-      if (!hitsBox(o, toScreen, lo, hi, &entry)) {
-        ++c->missedBounds;
-        out[column] = background;
-        continue;
-      }
-      out[column] = Rgb::Zero();
-      Path path;
-      path.pixel = row * textures_.width() + column;
-      // Start the ray just before the scene's box rather than on the observer line, metres
-      // away: Embree intersects in float relative to the origin, so a near origin keeps the hit
-      // (and the attributes interpolated there) exact to float precision of the scene's size,
-      // where a far one loses digits in proportion to the distance (the outer modules' rays
-      // start up to several metres to the side).
-      // One square root and one division for the three uses of the length.
-      const float length = toScreen.norm();
-      const float inverseLength = 1.0f / length;
-      const float advance = std::max(0.0f, entry - boxMargin_ * inverseLength);
-      o += advance * toScreen;
-      // The footprint is computed when a texture or a branch needs it (cone()); until then
-      // coneWidth holds the distance skipped, which it grows over.
-      path.coneWidth = advance * length;
-      path.coneSpread = kConeUnknown;
-      paths_.push_back(path);
-      rays_.push(o, toScreen * inverseLength);
-    }
+    job.rays = &textures_.at(x0, row);
+    job.out = &frame_->at(x0, row);
+    job.firstPixel = row * textures_.width() + x0;
+    const PrimaryRayCounts counts = makePrimaryRays(job, &staged);
+    c->masked += counts.masked;
+    c->missedBounds += counts.missedBounds;
   }
+  // The footprint is computed when a texture or a branch needs it (cone()); until then
+  // coneWidth holds the distance skipped, which it grows over.
+  const int* pixel = staged.pixels();
+  const float* skipped = staged.field(StagedRays::kR);
+  for (size_t i = 0; i < staged.size(); ++i) {
+    Path& path = paths_.emplace_back();
+    path.pixel = pixel[i];
+    path.coneWidth = skipped[i];
+    path.coneSpread = kConeUnknown;
+  }
+  rays_.assign(staged);
   c->pixels += static_cast<long>(capacity);
   c->primary += static_cast<long>(rays_.size());
 }
@@ -558,7 +532,6 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
   }
   const bool canBranch = generation + 1 < depth_;
   const float coneWidth = path.coneWidth + t * std::max(path.coneSpread, 0.0f);
-  const Eigen::Vector3f above = offsetRayOrigin(h.position, h.geometricNormal);
 
   if (m.emission.maxCoeff() > 0.0f || m.kind == MaterialKind::kEmissive) {
     Rgb e = m.emission.cwiseProduct(h.vertexColor);
@@ -584,7 +557,7 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
           staticLights = primaryLights_[i];
         }
       }
-      lit_.push(h.position, above, h.shadingNormal, h.geometricNormal, weightedAlbedo, path.pixel,
+      lit_.push(h.position, h.shadingNormal, h.geometricNormal, weightedAlbedo, path.pixel,
                 staticLights);
       if (m.specular.maxCoeff() > 0.0f) {
         lit_.setHighlight(reflect(d, h.shadingNormal), weight.cwiseProduct(m.specular),
@@ -595,6 +568,7 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
     case MaterialKind::kMirror: {
       if (!canBranch) return;
       ++c->reflection;
+      const Eigen::Vector3f above = offsetRayOrigin(h.position, h.geometricNormal);
       pushBranch(path, weight.cwiseProduct(m.reflectance), above, reflect(d, h.shadingNormal),
                  path.inside, coneWidth, c);
       return;
@@ -611,6 +585,7 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
       const bool transmits = refract(d, n, eta, &refracted, &cosT);
       const float reflectance = transmits ? fresnelDielectric(cosI, cosT, eta) : 1.0f;
       ++c->reflection;
+      const Eigen::Vector3f above = offsetRayOrigin(h.position, h.geometricNormal);
       pushBranch(path, weight * reflectance, above, reflect(d, n), path.inside, coneWidth, c);
       if (transmits) {
         ++c->refraction;

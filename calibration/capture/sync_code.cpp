@@ -269,6 +269,26 @@ std::optional<std::string> whitesDiffer(const cv::Mat& first, const cv::Mat& sec
   return fmt::format("the two differ over {:.1f}% of the picture", 100.0 * share);
 }
 
+WhiteStripes compareWhiteStripes(const SyncGeometry& first, const SyncGeometry& second) {
+  // The columns both show alike; both lists are in column order.
+  int common = 0;
+  for (size_t i = 0; i < first.columns.size(); ++i) {
+    const auto j = std::lower_bound(second.columns.begin(), second.columns.end(), first.columns[i]);
+    if (j == second.columns.end() || *j != first.columns[i]) continue;
+    const size_t k = static_cast<size_t>(j - second.columns.begin());
+    if (std::abs(first.bandTop[i] - second.bandTop[k]) <= 2.0f) ++common;
+  }
+  // `part` misses stripes of `whole`: nearly all its columns are shown alike there (a few at a
+  // stripe's edge come and go with the noise), and `whole` has a stripe's worth more.
+  const auto misses = [&](const SyncGeometry& part, const SyncGeometry& whole) {
+    const int partOnly = static_cast<int>(part.columns.size()) - common;
+    const int wholeOnly = static_cast<int>(whole.columns.size()) - common;
+    return common > 0 && partOnly <= std::max(2, static_cast<int>(part.columns.size()) / 20) &&
+           wholeOnly >= std::max(3, 2 * partOnly);
+  };
+  return {misses(first, second), misses(second, first)};
+}
+
 std::string SyncReading::describe() const {
   if (code) return fmt::format("code {} ({:.0f}% of the columns)", *code, 100.0 * agreement);
   if (!staleStripe.empty())

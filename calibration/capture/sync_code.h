@@ -19,7 +19,10 @@
 // stripe, maybe a small share of the picture). A white reference cannot be checked alone, so
 // the capture session (hw/camera/calibration_capture.cpp) takes it again after the set and
 // compares the two (whitesDiffer), and ends each set on a coded frame, so that the next set's
-// white reference never shows a module of this one as a stripe of its own.
+// white reference never shows a module of this one as a stripe of its own. A second picture
+// that misses stripes the first shows (compareWhiteStripes) was taken while the group's modules
+// still changed, and is taken again: two such pictures alike prove nothing, since a camera may
+// photograph one half-changed screen twice.
 //
 // Where the band lies in a picture is learned from the station's white reference, which shows
 // it as a dark gap between the bright pattern area and the strip of screen above the band, per
@@ -99,6 +102,17 @@ std::optional<SyncGeometry> syncGeometryFromWhite(const cv::Mat& linear,
 // may differ by more than 15% of the brightest. One module still showing another frame in
 // either changes a whole stripe, several percent of the picture.
 std::optional<std::string> whitesDiffer(const cv::Mat& first, const cv::Mat& second);
+
+// Two white references of one station and group, by the stripes they show. One taken while a
+// module of the group still changed (its band still lit, or still dark) misses that module's
+// stripe, and shows every other stripe where the whole one does (the same columns, the band
+// within 2 px). (A module that should be dark and is still lit makes no stripe of its own:
+// that tear shows only in whitesDiffer.)
+struct WhiteStripes {
+  bool firstMissesStripes = false;   // the second shows all of the first's stripes, and more
+  bool secondMissesStripes = false;  // the reverse
+};
+WhiteStripes compareWhiteStripes(const SyncGeometry& first, const SyncGeometry& second);
 
 struct SyncReading {
   std::optional<int> code;  // the code most columns read, when they agree

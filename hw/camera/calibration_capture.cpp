@@ -376,8 +376,9 @@ CalibrationCaptures runSession(LinkClient* link, Camera& camera, const DisplayMo
     show(group, moduleFrame(white, format), what);
     cv::Mat previous;
     for (int attempt = 0;; ++attempt) {
-      SyncGeometry unused;
-      const cv::Mat again = take(what, Kind::kWhite, 0, prediction, geometry, &unused, nullptr);
+      SyncGeometry againGeometry;
+      const cv::Mat again =
+          take(what, Kind::kWhite, 0, prediction, geometry, &againGeometry, nullptr);
       const std::optional<std::string> differs = whitesDiffer(out->front(), again);
       if (!differs) break;
       if (files) {
@@ -386,14 +387,21 @@ CalibrationCaptures runSession(LinkClient* link, Camera& camera, const DisplayMo
             "{} ({}): the camera moved, or a module changed while one of them was taken",
             what, camera.lastPicture(), firstWhite, *differs));
       }
-      if (!previous.empty() && !whitesDiffer(previous, again)) {
-        *torn = *differs;
-        return false;
-      }
       if (attempt > 0) ++retaken;
       if (attempt >= 50) {
         throw std::runtime_error(fmt::format(
             "{}: the camera's pictures of the white reference keep changing ({})", what, *differs));
+      }
+      const WhiteStripes stripes = compareWhiteStripes(geometry, againGeometry);
+      // This picture misses stripes the first shows: some module was still changing when it
+      // was taken (two such pictures in a row prove nothing): taken again.
+      if (stripes.secondMissesStripes) continue;
+      // Otherwise the first was torn (a module of the group still dark, or one of the group
+      // before still lit: the set's other pictures may show it too), or the camera moved: two
+      // pictures alike and unlike the first, and the set is taken again.
+      if (!previous.empty() && !whitesDiffer(previous, again)) {
+        *torn = *differs;
+        return false;
       }
       previous = again;
     }

@@ -10,6 +10,7 @@
 #include "calibration/display/display_presets.h"
 #include "calibration/display/ray_textures.h"
 #include "script_test_util.h"
+#include "tests/assimp_test_models.h"
 #include "tracer/physical_scene.h"
 #include "tracer/scene_source.h"
 #include "tracer/whitted_integrator.h"
@@ -17,9 +18,7 @@
 namespace parallax {
 namespace {
 
-#define REQUIRE_MODELS()                                                   \
-  if (!std::filesystem::exists(assimpTestModelsRoot() + "/X/Testwuson.X")) \
-  GTEST_SKIP() << "assimp-testmodels not installed"
+#define REQUIRE_MODELS() REQUIRE_ASSIMP_TEST_MODEL("X/Testwuson.X")
 
 Frame render(const Scene& scene) {
   static const DisplayModel model = resolveDisplay("demo");

@@ -11,6 +11,7 @@
 #include <limits>
 
 #include "common/input_error.h"
+#include "tests/assimp_test_models.h"
 #include "tests/tracer/gltf_fixture.h"
 #include "tracer/model_loader.h"
 #include "tracer/scene_source.h"
@@ -178,8 +179,7 @@ std::vector<Eigen::Vector3d> posedVertices(const Scene& scene) {
 
 TEST(ModelAnimation, DebiansAnimatedModelsPlayDeterministicallyInsideTheirBounds) {
   const fs::path root = assimpTestModelsRoot();
-  if (!fs::exists(root / "FBX" / "animation_with_skeleton.fbx"))
-    GTEST_SKIP() << "assimp-testmodels not installed";
+  REQUIRE_ASSIMP_TEST_MODEL("FBX/animation_with_skeleton.fbx");
   struct Case {
     std::string file;
     bool skinned;

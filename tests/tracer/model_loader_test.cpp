@@ -10,6 +10,7 @@
 #include <fstream>
 
 #include "common/input_error.h"
+#include "tests/assimp_test_models.h"
 #include "tests/tracer/tracer_test_util.h"
 #include "tracer/physical_scene.h"
 #include "tracer/scene_source.h"
@@ -22,9 +23,7 @@ namespace fs = std::filesystem;
 
 fs::path models() { return assimpTestModelsRoot(); }
 
-#define REQUIRE_MODELS()                            \
-  if (!fs::exists(models() / "OBJ" / "spider.obj")) \
-  GTEST_SKIP() << "assimp-testmodels not installed"
+#define REQUIRE_MODELS() REQUIRE_ASSIMP_TEST_MODEL("OBJ/spider.obj")
 
 fs::path scratch(const std::string& name) {
   const fs::path dir =

@@ -1,3 +1,4 @@
+#include "common/process_cpu_time.h"
 #include "daemon/parallaxd/conductor.h"
 
 // What `status` and `stats` answer: built on the conductor thread after every turn and
@@ -36,6 +37,8 @@ nlohmann::json Conductor::statusJson() const {
        {{"up", link_ != nullptr && linkHealth_ == LinkHealth::kUp},
         {"health", linkHealthName(link_ ? linkHealth_ : LinkHealth::kDown)},
         {"sessions", linkSessions_},
+        {"lagging", laggingModules()},
+        {"present_deadline_ms", options_.config.hardware.presentDeadlineMs},
         {"error", link_ || !linkError_.empty() ? linkError_ : "not connected"}}},
       {"fps", options_.config.scene.fps}};
   if (!options_.simulatorFolder.empty()) j["simulated_display"] = options_.simulatorFolder;
@@ -68,6 +71,7 @@ nlohmann::json Conductor::statsJson() const {
   nlohmann::json j = stats_.toJson();
   j["ok"] = true;
   j["summary"] = stats_.summary();
+  j["cpu_ms"] = processCpuMs();  // this process (rank 0): CPU a frame for `parallax bench`
   j["render_counters"] = lastCounters_.lines();
   const FrameCacheStats& cache = frameCache_.stats();
   j["frame_cache"] = {{"enabled", options_.config.scene.frameCache},

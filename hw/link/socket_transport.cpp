@@ -121,6 +121,7 @@ TransportStatus SocketTransport::receive(std::vector<ReceivedPacket>* packets, i
       bytes = bytes.subspan(used);
       if (reader_.error() != ProtocolError::kOk) {
         const ProtocolError e = reader_.error();
+        lastPeerVersion_ = reader_.peerVersion();
         ::close(fd_);
         fd_ = -1;
         reader_ = PacketReader();

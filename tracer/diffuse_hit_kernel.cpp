@@ -27,6 +27,7 @@ bool ShadeDiffusePacket(const RTCRayHit16& packet, const PhysicalMesh& mesh,
   const auto* triangles = reinterpret_cast<const std::int32_t*>(mesh.triangles.data());
   const float* positions = mesh.positions.data()->data();
   const float* faceNormals = mesh.faceNormals.data()->data();
+  const float* vertexNormals = mesh.normals.empty() ? nullptr : mesh.normals.data()->data();
   const bool highlight = material.specular.maxCoeff() > 0.0f;
   const V one = hn::Set(d, 1.0f), zero = hn::Zero(d), two = hn::Set(d, 2.0f);
   const auto three = hn::Set(di, 3);
@@ -58,13 +59,37 @@ bool ShadeDiffusePacket(const RTCRayHit16& packet, const PhysicalMesh& mesh,
       normal[c] = hn::GatherIndex(d, faceNormals, hn::Add(prim3, hn::Set(di, c)));
     const auto back = hn::Not(hn::Lt(Dot3(normal[0], normal[1], normal[2], dx, dy, dz), zero));
     for (V& n : normal) n = hn::IfThenElse(back, hn::Neg(n), n);
+    // The shading normal: the vertex normals interpolated, normalised and kept on the incoming
+    // side; the face normal where they cancel out.
+    V shading[3] = {normal[0], normal[1], normal[2]};
+    if (vertexNormals) {
+      V interpolated[3];
+      for (int c = 0; c < 3; ++c) {
+        const auto offset = hn::Set(di, c);
+        const V n0 = hn::GatherIndex(d, vertexNormals, hn::Add(vertex0, offset));
+        const V n1 = hn::GatherIndex(d, vertexNormals, hn::Add(vertex1, offset));
+        const V n2 = hn::GatherIndex(d, vertexNormals, hn::Add(vertex2, offset));
+        interpolated[c] = hn::Add(hn::Add(hn::Mul(w, n0), hn::Mul(u, n1)), hn::Mul(v, n2));
+      }
+      const V length = hn::Sqrt(Dot3(interpolated[0], interpolated[1], interpolated[2],
+                                     interpolated[0], interpolated[1], interpolated[2]));
+      const auto usable = hn::And(hn::Gt(length, zero), hn::IsFinite(length));
+      for (V& n : interpolated) n = hn::Div(n, length);
+      const auto flip = hn::Lt(
+          Dot3(interpolated[0], interpolated[1], interpolated[2], normal[0], normal[1], normal[2]),
+          zero);
+      for (int c = 0; c < 3; ++c) {
+        const V n = hn::IfThenElse(flip, hn::Neg(interpolated[c]), interpolated[c]);
+        shading[c] = hn::IfThenElse(usable, n, normal[c]);
+      }
+    }
 
     hn::StoreU(position[0], d, out(LitSurfaces::kPx, j));
     hn::StoreU(position[1], d, out(LitSurfaces::kPy, j));
     hn::StoreU(position[2], d, out(LitSurfaces::kPz, j));
-    hn::StoreU(normal[0], d, out(LitSurfaces::kNx, j));
-    hn::StoreU(normal[1], d, out(LitSurfaces::kNy, j));
-    hn::StoreU(normal[2], d, out(LitSurfaces::kNz, j));
+    hn::StoreU(shading[0], d, out(LitSurfaces::kNx, j));
+    hn::StoreU(shading[1], d, out(LitSurfaces::kNy, j));
+    hn::StoreU(shading[2], d, out(LitSurfaces::kNz, j));
     hn::StoreU(normal[0], d, out(LitSurfaces::kGx, j));
     hn::StoreU(normal[1], d, out(LitSurfaces::kGy, j));
     hn::StoreU(normal[2], d, out(LitSurfaces::kGz, j));
@@ -74,10 +99,10 @@ bool ShadeDiffusePacket(const RTCRayHit16& packet, const PhysicalMesh& mesh,
     hn::StoreU(hn::Set(d, material.diffuse.z()), d, out(LitSurfaces::kDb, j));
     if (highlight) {
       // reflect(d, n) = d − 2 (d·n) n.
-      const V twice = hn::Mul(two, Dot3(dx, dy, dz, normal[0], normal[1], normal[2]));
-      hn::StoreU(hn::Sub(dx, hn::Mul(twice, normal[0])), d, out(LitSurfaces::kRx, j));
-      hn::StoreU(hn::Sub(dy, hn::Mul(twice, normal[1])), d, out(LitSurfaces::kRy, j));
-      hn::StoreU(hn::Sub(dz, hn::Mul(twice, normal[2])), d, out(LitSurfaces::kRz, j));
+      const V twice = hn::Mul(two, Dot3(dx, dy, dz, shading[0], shading[1], shading[2]));
+      hn::StoreU(hn::Sub(dx, hn::Mul(twice, shading[0])), d, out(LitSurfaces::kRx, j));
+      hn::StoreU(hn::Sub(dy, hn::Mul(twice, shading[1])), d, out(LitSurfaces::kRy, j));
+      hn::StoreU(hn::Sub(dz, hn::Mul(twice, shading[2])), d, out(LitSurfaces::kRz, j));
       hn::StoreU(hn::Set(d, material.specular.x()), d, out(LitSurfaces::kSr, j));
       hn::StoreU(hn::Set(d, material.specular.y()), d, out(LitSurfaces::kSg, j));
       hn::StoreU(hn::Set(d, material.specular.z()), d, out(LitSurfaces::kSb, j));

@@ -604,8 +604,8 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
   }
 }
 
-// A first-generation packet whose 16 rays all met one flat-shaded mesh of a plain diffuse
-// material, by the SIMD kernel (diffuse_hit_kernel.h); false leaves it to shade().
+// A first-generation packet whose 16 rays all met one mesh (no vertex colours) of a plain
+// diffuse material, by the SIMD kernel (diffuse_hit_kernel.h); false leaves it to shade().
 bool TileRenderer::shadeDiffusePacket(size_t packet) {
   const RTCRayHit16& hits = rays_.packets()[packet];
   const unsigned geomID = hits.hit.geomID[0];
@@ -615,7 +615,7 @@ bool TileRenderer::shadeDiffusePacket(size_t packet) {
   const PhysicalMesh& mesh = scene_.meshes()[geomID];
   const Material& m = scene_.materials()[static_cast<size_t>(mesh.material)];
   if (m.kind != MaterialKind::kDiffuse || m.diffuseTexture >= 0 || m.emission.maxCoeff() > 0.0f ||
-      !mesh.normals.empty() || !mesh.colors.empty()) {
+      !mesh.colors.empty()) {
     return false;
   }
   const size_t first = lit_.size();

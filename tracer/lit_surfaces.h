@@ -69,6 +69,16 @@ class LitSurfaces {
     flags_[i] |= kHighlight;
   }
 
+  // n more surfaces, written by a kernel through the mutable pointers; returns the first's index.
+  size_t extend(size_t n) {
+    const size_t first = size_;
+    size_ += n;
+    return first;
+  }
+  float* mutableField(Field f) { return floats_.data() + static_cast<size_t>(f) * stride(); }
+  std::int32_t* mutableFlags() { return flags_.data(); }
+  int* mutablePixels() { return pixels_.data(); }
+
   const float* field(Field f) const { return floats_.data() + static_cast<size_t>(f) * stride(); }
   const std::int32_t* flags() const { return flags_.data(); }
   const int* pixels() const { return pixels_.data(); }

@@ -20,8 +20,9 @@ printf '%-8s %8s %8s %8s %12s\n' scene embree ours other ours/embree
 for scene in "${scenes[@]}"; do
   perf record -q -o "$data" -- "$build/daemon/parallax" bench tracer --render-only --frames "$frames" \
     --scenes "$scene" >/dev/null 2>&1
-  # One line per shared object: "<percent>% <object>"; ours is the parallax executable.
+  # One line per shared object: "<percent>% <object>"; ours is the executable (`parallax` runs
+  # the whole tool as parallax-tools, so the samples are in that one).
   perf report -i "$data" --no-children --sort dso --stdio 2>/dev/null | grep '%' |
-    awk -v scene="$scene" '{ gsub("%", "", $1); if ($2 ~ /embree/) e += $1; else if ($2 == "parallax") o += $1; else r += $1 }
+    awk -v scene="$scene" '{ gsub("%", "", $1); if ($2 ~ /embree/) e += $1; else if ($2 == "parallax" || $2 == "parallax-tools") o += $1; else r += $1 }
       END { printf "%-8s %7.1f%% %7.1f%% %7.1f%% %12.3f\n", scene, e, o, r, (e > 0 ? o / e : 0) }'
 done

@@ -23,8 +23,10 @@ struct HitInfo {
 
 // (u, v): Embree's barycentrics of vertices 1 and 2; d: the incoming ray's direction;
 // `wantUv`: the surface samples a texture (its uv and texel density are needed).
-inline HitInfo hitInfoOf(const PhysicalMesh& mesh, unsigned prim, float u, float v,
-                         const Eigen::Vector3f& d, bool wantUv) {
+// Always inlined: the HitInfo is then never written to memory and read back (a call was a third
+// of the shading time).
+[[gnu::always_inline]] inline HitInfo hitInfoOf(const PhysicalMesh& mesh, unsigned prim, float u,
+                                                float v, const Eigen::Vector3f& d, bool wantUv) {
   const auto& tri = mesh.triangles[prim];
   const Eigen::Vector3f& p0 = mesh.positions[tri[0]];
   const Eigen::Vector3f& p1 = mesh.positions[tri[1]];

@@ -16,13 +16,13 @@ namespace parallax {
 
 class LitSurfaces {
  public:
-  // Per surface: its position (point lights measure from here), the shadow rays' origin (offset
-  // off the surface), the shading normal, the geometric normal (light from behind the face is
-  // cut), weight × albedo; with a highlight, the view direction mirrored about the normal,
-  // weight × specular colour and the shininess.
+  // Per surface: its position (point lights measure from here; the shadow rays start off it,
+  // along the geometric normal), the shading normal, the geometric normal (light from behind
+  // the face is cut), weight × albedo; with a highlight, the view direction mirrored about the
+  // normal, weight × specular colour and the shininess.
   enum Field {
     // clang-format off
-    kPx, kPy, kPz, kAx, kAy, kAz, kNx, kNy, kNz, kGx, kGy, kGz,
+    kPx, kPy, kPz, kNx, kNy, kNz, kGx, kGy, kGz,
     kRx, kRy, kRz, kDr, kDg, kDb, kSr, kSg, kSb, kShininess,
     kFields
     // clang-format on
@@ -45,14 +45,13 @@ class LitSurfaces {
   size_t size() const { return size_; }
 
   // Appends a surface; reflected, specular and shininess are read only with a highlight.
-  void push(const Eigen::Vector3f& position, const Eigen::Vector3f& above,
-            const Eigen::Vector3f& normal, const Eigen::Vector3f& geometric, const Rgb& diffuse,
-            int pixel, std::uint8_t staticLights) {
+  void push(const Eigen::Vector3f& position, const Eigen::Vector3f& normal,
+            const Eigen::Vector3f& geometric, const Rgb& diffuse, int pixel,
+            std::uint8_t staticLights) {
     const size_t i = size_++;
     float* f = floats_.data();
     const size_t s = stride();
     set3(f + kPx * s + i, s, position);
-    set3(f + kAx * s + i, s, above);
     set3(f + kNx * s + i, s, normal);
     set3(f + kGx * s + i, s, geometric);
     set3(f + kDr * s + i, s, diffuse);
@@ -69,6 +68,16 @@ class LitSurfaces {
     f[kShininess * s + i] = shininess;
     flags_[i] |= kHighlight;
   }
+
+  // n more surfaces, written by a kernel through the mutable pointers; returns the first's index.
+  size_t extend(size_t n) {
+    const size_t first = size_;
+    size_ += n;
+    return first;
+  }
+  float* mutableField(Field f) { return floats_.data() + static_cast<size_t>(f) * stride(); }
+  std::int32_t* mutableFlags() { return flags_.data(); }
+  int* mutablePixels() { return pixels_.data(); }
 
   const float* field(Field f) const { return floats_.data() + static_cast<size_t>(f) * stride(); }
   const std::int32_t* flags() const { return flags_.data(); }

@@ -121,8 +121,10 @@ long MakeShadowRaysFor(const ShadowRayJob& job) {
       reaches =
           hn::And(reaches, hn::Gt(MaxCoeff3(contributionR, contributionG, contributionB), zero));
     }
-    const V ax = in(LitSurfaces::kAx, j), ay = in(LitSurfaces::kAy, j),
-            az = in(LitSurfaces::kAz, j);
+    // The ray starts off the surface (offsetRayOrigin), along the geometric normal.
+    const V ax = OffsetCoordinate(d, px, in(LitSurfaces::kGx, j));
+    const V ay = OffsetCoordinate(d, py, in(LitSurfaces::kGy, j));
+    const V az = OffsetCoordinate(d, pz, in(LitSurfaces::kGz, j));
     const V pixel = hn::BitCast(d, hn::LoadU(di, s.pixels() + j));
     const V values[StagedRays::kFields] = {
         ax, ay, az, lx, ly, lz, tfar, contributionR, contributionG, contributionB};

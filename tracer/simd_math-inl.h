@@ -39,6 +39,20 @@ HWY_INLINE V MaxCoeff3(V r, V g, V b) {
   return StdMax(r, StdMax(g, b));
 }
 
+// offsetRayOrigin (ray_batch.h) of one coordinate: p moved 256·n ulps along the normal, or by
+// n/65536 near the origin (where ulps are too small).
+template <class D, class V>
+HWY_INLINE V OffsetCoordinate(D d, V p, V n) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  const hn::RebindToSigned<D> di;
+  const auto steps = hn::ConvertTo(di, hn::Mul(hn::Set(d, 256.0f), n));  // truncates, as the cast
+  const auto negative = hn::RebindMask(di, hn::Lt(p, hn::Zero(d)));
+  const V moved =
+      hn::BitCast(d, hn::Add(hn::BitCast(di, p), hn::IfThenElse(negative, hn::Neg(steps), steps)));
+  const V near = hn::Add(p, hn::Mul(hn::Set(d, 1.0f / 65536.0f), n));
+  return hn::IfThenElse(hn::Lt(hn::Abs(p), hn::Set(d, 1.0f / 32.0f)), near, moved);
+}
+
 // The lanes of `v` that `keep` selects, written in order from `to` on, followed by whatever
 // fills the rest of the vector (the destination has room for a whole vector). Compressing in a
 // register and storing the whole vector: AVX-512's compress-to-memory, which Highway's

@@ -13,6 +13,7 @@
 
 #include "common/check.h"
 #include "common/input_error.h"
+#include "tracer/diffuse_hit_kernel.h"
 #include "tracer/glass_shadows.h"
 #include "tracer/hit_info.h"
 #include "tracer/optics.h"
@@ -128,6 +129,7 @@ class TileRenderer {
   void initialRays(int x0, int x1, int y0, int y1, RenderCounters* c);
   void cone(int pixel, Path* path) const;
   void shade(size_t i, int generation, RenderCounters* c);
+  bool shadeDiffusePacket(size_t packet);
   void makeShadowRays(const PhysicalLight& light, int lightIndex, int generation,
                       RenderCounters* c);
   void traceShadowRays(ShadowBatch& batch, RTCScene scene, bool coherent, int generation,
@@ -280,7 +282,11 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
     nextPaths_.clear();
     nextRays_.clear();
     lit_.reset(rays_.size());
-    for (size_t i = 0; i < rays_.size(); ++i) shade(i, generation, c);
+    for (size_t first = 0; first < rays_.size(); first += 16) {
+      const size_t end = std::min(first + 16, rays_.size());
+      if (generation == 0 && end - first == 16 && shadeDiffusePacket(first / 16)) continue;
+      for (size_t i = first; i < end; ++i) shade(i, generation, c);
+    }
     if (lit_.size() > 0) {
       const bool build = cache_ && cache_->build;
       RTCScene shadowScene = build ? scene_.staticHandle() : scene_.handle();
@@ -532,7 +538,6 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
   }
   const bool canBranch = generation + 1 < depth_;
   const float coneWidth = path.coneWidth + t * std::max(path.coneSpread, 0.0f);
-  const Eigen::Vector3f above = offsetRayOrigin(h.position, h.geometricNormal);
 
   if (m.emission.maxCoeff() > 0.0f || m.kind == MaterialKind::kEmissive) {
     Rgb e = m.emission.cwiseProduct(h.vertexColor);
@@ -558,7 +563,7 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
           staticLights = primaryLights_[i];
         }
       }
-      lit_.push(h.position, above, h.shadingNormal, h.geometricNormal, weightedAlbedo, path.pixel,
+      lit_.push(h.position, h.shadingNormal, h.geometricNormal, weightedAlbedo, path.pixel,
                 staticLights);
       if (m.specular.maxCoeff() > 0.0f) {
         lit_.setHighlight(reflect(d, h.shadingNormal), weight.cwiseProduct(m.specular),
@@ -569,6 +574,7 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
     case MaterialKind::kMirror: {
       if (!canBranch) return;
       ++c->reflection;
+      const Eigen::Vector3f above = offsetRayOrigin(h.position, h.geometricNormal);
       pushBranch(path, weight.cwiseProduct(m.reflectance), above, reflect(d, h.shadingNormal),
                  path.inside, coneWidth, c);
       return;
@@ -585,6 +591,7 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
       const bool transmits = refract(d, n, eta, &refracted, &cosT);
       const float reflectance = transmits ? fresnelDielectric(cosI, cosT, eta) : 1.0f;
       ++c->reflection;
+      const Eigen::Vector3f above = offsetRayOrigin(h.position, h.geometricNormal);
       pushBranch(path, weight * reflectance, above, reflect(d, n), path.inside, coneWidth, c);
       if (transmits) {
         ++c->refraction;
@@ -595,6 +602,45 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
       return;
     }
   }
+}
+
+// A first-generation packet whose 16 rays all met one flat-shaded mesh of a plain diffuse
+// material, by the SIMD kernel (diffuse_hit_kernel.h); false leaves it to shade().
+bool TileRenderer::shadeDiffusePacket(size_t packet) {
+  const RTCRayHit16& hits = rays_.packets()[packet];
+  const unsigned geomID = hits.hit.geomID[0];
+  if (geomID == RTC_INVALID_GEOMETRY_ID || scene_.lights().empty()) return false;
+  for (int lane = 1; lane < 16; ++lane)
+    if (hits.hit.geomID[lane] != geomID) return false;
+  const PhysicalMesh& mesh = scene_.meshes()[geomID];
+  const Material& m = scene_.materials()[static_cast<size_t>(mesh.material)];
+  if (m.kind != MaterialKind::kDiffuse || m.diffuseTexture >= 0 || m.emission.maxCoeff() > 0.0f ||
+      !mesh.normals.empty() || !mesh.colors.empty()) {
+    return false;
+  }
+  const size_t first = lit_.size();
+  if (!parallax::shadeDiffusePacket(hits, mesh, m, &lit_)) return false;
+  // What shade() adds at once: the ambient term (a first-generation weight is 1), and the
+  // frame cache's answers for the static lights.
+  const Rgb ambient = m.diffuse.cwiseProduct(scene_.ambient());
+  std::int32_t* flags = lit_.mutableFlags() + first;
+  int* pixels = lit_.mutablePixels() + first;
+  for (size_t lane = 0; lane < 16; ++lane) {
+    const size_t i = 16 * packet + lane;
+    const int pixel = paths_[i].pixel;
+    frame_->pixels[static_cast<size_t>(pixel)] += ambient;
+    pixels[lane] = pixel;
+    if (!cache_) continue;
+    std::uint8_t staticLights = 0;
+    if (cache_->build) {
+      staticLights = StaticHit::kLightsKnown;
+      cache_->hits[static_cast<size_t>(pixel)].setLights(StaticHit::kLightsKnown);
+    } else {
+      staticLights = primaryLights_[i];
+    }
+    flags[lane] |= static_cast<std::int32_t>(staticLights) << LitSurfaces::kStaticLightsShift;
+  }
+  return true;
 }
 
 // The calling worker's buffers. A tile never waits on other TBB work, so no two tiles share

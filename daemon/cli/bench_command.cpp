@@ -337,6 +337,7 @@ void addBenchCommand(CLI::App& app) {
   tracer->callback([args] { runBenchTracer(*args); });
   addBenchTextureSubcommand(bench);
   addBenchDaemonSubcommand(bench);
+  addBenchClusterSubcommand(bench);
 }
 
 }  // namespace parallax::cli

@@ -30,8 +30,8 @@
 #include <thread>
 
 #include "common/input_error.h"
+#include "daemon/cli/bench_daemon_client.h"
 #include "daemon/cli/commands.h"
-#include "daemon/parallaxd/control_client.h"
 
 extern char** environ;
 
@@ -55,19 +55,6 @@ struct PlayFigures {
   double fps = 0.0;
   double cpuMsPerFrame = 0.0;
 };
-
-std::string siblingBinary(const std::string& name) {
-  std::error_code ec;
-  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-  for (const fs::path& c : {self.parent_path() / name, self.parent_path() / "parallaxd" / name}) {
-    if (::access(c.c_str(), X_OK) == 0) return c.string();
-  }
-  throw std::runtime_error(name + " not found next to parallax: build it first");
-}
-
-nlohmann::json request(const std::string& socket, const nlohmann::json& r) {
-  return daemon::tryAskDaemon(socket, r).value_or(nullptr);
-}
 
 // CPU seconds (user + system), peak and current resident MiB of a process, from /proc.
 struct ProcessUse {
@@ -99,33 +86,6 @@ pid_t childOf(pid_t parent) {
   pid_t child = -1;
   children >> child;
   return child;
-}
-
-// Mean of a stage over the frames between two stats replies.
-double windowMeanMs(const nlohmann::json& a, const nlohmann::json& b, const char* stage) {
-  const auto& ta = a["timings"][stage];
-  const auto& tb = b["timings"][stage];
-  const double n = tb["count"].get<double>() - ta["count"].get<double>();
-  const double total = tb["mean_ms"].get<double>() * tb["count"].get<double>() -
-                       ta["mean_ms"].get<double>() * ta["count"].get<double>();
-  return n > 0 ? total / n : 0.0;
-}
-
-nlohmann::json waitFor(const std::string& socket,
-                       const std::function<bool(const nlohmann::json&)>& done, const char* what,
-                       int timeoutSeconds) {
-  const auto deadline = Clock::now() + std::chrono::seconds(timeoutSeconds);
-  while (Clock::now() < deadline) {
-    nlohmann::json stats = request(socket, {{"request", "stats"}});
-    nlohmann::json status = request(socket, {{"request", "status"}});
-    if (!stats.is_null() && !stats.is_discarded() && !status.is_discarded() && !status.is_null()) {
-      if (status.value("state", "") == "error")
-        throw std::runtime_error("the daemon reports an error: " + status.dump());
-      if (done(stats)) return stats;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  throw std::runtime_error(fmt::format("timed out waiting for {}", what));
 }
 
 // Median and 95th percentile of `ms`, "median 3.1 ms, p95 4.0 ms".
@@ -168,7 +128,7 @@ void benchCtlRoundTrip(const std::string& socket) {
   for (int i = 0; i < kRuns / 10; ++i) toolsMs.push_back(timeCtlStatus(tools, socket));
   for (int i = 0; i < kRuns; ++i) {
     const auto t0 = Clock::now();
-    request(socket, {{"request", "status"}});
+    askOrNull(socket, {{"request", "status"}});
     socketMs.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
   }
   std::cout << fmt::format(
@@ -185,13 +145,8 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
       fs::temp_directory_path() / fmt::format("parallax-bench-daemon-{}", ::getpid());
   fs::create_directories(work);
   const std::string socket = (work / "ctl.sock").string();
-  // A script file is named to the daemon by its absolute path (its config lives elsewhere).
-  const std::string script =
-      args.scene.ends_with(".lua") ? fs::absolute(args.scene).string() : args.scene;
-  // The ray textures are cached per user: a second run of the bench does not time their generation.
-  const char* home = std::getenv("HOME");
-  const std::string cache =
-      home ? std::string(home) + "/.cache/parallax" : (work / "cache").string();
+  const std::string script = sceneForConfig(args.scene);
+  const std::string cache = benchCacheDir(work.string());
   {
     std::ofstream config(work / "parallax.toml");
     config << fmt::format(
@@ -210,7 +165,7 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
   const auto started = Clock::now();
   PlayFigures figures;
   try {
-    nlohmann::json first = waitFor(
+    nlohmann::json first = waitForStats(
         socket, [](const nlohmann::json& s) { return s.value("display_frames", 0) >= 2; },
         "the first frames", 1800);
     const double startup = std::chrono::duration<double>(Clock::now() - started).count();
@@ -221,7 +176,7 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
     // A display slower than the window (default: tens of seconds a frame) is timed over at
     // least two frames rather than reported as 0 fps.
     const double firstCount = first["display_frames"].get<double>();
-    const nlohmann::json last = waitFor(
+    const nlohmann::json last = waitForStats(
         socket,
         [firstCount](const nlohmann::json& s) {
           return s["display_frames"].get<double>() >= firstCount + 2;
@@ -233,7 +188,7 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
         last["display_frames"].get<double>() - first["display_frames"].get<double>();
     const double dropped =
         last["dropped_frames"].get<double>() - first["dropped_frames"].get<double>();
-    const nlohmann::json status = request(socket, {{"request", "status"}});
+    const nlohmann::json status = askOrNull(socket, {{"request", "status"}});
     figures.fps = frames / dt;
     figures.cpuMsPerFrame = 1000.0 * (d1.cpuSeconds - d0.cpuSeconds) / std::max(frames, 1.0);
     std::cout << fmt::format(
@@ -246,9 +201,12 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
         "  {} (animated, target {} fps) over {:.1f} s: {:.2f} fps, {} dropped; per display "
         "frame: render {:.1f} ms, "
         "encode {:.1f} ms, push {:.1f} ms, end to end {:.1f} ms, parallaxd CPU {:.0f} ms\n",
-        args.scene, args.fps, dt, frames / dt, dropped, windowMeanMs(first, last, "render"),
-        windowMeanMs(first, last, "encode"), windowMeanMs(first, last, "push"),
-        windowMeanMs(first, last, "end_to_end"), figures.cpuMsPerFrame);
+        args.scene, args.fps, dt, frames / dt, dropped,
+        windowMeanMs(first["timings"]["render"], last["timings"]["render"]),
+        windowMeanMs(first["timings"]["encode"], last["timings"]["encode"]),
+        windowMeanMs(first["timings"]["push"], last["timings"]["push"]),
+        windowMeanMs(first["timings"]["end_to_end"], last["timings"]["end_to_end"]),
+        figures.cpuMsPerFrame);
     std::cout << fmt::format(
         "  CPU: parallaxd {:.2f} cores, simulator {:.2f} cores; peak memory: parallaxd {:.0f} MiB "
         "({:.0f} MiB resident at the end), simulator {:.0f} MiB\n",
@@ -259,16 +217,16 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
         std::cout << line.get<std::string>() << "\n";
     }
     if (!firstRun) {
-      request(socket, {{"request", "shutdown"}});
+      askOrNull(socket, {{"request", "shutdown"}});
       ::waitpid(pid, nullptr, 0);
       fs::remove_all(work);
       return figures;
     }
     // The static scene: one frame, then nothing to send.
-    const nlohmann::json before = request(socket, {{"request", "stats"}});
-    request(socket, {{"request", "load"}, {"scene", "cornell"}});
+    const nlohmann::json before = askOrNull(socket, {{"request", "stats"}});
+    askOrNull(socket, {{"request", "load"}, {"scene", "cornell"}});
     const double count0 = before["display_frames"].get<double>();
-    const nlohmann::json after = waitFor(
+    const nlohmann::json after = waitForStats(
         socket,
         [count0](const nlohmann::json& s) { return s["display_frames"].get<double>() > count0; },
         "the cornell frame", 600);
@@ -286,7 +244,7 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
     fs::remove_all(work);
     throw;
   }
-  request(socket, {{"request", "shutdown"}});
+  askOrNull(socket, {{"request", "shutdown"}});
   int status = 0;
   ::waitpid(pid, &status, 0);
   fs::remove_all(work);
@@ -297,10 +255,7 @@ void runBenchDaemon(const BenchDaemonArgs& args) {
   std::stringstream list(args.displays);
   std::cout << fmt::format("bench daemon: {} hardware threads, load average at start: ",
                            std::thread::hardware_concurrency());
-  std::ifstream load("/proc/loadavg");
-  std::string loadavg;
-  std::getline(load, loadavg);
-  std::cout << loadavg << "\n";
+  std::cout << loadAverage() << "\n";
   std::vector<bool> settings;
   std::stringstream cacheList(args.frameCache);
   for (std::string s; std::getline(cacheList, s, ',');) {

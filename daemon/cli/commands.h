@@ -21,6 +21,7 @@ void addSceneApiCommand(CLI::App& app);
 // `commandLine`: how parallax was invoked, recorded in the report.
 void addReportCommand(CLI::App& app, const std::string& commandLine);
 void addCtlCommand(CLI::App& app);
-void addBenchDaemonSubcommand(CLI::App* bench);  // under `bench`
+void addBenchDaemonSubcommand(CLI::App* bench);   // under `bench`
+void addBenchClusterSubcommand(CLI::App* bench);  // under `bench`
 
 }  // namespace parallax::cli

@@ -173,7 +173,15 @@ class Conductor {
   // Returns the ms the ranks' reports took.
   double playTurn(const nlohmann::json& plan);
   void renderAndPush();
-  void push(const std::vector<std::shared_ptr<const hw::Image>>& images);
+  // Sends this rank's frames: for display frame `displayFrame` (held by the modules until it is
+  // presented; waits for their acknowledgements until the deadline), or with 0 shown at once
+  // (restoring a reconnected link's modules).
+  void push(const std::vector<std::shared_ptr<const hw::Image>>& images, uint32_t displayFrame);
+  // The swap lock: every rank pushes its part of the next display frame, they agree, and every
+  // rank presents it on its link. Called on every rank for the same frames.
+  void pushAndPresent(const std::vector<std::shared_ptr<const hw::Image>>& images);
+  // The display's modules that missed the last display frame's deadline, on every rank.
+  std::vector<int> laggingModules() const;
   void countFailedModuleFrame(int module,
                               const std::vector<std::shared_ptr<const hw::Image>>& images);
   void keepLinkAlive();
@@ -286,6 +294,10 @@ class Conductor {
   };
   std::vector<FailedFrame> lastFailedFrame_;
   bool needsPush_ = false;
+  // The swap lock's display frame number: the same on every rank (they push the same frames).
+  uint32_t presentedFrame_ = 0;
+  // The display's modules that missed the last display frame's deadline (status `lagging`).
+  std::vector<int> lagging_;
 
   LoopStats stats_;
   FrameLossReport lossReport_;

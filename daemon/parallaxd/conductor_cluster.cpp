@@ -3,9 +3,11 @@
 #include <spdlog/spdlog.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstring>
 
 #include "common/check.h"
+#include "common/process_cpu_time.h"
 #include "daemon/parallaxd/conductor.h"  // IWYU pragma: associated
 
 // The conductor in a cluster (cluster.h): rank 0 tells the other ranks every step it takes —
@@ -125,14 +127,20 @@ nlohmann::json Conductor::rankReport() const {
           {"state", daemonStateName(state_.snapshot().state)},
           {"link",
            {{"health", linkHealthName(link_ ? linkHealth_ : LinkHealth::kDown)},
-            {"error", link_ || !linkError_.empty() ? linkError_ : "not connected"}}},
+            {"error", link_ || !linkError_.empty() ? linkError_ : "not connected"},
+            {"lagging", lagging_}}},
           {"calibration", hashHex(texturesHash_)},
           {"scene_version", script_ ? script_->version() : 0},
           {"display_frames", stats_.displayFrames},
           {"module_frames_sent", stats_.moduleFramesSent},
           {"module_frames_failed", stats_.moduleFramesFailed},
           {"render_ms", stats_.render.lastMs},
-          {"push_ms", stats_.push.lastMs}};
+          {"push_ms", stats_.push.lastMs},
+          {"cpu_ms", processCpuMs()},
+          {"timings",
+           {{"render", stats_.render.toJson()},
+            {"push", stats_.push.toJson()},
+            {"present", stats_.present.toJson()}}}};
 }
 
 void Conductor::gatherRankReports(int timeoutMs) {
@@ -199,6 +207,16 @@ void Conductor::endJob(const RanksSilent& e) {
   spdlog::critical("{}", clusterFailure_);
   state_.fail("running the cluster", clusterFailure_, DaemonState::kError);
   publish();
+}
+
+std::vector<int> Conductor::laggingModules() const {
+  if (!clustered()) return lagging_;
+  std::vector<int> all;
+  for (const nlohmann::json& r : rankReports_) {
+    for (int m : r.at("link").value("lagging", std::vector<int>{})) all.push_back(m);
+  }
+  std::sort(all.begin(), all.end());
+  return all;
 }
 
 nlohmann::json Conductor::clusterJson() const {

@@ -1,4 +1,5 @@
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include <cmath>
@@ -79,7 +80,7 @@ double Conductor::playTurn(const nlohmann::json& plan) {
   keepLinkAlive();
   if (needsPush_ && link_ && !currentImages_.empty()) {
     ++stats_.resendsAfterReconnect;
-    push(currentImages_);
+    push(currentImages_, 0);  // this rank's modules only, shown at once: the frame already played
   }
   const auto reported = Clock::now();
   gatherRankReports(options_.config.cluster.timeoutMs);
@@ -149,20 +150,53 @@ void Conductor::renderAndPush() {
   lastCounters_ = frame.counters;
   currentImages_ = std::move(frame.images);
   renderedTexturesVersion_ = texturesVersion_;
-  if (link_) {
-    push(currentImages_);
+  pushAndPresent(currentImages_);
+  if (link_)
     stats_.latency.add(std::chrono::duration<double, std::milli>(Clock::now() - started).count());
+}
+
+void Conductor::pushAndPresent(const std::vector<std::shared_ptr<const hw::Image>>& images) {
+  const uint32_t n = ++presentedFrame_;
+  if (link_) {
+    push(images, n);
   } else {
     needsPush_ = true;
   }
+  // Every rank's modules hold the frame, or were given up on at the deadline: present it on
+  // every rank at once. Every rank takes part, with or without a link, so that none waits alone.
+  const auto agreeing = Clock::now();
+  cluster_->all(true, options_.config.cluster.timeoutMs);
+  if (link_ && !link_->present(n))
+    noteLinkHealth(LinkHealth::kStalled,
+                   "the Present of display frame " + std::to_string(n) + " could not be sent");
+  stats_.present.add(std::chrono::duration<double, std::milli>(Clock::now() - agreeing).count());
 }
 
-void Conductor::push(const std::vector<std::shared_ptr<const hw::Image>>& images) {
+void Conductor::push(const std::vector<std::shared_ptr<const hw::Image>>& images,
+                     uint32_t displayFrame) {
   const auto started = Clock::now();
   needsPush_ = false;
   try {
-    for (size_t i = 0; i < images.size(); ++i) link_->submit(static_cast<int>(i), images[i]);
-    link_->flush();
+    for (size_t i = 0; i < images.size(); ++i)
+      link_->submit(static_cast<int>(i), images[i], displayFrame);
+    if (displayFrame == 0) {
+      link_->flush();
+    } else {
+      const std::vector<int> late = link_->awaitDisplayFrame(
+          displayFrame,
+          Clock::now() + std::chrono::milliseconds(options_.config.hardware.presentDeadlineMs));
+      std::vector<int> lagging;
+      for (int i : late) lagging.push_back(owned_[static_cast<size_t>(i)]);
+      stats_.moduleFramesLate += lagging.size();
+      if (lagging != lagging_ && !lagging.empty())
+        spdlog::warn(
+            "swap lock: module(s) {} not complete {} ms after the push of display frame "
+            "{}: presented without them (they keep their frame one display frame, then "
+            "go dark)",
+            fmt::join(lagging, ", "), options_.config.hardware.presentDeadlineMs, displayFrame);
+      if (lagging != lagging_ && lagging.empty()) spdlog::info("swap lock: every module in step");
+      lagging_ = std::move(lagging);
+    }
   } catch (const std::exception& e) {
     spdlog::error("push failed: {}", e.what());
     needsPush_ = true;
@@ -259,7 +293,7 @@ void Conductor::showOverlay(const std::string& kind, std::optional<int> module) 
   overlay_ = kind;
   renderedSceneVersion_ = 0;  // `play` renders the scene again
   state_.enter(DaemonState::kPaused, kind);
-  if (link_) push(currentImages_);
+  pushAndPresent(currentImages_);
 }
 
 void Conductor::finishInFlight() {

@@ -1,3 +1,6 @@
+#include <fmt/format.h>
+
+#include "common/process_cpu_time.h"
 #include "daemon/parallaxd/conductor.h"
 
 // What `status` and `stats` answer: built on the conductor thread after every turn and
@@ -36,10 +39,24 @@ nlohmann::json Conductor::statusJson() const {
        {{"up", link_ != nullptr && linkHealth_ == LinkHealth::kUp},
         {"health", linkHealthName(link_ ? linkHealth_ : LinkHealth::kDown)},
         {"sessions", linkSessions_},
+        {"lagging", laggingModules()},
+        {"present_deadline_ms", options_.config.hardware.presentDeadlineMs},
         {"error", link_ || !linkError_.empty() ? linkError_ : "not connected"}}},
       {"fps", options_.config.scene.fps}};
   if (!options_.simulatorFolder.empty()) j["simulated_display"] = options_.simulatorFolder;
-  if (clustered()) j["cluster"] = clusterJson();
+  if (clustered()) {
+    j["cluster"] = clusterJson();
+    // The display's link is up only when every rank's is: name the ranks whose link is not.
+    nlohmann::json down = nlohmann::json::array();
+    for (const nlohmann::json& r : rankReports_) {
+      const std::string health = r.at("link").at("health").get<std::string>();
+      if (health == linkHealthName(LinkHealth::kUp)) continue;
+      down.push_back(fmt::format("{}: link {} ({})", ownership_.describe(r.at("rank").get<int>()),
+                                 health, r.at("link").value("error", std::string())));
+    }
+    if (!down.empty()) j["link"]["up"] = false;
+    j["link"]["ranks_down"] = down;
+  }
   if (!s.lastError.empty()) j["last_error"] = {{"stage", s.lastErrorStage}, {"error", s.lastError}};
   if (script_) {
     j["scene"] = {{"name", sceneArgument_},
@@ -68,6 +85,7 @@ nlohmann::json Conductor::statsJson() const {
   nlohmann::json j = stats_.toJson();
   j["ok"] = true;
   j["summary"] = stats_.summary();
+  j["cpu_ms"] = processCpuMs();  // this process (rank 0): CPU a frame for `parallax bench`
   j["render_counters"] = lastCounters_.lines();
   const FrameCacheStats& cache = frameCache_.stats();
   j["frame_cache"] = {{"enabled", options_.config.scene.frameCache},

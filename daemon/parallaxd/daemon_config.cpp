@@ -129,6 +129,7 @@ void readHardware(TableReader& r, HardwareConfig* h) {
   r.readString("socket", &h->socket);
   r.readInt("seed", &h->seed, 0, 2147483647);
   r.readString("dump", &h->dump);
+  r.readInt("present_deadline_ms", &h->presentDeadlineMs, 1, 60000);
   r.readBool("photometric_variation", &h->photometricVariation);
   if (const toml::node* n = r.find("faults")) {
     const toml::array* a = n->as_array();

@@ -12,6 +12,8 @@
 //                       brightness and vignetting, seeded — calibration/simulation/
 //                       photometric_truth.h)
 //                  usb: vid = 0x1d50, pid = 0x6150, [hardware.modules] "SERIAL" = index
+//                  present_deadline_ms = 100   (swap lock: modules later than this after the
+//                       push are presented without, and reported lagging in `status`)
 //   [calibration]  file = "calibration.json", auto = true,
 //                  camera = "link" | "opencv:SPEC"   (hw/camera/camera_name.h; default link)
 //                  camera_metadata = "camera.json"   (intrinsics, tape-measured stations)
@@ -51,13 +53,16 @@ struct DisplayConfig {
 };
 
 struct HardwareConfig {
-  std::string kind = "sim";           // "sim" or "usb"
-  std::string socket;                 // sim: empty → start our own parallax-simhw
-  int seed = 7;                       // our own simulator's ground-truth seed
-  std::vector<std::string> faults;    // our own simulator: parallax-simhw --fault specs (tests)
-  std::string dump;                   // our own simulator: where it saves what the modules show
-  bool photometricVariation = false;  // our own simulator: a seeded photometric truth
-  int vid = 0, pid = 0;               // usb
+  std::string kind = "sim";         // "sim" or "usb"
+  std::string socket;               // sim: empty → start our own parallax-simhw
+  int seed = 7;                     // our own simulator's ground-truth seed
+  std::vector<std::string> faults;  // our own simulator: parallax-simhw --fault specs (tests)
+  std::string dump;                 // our own simulator: where it saves what the modules show
+  // The swap lock (hw/link/PROTOCOL.md, "Presentation"): how long after pushing a display frame
+  // the modules have to acknowledge it; the late ones are presented without, and reported.
+  int presentDeadlineMs = 100;
+  bool photometricVariation = false;          // our own simulator: a seeded photometric truth
+  int vid = 0, pid = 0;                       // usb
   std::map<std::string, int> serialToModule;  // usb
   // Where the config wrote each serial's mapping, so errors found once the display's module
   // count is known still name the file and line.

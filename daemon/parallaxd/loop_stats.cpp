@@ -26,10 +26,12 @@ nlohmann::json LoopStats::toJson() const {
           {"dropped_frames", droppedFrames},
           {"resends_after_reconnect", resendsAfterReconnect},
           {"render_failures", renderFailures},
+          {"module_frames_late", moduleFramesLate},
           {"timings",
            {{"render", render.toJson()},
             {"encode", encode.toJson()},
             {"push", push.toJson()},
+            {"present", present.toJson()},
             {"end_to_end", latency.toJson()}}}};
 }
 

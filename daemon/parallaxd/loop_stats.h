@@ -25,9 +25,12 @@ struct LoopStats {
   uint64_t moduleFramesFailed = 0;
   uint64_t failedResends = 0;  // re-sends of an already failed module frame that failed again
   uint64_t droppedFrames = 0;  // animation periods that passed without a frame
-  uint64_t resendsAfterReconnect = 0;         // pushes of the current frames to a reconnected link
-  uint64_t renderFailures = 0;                // frames not shown because rendering threw
-  StageTiming render, encode, push, latency;  // latency: frame due → last module acknowledged
+  uint64_t resendsAfterReconnect = 0;  // pushes of the current frames to a reconnected link
+  uint64_t renderFailures = 0;         // frames not shown because rendering threw
+  // Module frames presented without (the module had not acknowledged its frame by the deadline).
+  uint64_t moduleFramesLate = 0;
+  // latency: frame due → presented. present: every rank agreeing to present, then the Present.
+  StageTiming render, encode, push, present, latency;
   nlohmann::json toJson() const;
   // One line, for the log (what `--explain` prints for `parallax render`).
   std::string summary() const;

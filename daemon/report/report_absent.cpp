@@ -7,7 +7,8 @@ namespace parallax::report {
 
 void writeAbsentSections(Report& report) {
   report.absent("Cluster: rank count against sync overhead and frame rate",
-                "Not in this build: rendering on a cluster (issue 23, MPI) has not landed.");
+                "Not in the report: the cluster (issue 23) runs under mpirun, which the report "
+                "does not launch; `parallax bench cluster` measures it (README, \"A cluster\").");
 }
 
 }  // namespace parallax::report

@@ -54,6 +54,12 @@ LinkClient::LinkClient(std::unique_ptr<LinkTransport> transport, LinkOptions opt
     throw std::runtime_error(error);
   }
   if (!helloOk()) {
+    if (transport_->lastProtocolError() == ProtocolError::kBadVersion) {
+      throw std::runtime_error(fmt::format(
+          "{}: the device speaks link protocol version {}, this host version {} (frames "
+          "presented in lock-step): update the device's firmware (or parallax-simhw)",
+          transport_->name(), transport_->lastPeerVersion(), kLinkVersion));
+    }
     throw std::runtime_error(
         fmt::format("{}: the device did not answer Hello", transport_->name()));
   }
@@ -74,7 +80,9 @@ bool LinkClient::helloOk() {
     const int left = static_cast<int>(
         std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count());
     if (left <= 0) return false;
-    if (transport_->receive(&packets, left) == TransportStatus::kDisconnected) return false;
+    const TransportStatus status = transport_->receive(&packets, left);
+    if (status == TransportStatus::kDisconnected || status == TransportStatus::kProtocolError)
+      return false;
     for (const ReceivedPacket& p : packets) {
       if (p.header.type != PacketType::kDeviceInfo || p.header.sequence != seq) continue;
       DeviceInfo info;
@@ -95,6 +103,8 @@ bool LinkClient::helloOk() {
   submittedHash_.resize(modules_.size());
   hashValid_.resize(modules_.size(), false);
   latestTicket_.resize(modules_.size(), 0);
+  readyFrame_.assign(modules_.size(), 0);
+  submittedFrame_.resize(modules_.size(), 0);
   // A new session: what the modules show is unknown again (see sessions()).
   std::fill(hashValid_.begin(), hashValid_.end(), false);
   ++sessions_;
@@ -102,7 +112,7 @@ bool LinkClient::helloOk() {
   return true;
 }
 
-uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame) {
+uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame, uint32_t displayFrame) {
   if (module < 0 || module >= static_cast<int>(modules_.size())) {
     throw InputError({"", "module", 0},
                      fmt::format("no module {} (the link has {})", module, modules_.size()));
@@ -118,7 +128,9 @@ uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame) {
   ++stats_.submitted;
   const uint64_t ticket = ++ticket_;
   const uint64_t hash = contentHash64(frame->pixels.data(), frame->pixels.size());
-  if (options_.skipUnchanged && hashValid_[module] && submittedHash_[module] == hash) {
+  const bool unchanged =
+      options_.skipUnchanged && hashValid_[module] && submittedHash_[module] == hash;
+  if (unchanged && displayFrame == 0) {
     ++stats_.skipped;
     outcomes_.push_back({ticket, module, FrameStatus::kSkippedUnchanged, 0, ""});
     return ticket;
@@ -133,6 +145,8 @@ uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame) {
   p.module = module;
   p.frame = std::move(frame);
   p.hash = hash;
+  p.displayFrame = displayFrame;
+  p.reuse = unchanged;
   // One CRC pass over the pixels: per-chunk CRCs, combined into the whole-frame CRC.
   const size_t size = p.frame->pixels.size();
   const uint8_t* data = p.frame->pixels.data();
@@ -145,6 +159,7 @@ uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame) {
   submittedHash_[module] = hash;
   hashValid_[module] = true;
   latestTicket_[module] = ticket;
+  submittedFrame_[module] = displayFrame;
   pending_.push_back(std::move(p));
   if (!transport_->isOpen() || !sendFrame(pending_.back())) {
     reconnect("sending a frame failed");
@@ -163,7 +178,9 @@ bool LinkClient::sendFrame(Pending& p) {
   const Image& f = *p.frame;
   const uint16_t module = static_cast<uint16_t>(p.module);
   const size_t size = f.pixels.size();
-  const size_t chunks = p.chunkCrcs.size();
+  // Only the first attempt reuses: a module that answered "not what I show" gets the pixels.
+  const bool reuse = p.reuse && p.attempts == 1;
+  const size_t chunks = reuse ? 0 : p.chunkCrcs.size();
   FrameBegin begin;
   begin.width = static_cast<uint32_t>(f.width);
   begin.height = static_cast<uint32_t>(f.height);
@@ -173,6 +190,8 @@ bool LinkClient::sendFrame(Pending& p) {
   begin.chunkCount = static_cast<uint32_t>(chunks);
   begin.frameCrc = p.frameCrc;
   begin.contentHash = p.hash;
+  begin.displayFrame = p.displayFrame;
+  begin.flags = reuse ? kFrameReuse : 0;
   const std::vector<uint8_t> beginBody = encodeFrameBegin(begin);
 
   // Header storage must stay put while the iovecs point at it.
@@ -205,7 +224,7 @@ bool LinkClient::sendFrame(Pending& p) {
       encodeHeader({PacketType::kFrameEnd, 0, module, p.sequence, 0, 0}, {});
   iov.push_back({scratchHeaders_[chunks + 1].data(), kHeaderSize});
   if (transport_->send(module, iov) != TransportStatus::kOk) return false;
-  stats_.payloadBytesSent += size;
+  if (!reuse) stats_.payloadBytesSent += size;
   return true;
 }
 
@@ -232,6 +251,8 @@ void LinkClient::finish(Pending& p, FrameStatus status, const std::string& reaso
   p.done = true;
   if (status == FrameStatus::kDelivered) {
     ++stats_.delivered;
+  } else if (status == FrameStatus::kSkippedUnchanged) {
+    ++stats_.skipped;
   } else if (status == FrameStatus::kSuperseded) {
     ++stats_.superseded;
   } else {
@@ -275,7 +296,9 @@ void LinkClient::handle(const ReceivedPacket& packet) {
     for (Pending& p : pending_) {
       if (p.done || p.sequence != ack.ackedSequence) continue;
       if (ack.status == AckStatus::kOk) {
-        finish(p, FrameStatus::kDelivered, p.history);
+        readyFrame_[p.module] = std::max(readyFrame_[p.module], p.displayFrame);
+        const bool reused = p.reuse && p.attempts == 1;
+        finish(p, reused ? FrameStatus::kSkippedUnchanged : FrameStatus::kDelivered, p.history);
       } else {
         ++stats_.nacks;
         retryOrFail(p, fmt::format("module answered {} ({} bytes verified)",
@@ -316,6 +339,35 @@ void LinkClient::waitForProgress() {
   }
   const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(earliest - Clock::now());
   pump(static_cast<int>(std::clamp<int64_t>(left.count() + 1, 0, options_.ackTimeoutMs)));
+}
+
+std::vector<int> LinkClient::awaitDisplayFrame(uint32_t displayFrame, Clock::time_point deadline) {
+  auto waiting = [&] {
+    return std::any_of(pending_.begin(), pending_.end(),
+                       [&](const Pending& p) { return !p.done && p.displayFrame == displayFrame; });
+  };
+  while (waiting()) {
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now()).count();
+    if (left <= 0) break;
+    pump(static_cast<int>(std::min<int64_t>(left, options_.ackTimeoutMs)));
+  }
+  std::vector<int> late;
+  for (size_t m = 0; m < readyFrame_.size(); ++m) {
+    if (submittedFrame_[m] == displayFrame && readyFrame_[m] != displayFrame)
+      late.push_back(static_cast<int>(m));
+  }
+  return late;
+}
+
+bool LinkClient::present(uint32_t displayFrame) {
+  if (!transport_->isOpen()) return false;
+  const std::vector<uint8_t> body = encodePresent({displayFrame});
+  const HeaderBytes h =
+      encodeHeader({PacketType::kPresent, 0, kAllModules, nextSequence(), 0, 0}, body);
+  const iovec pieces[2] = {{const_cast<uint8_t*>(h.data()), h.size()},
+                           {const_cast<uint8_t*>(body.data()), body.size()}};
+  return transport_->send(kAllModules, pieces) == TransportStatus::kOk;
 }
 
 void LinkClient::flush() {

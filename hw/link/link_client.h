@@ -84,7 +84,21 @@ class LinkClient {
   // Queues a frame for `module`; returns its ticket. The pixels are borrowed through the
   // shared_ptr (no copy) until the frame's outcome is final. May block while the window is
   // full. Throws InputError for a frame the module cannot take (size, format, module index).
-  uint64_t submit(int module, std::shared_ptr<const Image> frame);
+  // displayFrame 0: the module shows the frame once it is complete ("delivered" = shown).
+  // displayFrame N > 0 (the swap lock): "delivered" = complete and held; it shows on present(N).
+  // An unchanged frame for N is then not "skipped" silently: the module is told (no pixels
+  // sent) that N is what it shows, and the outcome is kSkippedUnchanged once it agreed.
+  uint64_t submit(int module, std::shared_ptr<const Image> frame, uint32_t displayFrame = 0);
+
+  // Waits until every module submitted a frame for `displayFrame` has acknowledged it, or
+  // until `deadline`. Returns the modules whose frame is not complete (late, failed, stalled):
+  // present() shows the others without them.
+  std::vector<int> awaitDisplayFrame(uint32_t displayFrame,
+                                     std::chrono::steady_clock::time_point deadline);
+  // Tells every module to show its frame for `displayFrame` (one packet, not answered). A
+  // module without it keeps its frame, or goes dark when that would lag two display frames.
+  // False when the link is down.
+  bool present(uint32_t displayFrame);
 
   // Waits until every submitted frame has an outcome.
   void flush();
@@ -120,6 +134,8 @@ class LinkClient {
     std::shared_ptr<const Image> frame;
     uint64_t hash = 0;
     uint32_t frameCrc = 0;
+    uint32_t displayFrame = 0;
+    bool reuse = false;               // the first attempt tells the module to keep what it shows
     std::vector<uint32_t> chunkCrcs;  // of the data of each chunk
     int attempts = 0;
     bool done = false;
@@ -157,7 +173,9 @@ class LinkClient {
   std::deque<Pending> pending_;          // sent, awaiting ack
   std::vector<uint64_t> submittedHash_;  // per module: content of the last accepted submit
   std::vector<bool> hashValid_;
-  std::vector<uint64_t> latestTicket_;  // per module: the newest submitted frame
+  std::vector<uint64_t> latestTicket_;    // per module: the newest submitted frame
+  std::vector<uint32_t> readyFrame_;      // per module: the display frame it acknowledged last
+  std::vector<uint32_t> submittedFrame_;  // per module: the display frame of the newest submit
   std::vector<FrameOutcome> outcomes_;
   std::vector<ReceivedPacket> inbox_;  // control replies that arrived while pumping
   std::vector<HeaderBytes> scratchHeaders_;

@@ -154,6 +154,10 @@ ProtocolError decodeHeader(std::span<const uint8_t> bytes, PacketHeader* header)
   return ProtocolError::kOk;
 }
 
+uint16_t headerVersion(std::span<const uint8_t> bytes) {
+  return bytes.size() >= 6 ? get16(bytes.data() + 4) : 0;
+}
+
 ProtocolError verifyPayload(const PacketHeader& header, std::span<const uint8_t> payload) {
   if (payload.size() < header.payloadSize) return ProtocolError::kTruncated;
   if (payload.size() > header.payloadSize) return ProtocolError::kOversized;
@@ -223,18 +227,22 @@ std::vector<uint8_t> encodeFrameBegin(const FrameBegin& f) {
   put32(&b[4], f.height);
   b[8] = static_cast<uint8_t>(f.format);
   b[9] = static_cast<uint8_t>(f.mode);
+  put16(&b[10], f.flags);
   put32(&b[12], f.totalSize);
   put32(&b[16], f.chunkCount);
   put32(&b[20], f.frameCrc);
   put64(&b[24], f.contentHash);
+  put32(&b[32], f.displayFrame);
   return b;
 }
 
 ProtocolError decodeFrameBegin(std::span<const uint8_t> body, FrameBegin* f) {
   if (auto e = checkSize(body, kFrameBeginSize); e != ProtocolError::kOk) return e;
   const uint8_t* b = body.data();
-  if (!allZero(b + 10, 2)) return ProtocolError::kReservedNonZero;
+  if (!allZero(b + 36, 4)) return ProtocolError::kReservedNonZero;
   if (!isKnownPixelFormat(b[8]) || b[9] > 1) return ProtocolError::kBadBody;
+  f->flags = get16(b + 10);
+  if ((f->flags & ~kFrameReuse) != 0) return ProtocolError::kBadBody;
   f->width = get32(b);
   f->height = get32(b + 4);
   f->format = static_cast<PixelFormat>(b[8]);
@@ -243,10 +251,31 @@ ProtocolError decodeFrameBegin(std::span<const uint8_t> body, FrameBegin* f) {
   f->chunkCount = get32(b + 16);
   f->frameCrc = get32(b + 20);
   f->contentHash = get64(b + 24);
+  f->displayFrame = get32(b + 32);
   // The size must be exactly what the resolution says (computed in 64 bits: no overflow).
   const uint64_t expected = static_cast<uint64_t>(f->width) * f->height * bytesPerPixel(f->format);
   if (f->width == 0 || f->height == 0 || expected != f->totalSize) return ProtocolError::kBadBody;
-  if (f->chunkCount == 0 || f->chunkCount > f->totalSize) return ProtocolError::kBadBody;
+  // A reused frame sends no chunks (and is only meaningful for a display frame); any other
+  // sends at least one.
+  if ((f->flags & kFrameReuse) != 0) {
+    if (f->chunkCount != 0 || f->displayFrame == 0) return ProtocolError::kBadBody;
+  } else if (f->chunkCount == 0 || f->chunkCount > f->totalSize) {
+    return ProtocolError::kBadBody;
+  }
+  return ProtocolError::kOk;
+}
+
+std::vector<uint8_t> encodePresent(const Present& p) {
+  std::vector<uint8_t> b(kPresentSize, 0);
+  put32(&b[0], p.displayFrame);
+  return b;
+}
+
+ProtocolError decodePresent(std::span<const uint8_t> body, Present* p) {
+  if (auto e = checkSize(body, kPresentSize); e != ProtocolError::kOk) return e;
+  if (!allZero(body.data() + 4, 4)) return ProtocolError::kReservedNonZero;
+  p->displayFrame = get32(body.data());
+  if (p->displayFrame == 0) return ProtocolError::kBadBody;
   return ProtocolError::kOk;
 }
 
@@ -397,6 +426,7 @@ size_t PacketReader::feed(std::span<const uint8_t> bytes) {
       used += take;
       if (headerFill_ < kHeaderSize) break;
       error_ = decodeHeader(headerBytes_, &header_);
+      if (error_ == ProtocolError::kBadVersion) peerVersion_ = headerVersion(headerBytes_);
       if (error_ != ProtocolError::kOk) break;
       haveHeader_ = true;
       payload_.resize(header_.payloadSize);

@@ -1,5 +1,5 @@
 #pragma once
-// The Parallax link protocol, version 1 (hw/link/PROTOCOL.md is the normative description; this
+// The Parallax link protocol, version 2 (hw/link/PROTOCOL.md is the normative description; this
 // header is its executable form). Every packet is a 32-byte little-endian header followed by
 // `payloadSize` bytes whose CRC-32C the header carries; the header has its own CRC so that a
 // corrupted length can never desynchronise a stream silently.
@@ -18,7 +18,9 @@
 namespace parallax::hw {
 
 constexpr uint32_t kLinkMagic = 0x4C584C50u;  // bytes "PLXL" on the wire
-constexpr uint16_t kLinkVersion = 1;
+// Version 2 separates upload from presentation (swap lock): a frame for display frame N is
+// acknowledged when complete and shown only on Present(N). Version 1 peers are refused.
+constexpr uint16_t kLinkVersion = 2;
 constexpr size_t kHeaderSize = 32;
 constexpr uint32_t kMaxPayloadSize = 16u << 20;  // larger packets are hostile
 constexpr uint16_t kAllModules = 0xFFFF;         // module field of broadcast requests
@@ -37,8 +39,9 @@ enum class PacketType : uint8_t {
   kCaptureReply = 10,   // camera -> host: an image
   kFault = 11,          // host -> simulator only: inject a fault
   kError = 12,          // either way: the peer's last packet was rejected (then closes)
+  kPresent = 13,        // host -> device: show the acknowledged frame N now (not answered)
 };
-constexpr uint8_t kMaxPacketType = 12;
+constexpr uint8_t kMaxPacketType = 13;
 
 // Why a packet or a stream was rejected. Stable numbers: they travel in kError packets.
 enum class ProtocolError : uint8_t {
@@ -82,6 +85,8 @@ HeaderBytes encodeHeaderRaw(const PacketHeader& header);
 // Checks everything the header alone can tell: size, magic, version, header CRC, type,
 // reserved fields, payloadSize limit.
 ProtocolError decodeHeader(std::span<const uint8_t> bytes, PacketHeader* header);
+// The version field of a header (for the message naming a peer of another version).
+uint16_t headerVersion(std::span<const uint8_t> bytes);
 ProtocolError verifyPayload(const PacketHeader& header, std::span<const uint8_t> payload);
 
 // ---- bodies (fixed little-endian layouts, see PROTOCOL.md) ----
@@ -97,16 +102,29 @@ struct DeviceInfo {          // 64 bytes
 constexpr size_t kDeviceInfoSize = 64;
 constexpr size_t kSerialBytes = 40;
 
-struct FrameBegin {  // 28 bytes
+// FrameBegin flag: no chunks follow; the frame is the one the module shows (same content hash),
+// acknowledged for `displayFrame` without its bytes crossing the link again.
+constexpr uint16_t kFrameReuse = 1;
+
+struct FrameBegin {  // 40 bytes
   uint32_t width = 0, height = 0;
   PixelFormat format = PixelFormat::kRgb8;
   DisplayMode mode = DisplayMode::kPlayback;
+  uint16_t flags = 0;      // kFrameReuse or 0
   uint32_t totalSize = 0;  // width · height · bytesPerPixel
   uint32_t chunkCount = 0;
   uint32_t frameCrc = 0;     // CRC-32C of the whole frame, checked end to end
-  uint64_t contentHash = 0;  // the host's content hash (diagnostics; the device keeps it)
+  uint64_t contentHash = 0;  // the host's content hash (the device keeps it; kFrameReuse checks it)
+  // The display frame this upload belongs to: held after its Ack until Present(displayFrame).
+  // 0: shown as soon as it is complete (patterns, single frames, restoring a restarted module).
+  uint32_t displayFrame = 0;
 };
-constexpr size_t kFrameBeginSize = 32;
+constexpr size_t kFrameBeginSize = 40;
+
+struct Present {  // 8 bytes: u32 displayFrame, 4 reserved
+  uint32_t displayFrame = 0;
+};
+constexpr size_t kPresentSize = 8;
 constexpr size_t kChunkPrefixSize = 8;  // FrameChunk: u32 frameSequence, u32 offset, then data
 
 enum class AckStatus : uint8_t {
@@ -149,7 +167,7 @@ constexpr size_t kCaptureReplyHeaderSize = 16;
 enum class FaultKind : uint8_t {
   kDropChunks = 1,  // the next `count` chunks to this module vanish
   kFlipBytes = 2,   // the next `count` chunks arrive with one byte flipped
-  kStall = 3,       // the next `count` frames are never acknowledged
+  kStall = 3,       // the next `count` frames are never acknowledged (after `param` that are)
   kSlowLink = 4,    // each chunk costs `param` microseconds, for `count` chunks
   kDisconnect = 5,  // the device drops the connection (the host must reconnect)
   kCrash = 6,       // the simulator process aborts
@@ -174,6 +192,8 @@ std::vector<uint8_t> encodeDeviceInfo(const DeviceInfo& info);
 ProtocolError decodeDeviceInfo(std::span<const uint8_t> body, DeviceInfo* info);
 std::vector<uint8_t> encodeFrameBegin(const FrameBegin& begin);
 ProtocolError decodeFrameBegin(std::span<const uint8_t> body, FrameBegin* begin);
+std::vector<uint8_t> encodePresent(const Present& present);
+ProtocolError decodePresent(std::span<const uint8_t> body, Present* present);
 std::vector<uint8_t> encodeAck(const Ack& ack);
 ProtocolError decodeAck(std::span<const uint8_t> body, Ack* ack);
 std::vector<uint8_t> encodeCaptureRequest(const CaptureRequest& request);
@@ -207,6 +227,8 @@ class PacketReader {
   void next();
   // The first error seen; once set, the stream is unusable (no resynchronisation).
   ProtocolError error() const { return error_; }
+  // With error() == kBadVersion: the version the peer speaks.
+  uint16_t peerVersion() const { return peerVersion_; }
 
  private:
   std::array<uint8_t, kHeaderSize> headerBytes_{};
@@ -217,6 +239,7 @@ class PacketReader {
   std::vector<uint8_t> payload_;
   size_t payloadFill_ = 0;
   ProtocolError error_ = ProtocolError::kOk;
+  uint16_t peerVersion_ = 0;
 };
 
 }  // namespace parallax::hw

@@ -46,6 +46,8 @@ class LinkTransport {
   virtual TransportStatus receive(std::vector<ReceivedPacket>* packets, int timeoutMs) = 0;
   // The decode error behind the last kProtocolError.
   virtual ProtocolError lastProtocolError() const = 0;
+  // When that error was kBadVersion: the version the peer speaks (0: unknown).
+  virtual uint16_t lastPeerVersion() const { return 0; }
 };
 
 using LinkTransportFactory =

@@ -25,6 +25,7 @@ class SocketTransport : public LinkTransport {
   TransportStatus send(uint16_t module, std::span<const iovec> pieces) override;
   TransportStatus receive(std::vector<ReceivedPacket>* packets, int timeoutMs) override;
   ProtocolError lastProtocolError() const override { return lastError_; }
+  uint16_t lastPeerVersion() const override { return lastPeerVersion_; }
 
  private:
   std::string path_;
@@ -33,6 +34,7 @@ class SocketTransport : public LinkTransport {
   bool adopted_ = false;
   PacketReader reader_;
   ProtocolError lastError_ = ProtocolError::kOk;
+  uint16_t lastPeerVersion_ = 0;
   std::vector<uint8_t> readBuffer_;
 };
 

@@ -162,6 +162,7 @@ void UsbTransport::onInCompletion(Device& device, const UsbCompletion& c,
     bytes = bytes.subspan(device.reader.feed(bytes));
     if (device.reader.error() != ProtocolError::kOk) {
       lastError_ = device.reader.error();
+      lastPeerVersion_ = device.reader.peerVersion();
       protocolErrorPending_ = true;
       markGone(device);  // a device that sends garbage is reset by reopening it
       return;

@@ -55,6 +55,7 @@ class UsbTransport : public LinkTransport {
   TransportStatus send(uint16_t module, std::span<const iovec> pieces) override;
   TransportStatus receive(std::vector<ReceivedPacket>* packets, int timeoutMs) override;
   ProtocolError lastProtocolError() const override { return lastError_; }
+  uint16_t lastPeerVersion() const override { return lastPeerVersion_; }
 
   const UsbTransportStats& stats() const { return stats_; }
   int connectedModules() const;
@@ -83,6 +84,7 @@ class UsbTransport : public LinkTransport {
   std::map<uint64_t, UsbCompletion> outCompletions_;  // finished OUT transfers by id
   std::vector<ReceivedPacket> received_;
   ProtocolError lastError_ = ProtocolError::kOk;
+  uint16_t lastPeerVersion_ = 0;
   bool protocolErrorPending_ = false;  // reported once by receive()
   bool lost_ = false;                  // a device went away since open()
   UsbTransportStats stats_;

@@ -151,7 +151,10 @@ int run(const Args& args) {
       hw::writePng(hardware.shownFrame(i), fmt::format("{}/module_{:03d}.png", args.dump, i));
       ++written;
     }
-    std::fprintf(stderr, "parallax-simhw: wrote %d frames to %s\n", written, args.dump.c_str());
+    // The swap lock's record: when each module switched to which display frame.
+    hardware.writePresents(args.dump + "/presents.tsv");
+    std::fprintf(stderr, "parallax-simhw: wrote %d frames and presents.tsv to %s\n", written,
+                 args.dump.c_str());
   }
   for (int i = 0; i < hardware.moduleCount(); ++i) {
     const hw::ModuleCounters& c = hardware.counters(i);

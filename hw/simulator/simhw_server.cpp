@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <stdexcept>
 #include <thread>
@@ -111,6 +112,13 @@ ConnectionEnd SimhwServer::serveConnection(int fd, const std::atomic<bool>* stop
     const ProtocolError headerError = decodeHeader({in.data(), kHeaderSize}, &header);
     if (headerError != ProtocolError::kOk) {
       // The stream cannot be trusted past a bad header: say why, then hang up.
+      if (headerError == ProtocolError::kBadVersion) {
+        std::fprintf(stderr,
+                     "parallax-simhw: refused a host speaking link protocol version %u (this "
+                     "device speaks version %u)\n",
+                     static_cast<unsigned>(headerVersion({in.data(), kHeaderSize})),
+                     static_cast<unsigned>(kLinkVersion));
+      }
       SimulatedHardware::appendError(headerError, 0, &replies);
       writeAll(fd, replies);
       return finish(ConnectionEnd::kClosedByDevice);

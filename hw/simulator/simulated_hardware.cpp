@@ -3,6 +3,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <stdexcept>
 #include <utility>
 
 #include "common/check.h"
@@ -57,9 +60,25 @@ uint64_t SimulatedHardware::shownContentHash(int module) const {
 const ModuleCounters& SimulatedHardware::counters(int module) const {
   return modules_.at(module).counters;
 }
+uint32_t SimulatedHardware::shownDisplayFrame(int module) const {
+  return modules_.at(module).shownFrame;
+}
 
 void SimulatedHardware::resetSession() {
-  for (Module& m : modules_) m.upload.active = false;
+  for (Module& m : modules_) {
+    m.upload.active = false;
+    m.ready.displayFrame = 0;  // held frames die with the session; the host sends them again
+  }
+}
+
+void SimulatedHardware::writePresents(const std::string& path) const {
+  std::ofstream out(path);
+  out << "display_frame\tmodule\tshows\tswitched\tat_ns\n";
+  for (const PresentRecord& r : presents_) {
+    out << r.displayFrame << '\t' << r.module << '\t' << r.shows << '\t' << (r.switched ? 1 : 0)
+        << '\t' << r.atNs << '\n';
+  }
+  if (!out) throw std::runtime_error(fmt::format("cannot write {}", path));
 }
 
 void SimulatedHardware::arm(int module, const Fault& fault) {
@@ -73,6 +92,7 @@ void SimulatedHardware::arm(int module, const Fault& fault) {
       break;
     case FaultKind::kStall:
       f.stallFrames += fault.count;
+      f.stallAfter = fault.param;
       break;
     case FaultKind::kSlowLink:
       f.slowChunks += fault.count;
@@ -211,6 +231,23 @@ SimAction SimulatedHardware::handlePacket(const PacketHeader& header,
       ack(header.module, header.sequence, AckStatus::kOk, 0, replies);
       return action;
     }
+    case PacketType::kPresent: {
+      Present present;
+      if (const ProtocolError e = decodePresent(payload, &present); e != ProtocolError::kOk) {
+        return reject(e);
+      }
+      if (!moduleAddressed && header.module != kAllModules) return reject(ProtocolError::kBadBody);
+      // One clock reading for every module of this Present: they switch together.
+      const int64_t now = std::chrono::duration_cast<std::chrono::nanoseconds>(
+                              std::chrono::steady_clock::now().time_since_epoch())
+                              .count();
+      for (size_t i = 0; i < modules_.size(); ++i) {
+        if (header.module == kAllModules || header.module == i)
+          this->present(modules_[i], static_cast<int>(i), present.displayFrame, now);
+      }
+      if (onShown_) onShown_();
+      return action;  // not answered: a Present costs the link one small packet
+    }
     case PacketType::kDeviceInfo:
     case PacketType::kAck:
     case PacketType::kCaptureReply:
@@ -262,7 +299,7 @@ SimAction SimulatedHardware::frameBegin(Module& m, const PacketHeader& header,
   u.chunks = 0;
   u.outOfOrder = false;
   u.runningCrc = 0;
-  u.buffer.resize(begin.totalSize);
+  if ((begin.flags & kFrameReuse) == 0) u.buffer.resize(begin.totalSize);
   return action;
 }
 
@@ -343,9 +380,12 @@ void SimulatedHardware::frameEnd(Module& m, const PacketHeader& header,
   }
   u.active = false;
   AckStatus status = AckStatus::kOk;
-  // Every byte came exactly once, in order, in a verified chunk; the end-to-end CRC then
-  // checks the frame against what the host declared.
-  if (u.damaged) {
+  if ((u.begin.flags & kFrameReuse) != 0) {
+    // No bytes came: the frame is the one shown, if the module still shows that content.
+    if (m.shown.empty() || m.shownHash != u.begin.contentHash) status = AckStatus::kMissingChunks;
+  } else if (u.damaged) {
+    // Every byte came exactly once, in order, in a verified chunk; the end-to-end CRC then
+    // checks the frame against what the host declared.
     status = AckStatus::kCrcMismatch;
   } else if (u.outOfOrder || u.covered != u.begin.totalSize || u.chunks != u.begin.chunkCount) {
     status = AckStatus::kMissingChunks;
@@ -353,23 +393,74 @@ void SimulatedHardware::frameEnd(Module& m, const PacketHeader& header,
     status = AckStatus::kCrcMismatch;
   }
   const uint32_t detail = static_cast<uint32_t>(std::min<uint64_t>(u.covered, 0xFFFFFFFFu));
-  if (status == AckStatus::kOk) {
+  const bool stalls = m.faults.stallFrames > 0 && m.faults.stallAfter == 0;
+  if (m.faults.stallFrames > 0 && m.faults.stallAfter > 0) --m.faults.stallAfter;
+  if (stalls) {  // the device hangs: no ack ever comes for this frame
+    --m.faults.stallFrames;
+    ++m.counters.acksStalled;
+  }
+  if (status != AckStatus::kOk) {
+    ++m.counters.framesRejected;
+  } else if (!(stalls && u.begin.displayFrame != 0)) {  // a hung module holds nothing either
+    complete(m, u);
+  }
+  if (!stalls) ack(header.module, header.sequence, status, detail, replies);
+}
+
+void SimulatedHardware::complete(Module& m, Upload& u) {
+  const bool reuse = (u.begin.flags & kFrameReuse) != 0;
+  if (u.begin.displayFrame == 0) {
+    // Outside the swap lock: shown at once, as the display frame this module last presented.
     m.shown.width = static_cast<int>(u.begin.width);
     m.shown.height = static_cast<int>(u.begin.height);
     m.shown.format = u.begin.format;
     std::swap(m.shown.pixels, u.buffer);
     m.shownHash = u.begin.contentHash;
+    m.shownFrame = m.presented;
     ++m.counters.framesShown;
     if (onShown_) onShown_();
-  } else {
-    ++m.counters.framesRejected;
-  }
-  if (m.faults.stallFrames > 0) {  // the device hangs: no ack ever comes for this frame
-    --m.faults.stallFrames;
-    ++m.counters.acksStalled;
     return;
   }
-  ack(header.module, header.sequence, status, detail, replies);
+  if (u.begin.displayFrame <= m.presented) {  // its Present has passed: never shown
+    ++m.counters.framesLate;
+    return;
+  }
+  m.ready.displayFrame = u.begin.displayFrame;
+  m.ready.reuse = reuse;
+  m.ready.begin = u.begin;
+  if (!reuse) std::swap(m.ready.pixels, u.buffer);
+}
+
+void SimulatedHardware::present(Module& m, int index, uint32_t displayFrame, int64_t nowNs) {
+  if (displayFrame <= m.presented) return;  // a repeated or older Present changes nothing
+  m.presented = displayFrame;
+  bool switched = false;
+  if (m.ready.displayFrame == displayFrame) {
+    if (!m.ready.reuse) {
+      m.shown.width = static_cast<int>(m.ready.begin.width);
+      m.shown.height = static_cast<int>(m.ready.begin.height);
+      m.shown.format = m.ready.begin.format;
+      std::swap(m.shown.pixels, m.ready.pixels);
+      m.shownHash = m.ready.begin.contentHash;
+      ++m.counters.framesShown;  // new content (a reused frame is the one already counted)
+    }
+    m.shownFrame = displayFrame;
+    switched = true;
+  } else {
+    ++m.counters.presentsMissed;
+    // Lagging one display frame is allowed; two would show the viewer moments further apart
+    // than a frame, so the module goes dark until its next frame is presented.
+    if (m.shownFrame != 0 && m.shownFrame + 1 < displayFrame) {
+      std::fill(m.shown.pixels.begin(), m.shown.pixels.end(), uint8_t{0});
+      m.shownHash = 0;
+      m.shownFrame = 0;
+      ++m.counters.blanked;
+      switched = true;
+    }
+  }
+  m.ready.displayFrame = 0;  // a held frame older than this Present is never shown
+  presents_.push_back({displayFrame, index, m.shownFrame, switched, nowNs});
+  if (presents_.size() > kPresentRecords) presents_.pop_front();
 }
 
 ProtocolError SimulatedHardware::capture(const PacketHeader& header,

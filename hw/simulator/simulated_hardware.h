@@ -5,9 +5,12 @@
 //
 // Each module double-buffers: chunks land in a receive buffer and only a frame whose every
 // chunk CRC and whole-frame CRC verified replaces the shown frame, so a damaged upload never
-// shows and never goes unreported.
+// shows and never goes unreported. A frame of a display frame (FrameBegin.displayFrame > 0) is
+// held, complete and acknowledged, until Present(displayFrame) swaps it in (the swap lock;
+// PROTOCOL.md, "Presentation"). Every present is recorded (presents()).
 
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <span>
@@ -36,6 +39,7 @@ struct ArmedFaults {
   uint32_t dropChunks = 0;
   uint32_t flipChunks = 0;
   uint32_t stallFrames = 0;
+  uint32_t stallAfter = 0;  // frames acknowledged normally before the stall starts
   uint32_t slowChunks = 0;
   uint32_t slowMicroseconds = 0;
   uint32_t disconnects = 0;  // fire at the module's next FrameBegin
@@ -47,6 +51,19 @@ struct ModuleCounters {
   uint64_t framesRejected = 0;  // negatively acknowledged
   uint64_t chunksDropped = 0, bytesFlipped = 0, acksStalled = 0;
   uint64_t bytesReceived = 0;
+  uint64_t framesLate = 0;      // complete only after their Present: never shown
+  uint64_t presentsMissed = 0;  // a Present came without this module's frame
+  uint64_t blanked = 0;         // went dark rather than lag two display frames
+};
+
+// What one module shows after one Present: the swap lock's record (the tests read it, and
+// parallax-simhw --dump writes it as presents.tsv).
+struct PresentRecord {
+  uint32_t displayFrame = 0;  // the Present's
+  int module = 0;
+  uint32_t shows = 0;     // the display frame it shows after it (0: dark)
+  bool switched = false;  // it swapped a new frame in (or went dark) at this Present
+  int64_t atNs = 0;       // CLOCK_MONOTONIC (same clock in every process of the machine)
 };
 
 // What the connection must do after a packet.
@@ -88,6 +105,14 @@ class SimulatedHardware {
   const Image& shownFrame(int module) const;
   uint64_t shownContentHash(int module) const;
   const ModuleCounters& counters(int module) const;
+  // The display frame `module` shows (0: none, dark, or a frame shown outside the swap lock
+  // before any Present).
+  uint32_t shownDisplayFrame(int module) const;
+  // The latest presents, oldest first (bounded: the last kPresentRecords).
+  const std::deque<PresentRecord>& presents() const { return presents_; }
+  static constexpr size_t kPresentRecords = 1 << 16;
+  // Writes presents() as a tab-separated table with a header line.
+  void writePresents(const std::string& path) const;
   DisplayMode mode() const { return mode_; }
   const CameraSettings& cameraSettings() const { return camera_; }
   const SimulatedHardwareOptions& options() const { return options_; }
@@ -106,10 +131,20 @@ class SimulatedHardware {
     uint32_t chunks = 0;
     std::vector<uint8_t> buffer;
   };
+  // A complete frame waiting for its Present.
+  struct Ready {
+    uint32_t displayFrame = 0;  // 0: none
+    bool reuse = false;         // the frame shown now, acknowledged for another display frame
+    FrameBegin begin;
+    std::vector<uint8_t> pixels;
+  };
   struct Module {
     std::string serial;
     Image shown;
     uint64_t shownHash = 0;
+    uint32_t shownFrame = 0;  // display frame shown (0: none or dark)
+    uint32_t presented = 0;   // the last Present this module saw
+    Ready ready;
     Upload upload;
     ArmedFaults faults;
     ModuleCounters counters;
@@ -122,6 +157,9 @@ class SimulatedHardware {
   SimAction frameBegin(Module& m, const PacketHeader& header, std::span<const uint8_t> payload,
                        std::vector<uint8_t>* replies);
   void frameEnd(Module& m, const PacketHeader& header, std::vector<uint8_t>* replies);
+  // Puts a verified upload on screen now (displayFrame 0) or holds it for its Present.
+  void complete(Module& m, Upload& u);
+  void present(Module& m, int index, uint32_t displayFrame, int64_t nowNs);
   ProtocolError capture(const PacketHeader& header, std::span<const uint8_t> payload,
                         std::vector<uint8_t>* replies);
 
@@ -131,6 +169,7 @@ class SimulatedHardware {
   CameraSettings camera_;
   DisplayMode mode_ = DisplayMode::kPlayback;
   std::function<void()> onShown_;
+  std::deque<PresentRecord> presents_;
 };
 
 }  // namespace parallax::hw

@@ -24,6 +24,7 @@ void decodeBody(PacketType type, std::span<const uint8_t> body) {
   Fault fault;
   ErrorBody error;
   DisplayMode mode;
+  Present present;
   uint32_t sequence, offset;
   switch (type) {
     case PacketType::kDeviceInfo:
@@ -52,6 +53,9 @@ void decodeBody(PacketType type, std::span<const uint8_t> body) {
       break;
     case PacketType::kFrameChunk:
       decodeChunkPrefix(body, &sequence, &offset);
+      break;
+    case PacketType::kPresent:
+      decodePresent(body, &present);
       break;
     default:
       break;

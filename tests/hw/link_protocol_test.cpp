@@ -49,7 +49,7 @@ TEST(LinkProtocol, EachDamageHasItsOwnError) {
   EXPECT_EQ(decodeHeader(p, &h), ProtocolError::kBadMagic);
 
   p = ackPacket();
-  p[4] = 2;  // version 2
+  p[4] = 1;  // version 1: no swap lock
   resealHeader(p);
   EXPECT_EQ(decodeHeader(p, &h), ProtocolError::kBadVersion);
 

@@ -91,6 +91,10 @@ TEST(ProtocolRejection, DeviceNamesEachProblem) {
   p[4] = 7;
   reseal(p);
   EXPECT_EQ(deviceVerdict(p), ProtocolError::kBadVersion);
+  p = setMode();
+  p[4] = 1;  // a version 1 host (no swap lock)
+  reseal(p);
+  EXPECT_EQ(deviceVerdict(p), ProtocolError::kBadVersion);
 
   p = setMode();
   p[12] ^= 0x40;
@@ -158,7 +162,7 @@ TEST(ProtocolRejection, HostNamesEachProblem) {
   p[2] = 'Q';
   EXPECT_EQ(hostVerdict(p), ProtocolError::kBadMagic);
   p = good;
-  p[4] = 2;
+  p[4] = 1;  // a version 1 device (no swap lock)
   reseal(p);
   EXPECT_EQ(hostVerdict(p), ProtocolError::kBadVersion);
   p = good;

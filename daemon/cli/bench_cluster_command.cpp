@@ -119,11 +119,8 @@ RunFigures runJob(int ranks, const std::string& displayKeys, int modules,
   fs::remove_all(work);
   fs::create_directories(work);
   const std::string socket = (work / "ctl.sock").string();
-  const std::string script =
-      args.scene.ends_with(".lua") ? fs::absolute(args.scene).string() : args.scene;
-  const char* home = std::getenv("HOME");
-  const std::string cache =
-      home ? std::string(home) + "/.cache/parallax" : (work / "cache").string();
+  const std::string script = sceneForConfig(args.scene);
+  const std::string cache = benchCacheDir(work.string());
   {
     std::ofstream config(work / "parallax.toml");
     config << fmt::format(

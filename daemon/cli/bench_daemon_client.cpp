@@ -51,6 +51,15 @@ double windowMeanMs(const nlohmann::json& before, const nlohmann::json& after) {
   return n > 0 ? total / n : 0.0;
 }
 
+std::string sceneForConfig(const std::string& scene) {
+  return scene.ends_with(".lua") ? std::filesystem::absolute(scene).string() : scene;
+}
+
+std::string benchCacheDir(const std::string& work) {
+  const char* home = std::getenv("HOME");
+  return home ? std::string(home) + "/.cache/parallax" : work + "/cache";
+}
+
 std::string loadAverage() {
   std::ifstream load("/proc/loadavg");
   std::string line;

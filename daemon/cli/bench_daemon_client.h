@@ -20,6 +20,12 @@ nlohmann::json waitForStats(const std::string& socket,
                             const char* what, int timeoutSeconds);
 // Mean of a StageTiming (loop_stats.h: count, mean_ms) over the frames between two replies.
 double windowMeanMs(const nlohmann::json& before, const nlohmann::json& after);
+// The scene as the daemon's config names it: a library name, or a .lua file by its absolute path
+// (the config lives elsewhere).
+std::string sceneForConfig(const std::string& scene);
+// The ray-texture cache the benches share per user (~/.cache/parallax; else under `work`), so
+// that a second run does not time their generation.
+std::string benchCacheDir(const std::string& work);
 // /proc/loadavg's line, for the benchmark's header.
 std::string loadAverage();
 

@@ -145,13 +145,8 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
       fs::temp_directory_path() / fmt::format("parallax-bench-daemon-{}", ::getpid());
   fs::create_directories(work);
   const std::string socket = (work / "ctl.sock").string();
-  // A script file is named to the daemon by its absolute path (its config lives elsewhere).
-  const std::string script =
-      args.scene.ends_with(".lua") ? fs::absolute(args.scene).string() : args.scene;
-  // The ray textures are cached per user: a second run of the bench does not time their generation.
-  const char* home = std::getenv("HOME");
-  const std::string cache =
-      home ? std::string(home) + "/.cache/parallax" : (work / "cache").string();
+  const std::string script = sceneForConfig(args.scene);
+  const std::string cache = benchCacheDir(work.string());
   {
     std::ofstream config(work / "parallax.toml");
     config << fmt::format(

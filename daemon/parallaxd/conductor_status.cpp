@@ -1,3 +1,5 @@
+#include <fmt/format.h>
+
 #include "common/process_cpu_time.h"
 #include "daemon/parallaxd/conductor.h"
 
@@ -42,7 +44,19 @@ nlohmann::json Conductor::statusJson() const {
         {"error", link_ || !linkError_.empty() ? linkError_ : "not connected"}}},
       {"fps", options_.config.scene.fps}};
   if (!options_.simulatorFolder.empty()) j["simulated_display"] = options_.simulatorFolder;
-  if (clustered()) j["cluster"] = clusterJson();
+  if (clustered()) {
+    j["cluster"] = clusterJson();
+    // The display's link is up only when every rank's is: name the ranks whose link is not.
+    nlohmann::json down = nlohmann::json::array();
+    for (const nlohmann::json& r : rankReports_) {
+      const std::string health = r.at("link").at("health").get<std::string>();
+      if (health == linkHealthName(LinkHealth::kUp)) continue;
+      down.push_back(fmt::format("{}: link {} ({})", ownership_.describe(r.at("rank").get<int>()),
+                                 health, r.at("link").value("error", std::string())));
+    }
+    if (!down.empty()) j["link"]["up"] = false;
+    j["link"]["ranks_down"] = down;
+  }
   if (!s.lastError.empty()) j["last_error"] = {{"stage", s.lastErrorStage}, {"error", s.lastError}};
   if (script_) {
     j["scene"] = {{"name", sceneArgument_},

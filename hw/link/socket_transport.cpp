@@ -12,6 +12,9 @@
 #include <cstring>
 
 namespace parallax::hw {
+namespace {
+constexpr int kConnectTimeoutMs = 1000;
+}  // namespace
 
 void tuneLinkSocket(int fd, int sendTimeoutMs) {
   // 4 MiB each way holds a whole 1024x768 RGB8 frame; the kernel may clamp it to
@@ -56,8 +59,19 @@ TransportStatus SocketTransport::open(std::string* error) {
     *error = fmt::format("socket(): {}", std::strerror(errno));
     return TransportStatus::kUnavailable;
   }
+  // A simulator that hangs (stopped, or stuck) stops accepting: once its listen backlog is full
+  // a blocking connect() would wait forever. Linux bounds a Unix socket's connect() by the send
+  // timeout, so connect with a short one (a local peer answers at once or is hung).
+  timeval connectTimeout{kConnectTimeoutMs / 1000, (kConnectTimeoutMs % 1000) * 1000};
+  setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &connectTimeout, sizeof connectTimeout);
   if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
-    *error = fmt::format("cannot connect to parallax-simhw at {}: {}", path_, std::strerror(errno));
+    const bool hung = errno == EAGAIN || errno == EWOULDBLOCK;
+    *error = hung ? fmt::format(
+                        "parallax-simhw at {} does not accept connections within {} ms "
+                        "(it hangs)",
+                        path_, kConnectTimeoutMs)
+                  : fmt::format("cannot connect to parallax-simhw at {}: {}", path_,
+                                std::strerror(errno));
     ::close(fd);
     return TransportStatus::kUnavailable;
   }

@@ -5,6 +5,7 @@
 // modules. Run as root in CI: the launcher's run-as-root switches are set here, and
 // --oversubscribe lets 3 ranks share 2 cores.
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <signal.h>
 
@@ -215,6 +216,47 @@ TEST_F(ClusterTest, AHungRankEndsTheJobNamedWithItsModules) {
   EXPECT_NE(log.find("cluster: " + named + " did not answer (no answer within 3000 ms)"),
             std::string::npos)
       << log;
+}
+
+// A rank whose link goes down (its simulator stops answering) is named in `status`, and the
+// display's link is not "up" meanwhile; when the simulator answers again, so is the link.
+TEST_F(ClusterTest, ARankWhoseLinkIsDownIsNamedInStatus) {
+  // A hung device costs its rank the link's whole reconnect budget (about 6 unanswered Hellos
+  // of 2 s) inside one turn, while the others wait: the job must not end for that.
+  auto daemon = start(2, "orbit", "linkdown", 60000, "modules = 4\nresolution = [48, 36]\n");
+  waitForFrames(3, *daemon);
+  const json before = ask(socket_, {{"request", "status"}});
+  ASSERT_TRUE(before["link"]["up"].get<bool>()) << before;
+  EXPECT_TRUE(before["link"]["ranks_down"].empty()) << before;
+  // Rank 1's own simulator is its child (parallaxd starts it).
+  const pid_t rank1 = before["cluster"]["rank"][1]["pid"].get<pid_t>();
+  pid_t simulator = -1;
+  std::ifstream(fmt::format("/proc/{}/task/{}/children", rank1, rank1)) >> simulator;
+  ASSERT_GT(simulator, 0);
+  ASSERT_EQ(::kill(simulator, SIGSTOP), 0);
+  json status;
+  bool named = false;
+  for (int i = 0; i < 1200 && !named; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    status = ask(socket_, {{"request", "status"}});
+    named = status.is_object() && !status["link"]["ranks_down"].empty();
+  }
+  ::kill(simulator, SIGCONT);
+  ASSERT_TRUE(named) << "rank 1's link never reported down: " << status << "\n" << daemon->log();
+  EXPECT_FALSE(status["link"]["up"].get<bool>()) << status;
+  const std::string down = status["link"]["ranks_down"][0].get<std::string>();
+  EXPECT_EQ(down.rfind("rank 1 (modules 2-3): link ", 0), 0u) << down;
+  bool back = false;
+  for (int i = 0; i < 1200 && !back; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    status = ask(socket_, {{"request", "status"}});
+    back = status.is_object() && status["link"]["ranks_down"].empty() &&
+           status["link"]["up"].get<bool>();
+  }
+  EXPECT_TRUE(back) << "rank 1's link did not come back: " << status;
+  const json r = ask(socket_, {{"request", "shutdown"}});
+  EXPECT_TRUE(r.value("ok", false)) << r;
+  daemon->waitExit(30000);
 }
 
 // One row of a simulator's presents.tsv (hw/simulator/simulated_hardware.h, PresentRecord).

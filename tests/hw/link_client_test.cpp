@@ -28,16 +28,7 @@ SimulatedHardwareOptions smallDisplay(int modules = 4) {
   return o;
 }
 
-LinkOptions fastOptions() {
-  LinkOptions o;
-  o.chunkSize = 4096;
-  o.ackTimeoutMs = 400;  // a stall costs one; far above a frame's time even when loaded
-  o.maxRetries = 3;
-  o.reconnectAttempts = 3;
-  o.reconnectDelayMs = 10;
-  o.linkDownRetryMs = 0;  // tests restart the simulator right away
-  return o;
-}
+LinkOptions fastOptions() { return fastLinkOptions(); }
 
 std::shared_ptr<const Image> makeFrame(uint32_t seed) { return randomFrame(kWidth, kHeight, seed); }
 

@@ -13,10 +13,24 @@
 #include <string>
 #include <thread>
 
+#include "hw/link/link_client.h"
 #include "hw/simulator/simhw_server.h"
 #include "hw/simulator/simulated_hardware.h"
 
 namespace parallax::hw {
+
+// Link options for tests: 4 KiB chunks, a short ack timeout (a stall costs one; still far above
+// a small frame's round trip on a loaded machine), quick reconnects.
+inline LinkOptions fastLinkOptions() {
+  LinkOptions o;
+  o.chunkSize = 4096;
+  o.ackTimeoutMs = 400;
+  o.maxRetries = 3;
+  o.reconnectAttempts = 3;
+  o.reconnectDelayMs = 10;
+  o.linkDownRetryMs = 0;  // tests restart the simulator right away
+  return o;
+}
 
 class InProcessSimhw {
  public:

@@ -35,14 +35,8 @@ SimulatedHardwareOptions threeModules() {
   return o;
 }
 
-LinkOptions fastOptions() {
-  LinkOptions o;
-  o.chunkSize = 4096;
-  o.ackTimeoutMs = 400;  // a stalled frame is given up (superseded) after this
-  o.reconnectAttempts = 3;
-  o.reconnectDelayMs = 10;
-  return o;
-}
+// A stalled frame is given up (superseded) after the ack timeout, 400 ms.
+LinkOptions fastOptions() { return fastLinkOptions(); }
 
 // One display frame: every module's frame submitted for `n`, the late ones awaited until the
 // deadline, then presented.

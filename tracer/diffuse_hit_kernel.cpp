@@ -44,13 +44,15 @@ bool ShadeDiffusePacket(const RTCRayHit16& packet, const PhysicalMesh& mesh,
         hn::Mul(hn::GatherIndex(di, triangles, hn::Add(prim3, hn::Set(di, 1))), three);
     const auto vertex2 =
         hn::Mul(hn::GatherIndex(di, triangles, hn::Add(prim3, hn::Set(di, 2))), three);
-    for (int c = 0; c < 3; ++c) {
+    // Coordinate c of a per-vertex attribute (3 floats a vertex) at the hit: w a0 + u a1 + v a2.
+    const auto interpolate = [&](const float* attribute, int c) {
       const auto offset = hn::Set(di, c);
-      const V p0 = hn::GatherIndex(d, positions, hn::Add(vertex0, offset));
-      const V p1 = hn::GatherIndex(d, positions, hn::Add(vertex1, offset));
-      const V p2 = hn::GatherIndex(d, positions, hn::Add(vertex2, offset));
-      position[c] = hn::Add(hn::Add(hn::Mul(w, p0), hn::Mul(u, p1)), hn::Mul(v, p2));
-    }
+      const V a0 = hn::GatherIndex(d, attribute, hn::Add(vertex0, offset));
+      const V a1 = hn::GatherIndex(d, attribute, hn::Add(vertex1, offset));
+      const V a2 = hn::GatherIndex(d, attribute, hn::Add(vertex2, offset));
+      return hn::Add(hn::Add(hn::Mul(w, a0), hn::Mul(u, a1)), hn::Mul(v, a2));
+    };
+    for (int c = 0; c < 3; ++c) position[c] = interpolate(positions, c);
     // The face normal, turned toward the incoming ray.
     const V dx = hn::LoadU(d, packet.ray.dir_x + j), dy = hn::LoadU(d, packet.ray.dir_y + j),
             dz = hn::LoadU(d, packet.ray.dir_z + j);
@@ -64,13 +66,7 @@ bool ShadeDiffusePacket(const RTCRayHit16& packet, const PhysicalMesh& mesh,
     V shading[3] = {normal[0], normal[1], normal[2]};
     if (vertexNormals) {
       V interpolated[3];
-      for (int c = 0; c < 3; ++c) {
-        const auto offset = hn::Set(di, c);
-        const V n0 = hn::GatherIndex(d, vertexNormals, hn::Add(vertex0, offset));
-        const V n1 = hn::GatherIndex(d, vertexNormals, hn::Add(vertex1, offset));
-        const V n2 = hn::GatherIndex(d, vertexNormals, hn::Add(vertex2, offset));
-        interpolated[c] = hn::Add(hn::Add(hn::Mul(w, n0), hn::Mul(u, n1)), hn::Mul(v, n2));
-      }
+      for (int c = 0; c < 3; ++c) interpolated[c] = interpolate(vertexNormals, c);
       const V length = hn::Sqrt(Dot3(interpolated[0], interpolated[1], interpolated[2],
                                      interpolated[0], interpolated[1], interpolated[2]));
       const auto usable = hn::And(hn::Gt(length, zero), hn::IsFinite(length));

@@ -276,7 +276,7 @@ std::string writeReport(const ReportOptions& options) {
   writeCaptureSection(report);
   writePhotometrySection(report);
   writeFrameCacheSection(report);
-  writeAbsentSections(report);
+  writeClusterSection(report);
   report.finish();
   return report.path("report.md");
 }

@@ -82,7 +82,7 @@ void writeCalibrationSection(Report& report);
 void writeCaptureSection(Report& report);
 void writePhotometrySection(Report& report);
 void writeFrameCacheSection(Report& report);
-void writeAbsentSections(Report& report);
+void writeClusterSection(Report& report);
 
 // Runs every section; returns report.md's path.
 std::string writeReport(const ReportOptions& options);

@@ -3,7 +3,7 @@
 # finite numbers, no part column above its whole; every plot as SVG with a PNG twin of its size
 # and no text outside its canvas (from the boxes the writer computed); the HTML well formed
 # (xmllint, XML rules: the writer emits polyglot HTML) and referring only to files that exist;
-# the provenance once in report.md; the Fig. 6 images.
+# the provenance once in report.md; the Fig. 6 images; the cluster's measured and modelled tables.
 cmake_minimum_required(VERSION 3.20)  # lists keep empty fields (CMP0007): empty CSV cells
 file(REMOVE_RECURSE ${OUT})
 execute_process(COMMAND ${PARALLAX} report --quick --out ${OUT} RESULT_VARIABLE status
@@ -38,7 +38,7 @@ endif()
 set(parts 0)
 foreach(table error_vs_time fig6_xyz_difference antialiasing ray_texture_precision transfer_linear_vs_conical
               tracer_vs_embree calibration_iterations calibration_stations calibration_capture photometry_levels
-              photometry_gain_map)
+              photometry_gain_map cluster cluster_model)
   set(csv ${OUT}/${table}.csv)
   if(NOT EXISTS ${csv})
     message(FATAL_ERROR "missing table ${csv}")

@@ -93,10 +93,7 @@ void runBenchCluster(const BenchClusterArgs& args) {
 
   // The sync overhead alone: one tiny module a rank, nothing to render or push.
   const int most = *std::max_element(rankCounts.begin(), rankCounts.end());
-  ClusterJobOptions syncJob = jobOptions(args, most);
-  syncJob.fps = 240.0;
-  syncJob.modules = most;
-  syncJob.displayKeys = fmt::format("modules = {}\nresolution = [16, 12]\n", most);
+  const ClusterJobOptions syncJob = syncOnlyJob(most, args.seconds, args.scene);
   std::cout << fmt::format("sync overhead alone ({} ranks, one 16x12 module each, {} at {} fps):\n",
                            most, args.scene, syncJob.fps);
   const ClusterJobFigures sync = runClusterJob(syncJob);

@@ -181,6 +181,17 @@ ClusterJobFigures runClusterJob(const ClusterJobOptions& args) {
   return f;
 }
 
+ClusterJobOptions syncOnlyJob(int ranks, double seconds, const std::string& scene) {
+  ClusterJobOptions job;
+  job.ranks = ranks;
+  job.modules = ranks;
+  job.displayKeys = fmt::format("modules = {}\nresolution = [16, 12]\n", ranks);
+  job.seconds = seconds;
+  job.scene = scene;
+  job.fps = 240.0;
+  return job;
+}
+
 double quantileMs(std::vector<double> ms, double q) {
   if (ms.empty()) return std::numeric_limits<double>::quiet_NaN();
   std::sort(ms.begin(), ms.end());

@@ -22,6 +22,10 @@ struct ClusterJobOptions {
   double fps = 30.0;
 };
 
+// The exchanges alone: `ranks` ranks of one 16x12 module each at 240 fps, where rendering and
+// pushing cost nothing.
+ClusterJobOptions syncOnlyJob(int ranks, double seconds, const std::string& scene);
+
 // What one job measured, per display frame (ms) unless said otherwise.
 struct ClusterJobFigures {
   int ranks = 0;

@@ -54,15 +54,7 @@ void writeClusterSection(Report& report) {
       runs.push_back(cli::runClusterJob(job));
       progress.advance();
     }
-    // The exchanges alone: one tiny module a rank, nothing to render or push.
-    cli::ClusterJobOptions job;
-    job.ranks = rankCounts.back();
-    job.modules = job.ranks;
-    job.displayKeys = fmt::format("modules = {}\nresolution = [16, 12]\n", job.ranks);
-    job.seconds = seconds;
-    job.scene = kScene;
-    job.fps = 240.0;
-    syncOnly = cli::runClusterJob(job);
+    syncOnly = cli::runClusterJob(cli::syncOnlyJob(rankCounts.back(), seconds, kScene));
     progress.advance();
   } catch (const std::exception& e) {
     progress.finish();

@@ -78,12 +78,28 @@ void assignStripes(SyncGeometry* g) {
     kept.pxPerRow.push_back(g->pxPerRow[i]);
     kept.patternPx.push_back(g->patternPx[i]);
   }
+  kept.black = g->black;
   *g = std::move(kept);
 }
 
 int stripeCount(const SyncGeometry& g) { return g.stripe.empty() ? 0 : g.stripe.back() + 1; }
 
 }  // namespace
+
+double pictureBlack(const cv::Mat& linear) {
+  // Every other pixel of every other row: the percentile of a quarter of the picture is the
+  // picture's, at a quarter of the cost.
+  std::vector<float> samples;
+  samples.reserve(static_cast<size_t>((linear.rows + 1) / 2) * ((linear.cols + 1) / 2));
+  for (int y = 0; y < linear.rows; y += 2) {
+    const float* row = linear.ptr<float>(y);
+    for (int x = 0; x < linear.cols; x += 2) samples.push_back(row[x]);
+  }
+  if (samples.empty()) return 0.0;
+  const auto at = samples.begin() + static_cast<long>(samples.size() / 50);
+  std::nth_element(samples.begin(), at, samples.end());
+  return std::max(0.0f, *at);
+}
 
 std::optional<SyncCodeLayout> syncLayoutFor(const DisplayModel& nominal, std::string* why) {
   const int height = nominal.modules.front().height;
@@ -186,6 +202,7 @@ std::optional<SyncGeometry> syncGeometryFromWhite(const cv::Mat& linear,
     return std::nullopt;
   }
   SyncGeometry g;
+  g.black = static_cast<float>(pictureBlack(linear));
   int considered = 0, lit = 0, wrongBand = 0;
   const int columns = std::min(linear.cols, static_cast<int>(prediction.pxPerRow.size()));
   for (int x = 1; x + 1 < columns; ++x) {
@@ -225,9 +242,13 @@ std::optional<SyncGeometry> syncGeometryFromWhite(const cv::Mat& linear,
     bool dark = true;
     for (int c = 0; c < layout.codeCells(); ++c) {
       const auto [y0, y1] = cellRange(one, 0, layout, c);
-      if (columnMean(linear, x, y0, y1) > 0.3 * white) dark = false;
+      if (columnMean(linear, x, y0, y1) - g.black > 0.3 * (white - g.black)) dark = false;
     }
     if (!dark) {
+      ++lit;
+      continue;
+    }
+    if (!(white > g.black)) {
       ++lit;
       continue;
     }
@@ -307,6 +328,9 @@ SyncReading readSyncCode(const cv::Mat& linear, const SyncGeometry& geometry,
   // Per column: its code; kMixed where the cells are lit alike (two modules' bands meet there),
   // kDark where none is lit (a module still on a frame whose band is dark).
   constexpr int kMixed = -1, kDark = -2;
+  // Cells and the white are judged above each picture's own dark level (an automatic
+  // exposure moves it from picture to picture).
+  const double black = pictureBlack(linear);
   std::vector<int> read(geometry.columns.size(), kMixed);
   int readable = 0;
   std::vector<double> contrasts;
@@ -317,19 +341,20 @@ SyncReading readSyncCode(const cv::Mat& linear, const SyncGeometry& geometry,
     for (int b = 0; b < SyncCodeLayout::kBits; ++b) {
       const auto [a0, a1] = cellRange(geometry, i, layout, 2 * b);
       const auto [b0, b1] = cellRange(geometry, i, layout, 2 * b + 1);
-      const double one = columnMean(linear, geometry.columns[i], a0, a1);
-      const double zero = columnMean(linear, geometry.columns[i], b0, b1);
+      const double one = std::max(0.0, columnMean(linear, geometry.columns[i], a0, a1) - black);
+      const double zero = std::max(0.0, columnMean(linear, geometry.columns[i], b0, b1) - black);
       const double hi = std::max(one, zero), lo = std::min(one, zero);
       // One cell of the pair lit, the other clearly darker: a bit. Both alike: no code here.
       if (!(hi > 0.0) || lo > 0.5 * hi) ok = false;
       if (one > zero) code |= 1 << b;
-      lit += hi;
+      lit += hi + black;
       brightest = std::max(brightest, hi);
       weakest = std::min(weakest, hi > 0.0 ? (hi - lo) / hi : 0.0);
     }
-    if (brightest >= 0.3 * geometry.whiteTop[i]) contrasts.push_back(weakest);
+    const double white = geometry.whiteTop[i] - geometry.black;
+    if (brightest >= 0.3 * white) contrasts.push_back(weakest);
     if (!ok) {
-      if (brightest < 0.3 * geometry.whiteTop[i]) read[i] = kDark;
+      if (brightest < 0.3 * white) read[i] = kDark;
       continue;
     }
     ++readable;
@@ -384,7 +409,7 @@ bool looksBlack(const cv::Mat& linear, const SyncGeometry& geometry, const SyncC
   std::vector<int> lit(static_cast<size_t>(stripeCount(geometry)), 0), size(lit.size(), 0);
   int litColumns = 0;
   for (size_t i = 0; i < geometry.columns.size(); ++i) {
-    const double white = geometry.whiteTop[i];
+    const double white = geometry.whiteTop[i] - geometry.black;
     // The pattern area in eight slices from its top to its bottom, each against the band (dark
     // in the black and the white reference alike, so an automatic exposure's ambient light
     // cancels): a column is lit when most of its pattern area is (a module still on the white

@@ -80,7 +80,15 @@ struct SyncGeometry {
   std::vector<float> whiteTop;   // per column: the white reference near the pattern's top edge
   std::vector<float> pxPerRow;   // per column: camera px per module row
   std::vector<float> patternPx;  // per column: the white pattern area's height
+  float black = 0.0f;            // the white reference's dark level (pictureBlack)
 };
+
+// The dark level of a picture (linear light): its 2nd percentile. Light that reaches the dark
+// parts of the screen as well as the lit ones (a room's lights, the camera's flare and black
+// offset) lifts the band and the patterns' dark parts alike; the sync code's cells are judged
+// above it, or a dim module's flanks read as lit (a photometric truth with modules at 83-92%
+// of full brightness lost a third of its stripes so).
+double pictureBlack(const cv::Mat& linear);
 
 // From a picture that should be a white reference (linear light, CV_32F): the columns whose
 // profile has a long bright run (at least half the predicted pattern area) under a dark band

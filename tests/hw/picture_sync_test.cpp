@@ -267,6 +267,62 @@ TEST(PictureSync, AutoExposureIsRefusedUnlessAllowedThenMeasuredInEachPicture) {
   }
 }
 
+// A camera in a lit room: light that reaches the screen's dark parts as well as its lit ones
+// (the room's lamps, the lens's flare) adds `pedestal` of the full scale, in linear light, to
+// every pixel; the exposure is set so that the modules' white still fits.
+class RoomLitCamera : public Camera {
+ public:
+  RoomLitCamera(Camera& inner, double pedestal, double responseGamma)
+      : inner_(inner), pedestal_(pedestal), gamma_(responseGamma) {}
+  std::string name() const override { return "camera in a lit room"; }
+  CameraLockResult lock(const CameraSettings& settings) override { return inner_.lock(settings); }
+  void unlock() override { inner_.unlock(); }
+  Image capture(std::string* error) override {
+    inner_.setStation(station());
+    Image picture = inner_.capture(error);
+    for (uint8_t& p : picture.pixels) {
+      const double light = pedestal_ + (1.0 - pedestal_) * std::pow(p / 255.0, gamma_);
+      p = static_cast<uint8_t>(std::lround(255.0 * std::pow(light, 1.0 / gamma_)));
+    }
+    return picture;
+  }
+
+ private:
+  Camera& inner_;
+  double pedestal_, gamma_;
+};
+
+// A quarter of the full scale lifts the dark band over 30% of the white in a module's flanks
+// (where its light falls off toward its neighbours'): judged against zero, most columns were
+// "not a white reference" and the session gave up. Judged above the picture's dark level, the
+// capture is the dark room's, less the light the room added.
+TEST(PictureSync, ARoomLitCameraCapturesAsInTheDark) {
+  const SmallSession s = session();
+  const CalibrationCaptures reference = capture(s, 0, false, {}, nullptr);
+  constexpr double kPedestal = 0.25;
+  InProcessSimhw sim(modulesOf(s.truth),
+                     std::make_unique<CalibrationPhysics>(s.truth, s.rig.truth));
+  LinkClient link(std::make_unique<SocketTransport>(sim.path()));
+  SimulatedCamera inner(link);
+  RoomLitCamera camera(inner, kPedestal, s.rig.metadata.responseGamma);
+  CaptureSyncStats stats;
+  const CalibrationCaptures lit =
+      captureCalibration(link, camera, s.nominal, s.rig.metadata, {}, {}, nullptr, &stats);
+  EXPECT_EQ(stats.retaken, 0);
+  ASSERT_EQ(lit.stations.size(), reference.stations.size());
+  for (size_t i = 0; i < lit.stations.size(); ++i) {
+    for (auto [got, want] :
+         {std::pair{&lit.stations[i].columnFrames, &reference.stations[i].columnFrames},
+          std::pair{&lit.stations[i].rowFrames, &reference.stations[i].rowFrames}}) {
+      ASSERT_EQ(got->size(), want->size());
+      for (size_t f = 0; f < want->size(); ++f) {
+        const cv::Mat dark = ((*got)[f] - kPedestal) / (1.0 - kPedestal);
+        EXPECT_LT(meanAbsDifference(dark, (*want)[f]), 0.01) << "set " << i << ", frame " << f;
+      }
+    }
+  }
+}
+
 TEST(CameraName, BadNamesAndSourcesAreOneLineEach) {
   const auto refused = [](const std::string& name) -> std::string {
     try {

@@ -23,9 +23,19 @@ struct CameraResponseCheck {
   // are driven linearly; a display whose modules have a response curve of their own shows less
   // (a γ 2.2 camera over γ 2.2 modules measures about 1), while the lobes need the camera's.
   bool corrected = false;
+  // When corrected: which end of the chain bends the light, told by the lobes (the screen's
+  // diffusion, a Gaussian in angle whose width the nominal states; a power response scales a
+  // Gaussian's width by 1/√exponent): the median fitted lobe σ over the nominal's, in the
+  // pictures as recorded and re-linearized. When the recorded lobes are the nearer, the camera
+  // is linear under the assumed γ and the modules' own response bends the patterns: only the
+  // patterns are linearized with the measured γ; lobes and fiducials are used as recorded.
+  bool modulesBend = false;
+  double lobeWidthRecorded = 0.0, lobeWidthRelinearized = 0.0;  // ratios to the nominal's
 
-  // The γ every decoded quantity used.
+  // The γ the patterns were decoded with (the whole chain's).
   double usedGamma() const { return corrected ? measuredGamma : assumedGamma; }
+  // The γ the lobes and fiducials were found with (the camera's).
+  double cameraGamma() const { return corrected && !modulesBend ? measuredGamma : assumedGamma; }
 };
 
 // "camera response: γ 2.200 ± 0.0040 measured from 18000 phase pixels; camera.json gives none:
@@ -41,8 +51,18 @@ inline std::string describeCameraResponse(const CameraResponseCheck& check) {
         "camera response: γ {:.3f} ± {:.4f} measured from {} phase pixels; camera.json gives "
         "none{}",
         check.measuredGamma, check.sigma, check.pixels,
-        check.corrected ? ": the pictures were re-linearized with the measured γ"
-                        : " and the pictures are linear: used as they are");
+        !check.corrected                   ? " and the pictures are linear: used as they are"
+        : !(check.lobeWidthRecorded > 0.0) ? ": the pictures were re-linearized with the measured γ"
+        : check.modulesBend
+            ? fmt::format(
+                  ": the lobes are the screen's width as recorded (median σ {:.2f}× the "
+                  "nominal's; {:.2f}× re-linearized), so the modules' own response bends the "
+                  "patterns: the patterns were linearized with it, the lobes used as recorded",
+                  check.lobeWidthRecorded, check.lobeWidthRelinearized)
+            : fmt::format(
+                  ": the pictures were re-linearized with the measured γ (the lobes then are "
+                  "{:.2f}× the nominal's width, {:.2f}× as recorded)",
+                  check.lobeWidthRelinearized, check.lobeWidthRecorded));
   return fmt::format(
       "camera response: γ {:.3f} ± {:.4f} measured from {} phase pixels; camera.json states "
       "{:.2f}{}",

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
@@ -11,6 +12,7 @@
 #include "calibration/capture/camera_picture.h"
 #include "calibration/capture/camera_response.h"
 #include "calibration/capture/fiducial_detector.h"
+#include "calibration/display/conventions.h"
 #include "calibration/display/json_fields.h"
 #include "calibration/display/json_file.h"
 #include "common/atomic_file.h"
@@ -126,6 +128,46 @@ void requireKnownIntrinsics(const CameraMetadata& camera, const std::string& fil
           purpose));
 }
 
+namespace {
+
+double medianOf(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+// The phase pictures measured a response the camera.json did not state: the camera's, or the
+// modules' own (a projector driven without linearization), which the phase alone cannot tell
+// apart. The lobes can: they are the screen's diffusion, lit by a white module (whatever its
+// response), so only the camera's response changes their width. The first picture set's lobes
+// are fitted both ways; the width nearer the nominal's diffusion says which.
+template <typename Linear>
+void decideWhichEndBends(const CalibrationCaptures& captures, const DisplayModel& nominal,
+                         const CaptureDecoderOptions& decoder, const Linear& linear,
+                         CameraResponseCheck* response) {
+  const StationCaptures& s = captures.stations.front();
+  CaptureDecoderOptions probe = decoder;
+  probe.pixelStep = std::max(decoder.pixelStep, 4);  // a lobe width needs few rows
+  probe.onPictureSet = nullptr;
+  const StripeReferences recorded{s.columnFrames[0], s.columnFrames[1],
+                                  clippedLinear(response->assumedGamma)};
+  const auto medianWidth = [&](const StripeReferences* references) {
+    CalibrationObservations scratch = observationsFrame(captures.camera);
+    std::vector<double> widths;
+    decodeStation(linear(s.columnFrames), linear(s.rowFrames), s.group, nominal, s.station, probe,
+                  &scratch, nullptr, references, &widths);
+    return medianOf(std::move(widths)) / (radians(nominal.screen.diffusionDeg) / 2.354820045);
+  };
+  response->lobeWidthRecorded = medianWidth(&recorded);
+  response->lobeWidthRelinearized = medianWidth(nullptr);
+  response->modulesBend = std::isfinite(response->lobeWidthRecorded) &&
+                          std::isfinite(response->lobeWidthRelinearized) &&
+                          std::abs(std::log(response->lobeWidthRecorded)) <
+                              std::abs(std::log(response->lobeWidthRelinearized));
+}
+
+}  // namespace
+
 CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
                                        const DisplayModel& nominal,
                                        const CaptureDecoderOptions& options) {
@@ -135,7 +177,7 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
   decoder.patterns = captures.patterns;
   // The response measured (camera_response.h): when camera.json gives none, each set's pictures
   // are re-linearized with the measured one before anything is decoded from them.
-  const CameraResponseCheck response = checkCameraResponse(captures);
+  CameraResponseCheck response = checkCameraResponse(captures);
   const double exponent = response.usedGamma() / response.assumedGamma;
   const auto linear = [&](const std::vector<cv::Mat>& frames) {
     if (!response.corrected) return frames;  // headers only: the pixels are shared
@@ -144,6 +186,12 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
     return out;
   };
   decoder.saturatedLinear = clippedLinear(response.usedGamma());
+  // The lobes and fiducials in the camera's light: as recorded when the modules bend the light.
+  const auto references = [&](const StationCaptures& s) {
+    return StripeReferences{s.columnFrames[0], s.columnFrames[1],
+                            clippedLinear(response.assumedGamma)};
+  };
+  if (response.corrected) decideWhichEndBends(captures, nominal, decoder, linear, &response);
   CalibrationObservations obs = observationsFrame(captures.camera);
   obs.cameraResponse = response;
   // Fiducials first (from each station's first black reference picture): the pose they give
@@ -153,16 +201,17 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
   for (const StationCaptures& s : captures.stations) {
     if (fiducialsDone[static_cast<size_t>(s.station)]) continue;
     fiducialsDone[static_cast<size_t>(s.station)] = true;
-    detectFiducials(linear({s.columnFrames[1]})[0], nominal.screen, s.station,
-                    FiducialDetectorOptions{}, &obs);
+    detectFiducials(response.modulesBend ? s.columnFrames[1] : linear({s.columnFrames[1]})[0],
+                    nominal.screen, s.station, FiducialDetectorOptions{}, &obs);
     poses[static_cast<size_t>(s.station)] = poseFromFiducials(obs, nominal.screen, s.station);
   }
   const int sets = static_cast<int>(captures.stations.size());
   for (int i = 0; i < sets; ++i) {
     const StationCaptures& s = captures.stations[static_cast<size_t>(i)];
     const auto& pose = poses[static_cast<size_t>(s.station)];
+    const StripeReferences recorded = references(s);
     decodeStation(linear(s.columnFrames), linear(s.rowFrames), s.group, nominal, s.station, decoder,
-                  &obs, pose ? &*pose : nullptr);
+                  &obs, pose ? &*pose : nullptr, response.modulesBend ? &recorded : nullptr);
     if (options.onPictureSet) options.onPictureSet(i + 1, sets);
   }
   return obs;

@@ -33,11 +33,17 @@ void CaptureDecoderOptions::validate() const {
 void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<cv::Mat>& rowFrames,
                    const std::vector<int>& group, const DisplayModel& nominal, int station,
                    const CaptureDecoderOptions& options, CalibrationObservations* obs,
-                   const CameraPose* decoderPose) {
+                   const CameraPose* decoderPose, const StripeReferences* stripeReferences,
+                   std::vector<double>* lobeWidths) {
   options.validate();
   PARALLAX_CHECK(!columnFrames.empty() && !rowFrames.empty());
   PARALLAX_CHECK(station >= 0 && station < static_cast<int>(obs->stations.size()));
   const int width = columnFrames[0].cols, height = columnFrames[0].rows;
+  const cv::Mat& white = stripeReferences ? stripeReferences->white : columnFrames[0];
+  const cv::Mat& black = stripeReferences ? stripeReferences->black : columnFrames[1];
+  const double whiteClipped =
+      stripeReferences ? stripeReferences->saturatedLinear : options.saturatedLinear;
+  PARALLAX_CHECK(white.size() == columnFrames[0].size() && black.size() == white.size());
   const int mw = nominal.modules[0].width, mh = nominal.modules[0].height;
   const CameraIntrinsics& in = obs->intrinsics;
   // The decoder's idea of the camera: at the tape mark, aimed at the screen centre.
@@ -60,18 +66,17 @@ void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<c
     std::vector<StripeRowSample> lit;
     double rowMax = 0.0;
     for (int x = 0; x < width; ++x)
-      rowMax = std::max(rowMax, static_cast<double>(columnFrames[0].at<float>(y, x) -
-                                                    columnFrames[1].at<float>(y, x)));
+      rowMax = std::max(rowMax, static_cast<double>(white.at<float>(y, x) - black.at<float>(y, x)));
     if (!(rowMax > options.patterns.minContrast)) continue;
     for (int x = 0; x < width; ++x) {
-      const double contrast = columnFrames[0].at<float>(y, x) - columnFrames[1].at<float>(y, x);
+      const double contrast = white.at<float>(y, x) - black.at<float>(y, x);
       if (!(contrast >= options.minContrastFraction * rowMax)) continue;
       const Eigen::Vector2d n = in.normalized({x + 0.5, y + 0.5});
       Vec3<double> s;
       if (!screenPointOfCameraRay(nominal.screen.curvature, camera.data(), n.x(), n.y(), &s))
         continue;
       StripeRowSample sample{x + 0.5, contrast, -1, {}};
-      sample.clipped = columnFrames[0].at<float>(y, x) >= options.saturatedLinear;
+      sample.clipped = white.at<float>(y, x) >= whiteClipped;
       double best = 1e9;
       for (size_t g = 0; g < group.size(); ++g) {
         const double angle =
@@ -116,6 +121,7 @@ void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<c
   std::vector<double> all;
   for (const auto& c : candidates)
     if (std::isfinite(c.width)) all.push_back(c.width);
+  if (lobeWidths) lobeWidths->insert(lobeWidths->end(), all.begin(), all.end());
   if (all.empty()) return;
   std::nth_element(all.begin(), all.begin() + static_cast<long>(all.size() / 2), all.end());
   const double median = all[all.size() / 2];

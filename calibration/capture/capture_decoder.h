@@ -53,9 +53,21 @@ struct CaptureDecoderOptions {
 // The camera pose the decoder predicts stripes from: the tape mark aimed at the screen
 // centre, or (decodeCaptures) the pose the fiducials give, which is far closer — the tape's
 // 5 cm shift the predicted stripes by about a degree, near the spacing of a group's stripes.
+//
+// stripeReferences: the white and black references the stripe centres are found in, when they
+// are not the column frames' first two: with modules whose own response bends the patterns,
+// the patterns are decoded linearized for the whole chain, the lobes in the camera's light
+// (decodeCaptures). lobeWidths, when given, receives every stripe centre candidate's fitted lobe
+// width (its Gaussian σ, rad).
+struct StripeReferences {
+  cv::Mat white, black;
+  double saturatedLinear = 1.0;  // as CaptureDecoderOptions::saturatedLinear, for these
+};
 void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<cv::Mat>& rowFrames,
                    const std::vector<int>& group, const DisplayModel& nominal, int station,
                    const CaptureDecoderOptions& options, CalibrationObservations* observations,
-                   const CameraPose* decoderPose = nullptr);
+                   const CameraPose* decoderPose = nullptr,
+                   const StripeReferences* stripeReferences = nullptr,
+                   std::vector<double>* lobeWidths = nullptr);
 
 }  // namespace parallax

@@ -25,9 +25,12 @@ CalibrationCaptures renderSession(const DisplayModel& truth, const CameraTruth& 
   const int mw = truth.modules.front().width, mh = truth.modules.front().height;
   captures.moduleWidth = mw;
   captures.moduleHeight = mh;
-  const auto columnPatterns =
-      quantisedPatternFrames(mw, mh, PatternAxis::kColumns, options.patterns);
-  const auto rowPatterns = quantisedPatternFrames(mw, mh, PatternAxis::kRows, options.patterns);
+  auto columnPatterns = quantisedPatternFrames(mw, mh, PatternAxis::kColumns, options.patterns);
+  auto rowPatterns = quantisedPatternFrames(mw, mh, PatternAxis::kRows, options.patterns);
+  if (options.moduleGamma != 1.0) {
+    for (auto* frames : {&columnPatterns, &rowPatterns})
+      for (cv::Mat& f : *frames) cv::pow(f, options.moduleGamma, f);
+  }
   const auto groups = moduleGroups(static_cast<int>(truth.modules.size()), options.groupStride);
   SeededRandom random(cameraTruth.seed);
   const int total = static_cast<int>(cameraTruth.poses.size() * groups.size() *

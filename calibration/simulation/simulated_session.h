@@ -17,6 +17,9 @@ namespace parallax {
 struct SimulatedSessionOptions {
   StructuredLightOptions patterns;
   int groupStride = 3;  // every n-th module shows its patterns at once (moduleGroups)
+  // The modules' own response: a pattern value v is shown as v^moduleGamma (projectors driven
+  // without linearization; 1: linear, as the patterns assume).
+  double moduleGamma = 1.0;
   // Called after every picture (done of total): a session of demo takes a minute or more.
   std::function<void(int done, int total)> onPicture;
 };

@@ -1,11 +1,16 @@
 // The tracer's SIMD kernels (Highway, chosen at run time) draw the same frame, bit for bit,
 // whichever instruction set runs them: each target this machine supports is forced in turn
 // (scalar, SSE4, AVX2, AVX-512, ...). A fused multiply-add, a reordered sum or an approximate
-// reciprocal in one target's code would show here as a pixel that differs.
+// reciprocal in one target's code would show here as a pixel that differs. The same holds for
+// the sRGB encode of a frame's channels.
 
 #include <gtest/gtest.h>
 #include <hwy/targets.h>
 
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "calibration/display/display_presets.h"
@@ -75,6 +80,57 @@ TEST(SimdKernels, EveryInstructionSetDrawsTheSameFrame) {
       EXPECT_EQ(differing, 0) << hwy::TargetName(targets[t]) << " against "
                               << hwy::TargetName(targets[0]) << ", curvature " << curvature;
     }
+  }
+}
+
+// The sRGB encode (srgb_encode_kernel.h) gives srgb8FromLinear's byte for every input on every
+// target: a sweep of [0, 1] and beyond, the inputs on either side of every code boundary,
+// negatives, infinities and NaN, in a frame whose channel count ends in a partial vector.
+TEST(SimdKernels, EveryInstructionSetEncodesTheFormulasBytes) {
+  std::vector<float> values;
+  for (std::uint32_t bits = 0; bits <= std::bit_cast<std::uint32_t>(1.0f) + 1000; bits += 997)
+    values.push_back(std::bit_cast<float>(bits));
+  for (int k = 1; k < 256; ++k) {
+    std::uint32_t lo = 0, hi = std::bit_cast<std::uint32_t>(1.0f);  // the boundary, by bisection
+    while (lo < hi) {
+      const std::uint32_t mid = lo + (hi - lo) / 2;
+      if (srgb8FromLinear(std::bit_cast<float>(mid)) >= k)
+        hi = mid;
+      else
+        lo = mid + 1;
+    }
+    for (std::uint32_t b = lo - 3; b <= lo + 3; ++b) values.push_back(std::bit_cast<float>(b));
+  }
+  for (int i = 0; i <= 4095; ++i) {  // around each table point's bin edges
+    const float edge = (static_cast<float>(i) - 0.5f) / 4095.0f;
+    for (float v = std::nextafter(std::nextafter(edge, 0.0f), 0.0f);
+         v <= std::nextafter(std::nextafter(edge, 1.0f), 1.0f); v = std::nextafter(v, 1.0f))
+      values.push_back(v);
+  }
+  const float inf = std::numeric_limits<float>::infinity();
+  for (float v : {-1.0f, -0.0f, 2.0f, 1e30f, -inf, inf, std::numeric_limits<float>::quiet_NaN(),
+                  -std::numeric_limits<float>::quiet_NaN()})
+    values.push_back(v);
+  while (values.size() % 3 != 0 || (values.size() / 3) % 16 == 0) values.push_back(0.5f);
+  Frame frame(static_cast<int>(values.size() / 3), 1);
+  for (size_t i = 0; i < values.size(); ++i)
+    frame.pixels[i / 3][static_cast<int>(i % 3)] = values[i];
+
+  const std::vector<int64_t> targets = hwy::SupportedAndGeneratedTargets();
+  ASSERT_GE(targets.size(), 2u);
+  TargetGuard guard;
+  for (int64_t target : targets) {
+    hwy::SetSupportedTargetsForTest(target);
+    const std::vector<std::uint8_t> bytes = frame.toSrgb8();
+    ASSERT_EQ(bytes.size(), values.size());
+    long differing = 0;
+    for (size_t i = 0; i < values.size(); ++i) {
+      if (bytes[i] != srgb8FromLinear(values[i]) && ++differing <= 3) {
+        ADD_FAILURE() << hwy::TargetName(target) << ": linear " << values[i] << " gives "
+                      << int{bytes[i]} << ", the formula " << int{srgb8FromLinear(values[i])};
+      }
+    }
+    EXPECT_EQ(differing, 0) << hwy::TargetName(target);
   }
 }
 

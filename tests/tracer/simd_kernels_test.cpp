@@ -35,7 +35,31 @@ Scene kernelScene() {
     }
   }
   EXPECT_TRUE(fractional);
+  // A checkered floor: textured diffuse packets (the texture looked up lane by lane).
+  Texture checker;
+  checker.width = checker.height = 8;
+  for (int i = 0; i < 64; ++i)
+    for (int c = 0; c < 3; ++c) checker.pixels.push_back((i + i / 8) % 2 == 0 ? 0.8f : 0.15f);
+  const int texture = scene.addTexture(checker);
+  bool textured = false;
+  for (const Mesh& mesh : scene.meshes) {
+    if (mesh.name == "floor") {
+      scene.materials[static_cast<size_t>(mesh.material)].diffuseTexture = texture;
+      textured = true;
+    }
+  }
+  EXPECT_TRUE(textured);
   return scene;
+}
+
+NominalDisplayOptions smallDemo(double curvature) {
+  NominalDisplayOptions options;
+  options.preset = "demo";
+  options.modules = 3;
+  options.width = 150;  // rows end in a partial vector on every target
+  options.height = 100;
+  options.curvature = curvature;
+  return options;
 }
 
 struct TargetGuard {
@@ -66,13 +90,8 @@ TEST(SimdKernels, EveryInstructionSetDrawsTheSameFrame) {
   // A flat screen, and a curved one (the primary rays' sag). 150 pixels a row: rows end in a
   // partial vector on every target.
   for (double curvature : {0.0, 0.8}) {
-    NominalDisplayOptions options;
-    options.preset = "demo";
-    options.modules = 3;
-    options.width = 150;
-    options.height = 100;
-    options.curvature = curvature;
-    const std::vector<Frame> frames = framePerTarget(makeNominalDisplay(options), targets);
+    const std::vector<Frame> frames =
+        framePerTarget(makeNominalDisplay(smallDemo(curvature)), targets);
     for (size_t t = 1; t < frames.size(); ++t) {
       long differing = 0;
       for (size_t i = 0; i < frames[0].pixels.size(); ++i)
@@ -80,6 +99,28 @@ TEST(SimdKernels, EveryInstructionSetDrawsTheSameFrame) {
       EXPECT_EQ(differing, 0) << hwy::TargetName(targets[t]) << " against "
                               << hwy::TargetName(targets[0]) << ", curvature " << curvature;
     }
+  }
+}
+
+// The diffuse shading kernel (diffuse_hit_kernel.h, with the textured packets' lookups after it)
+// draws what the scalar shade() draws, bit for bit, on a flat and a curved screen.
+TEST(SimdKernels, PacketShadingDrawsWhatScalarShadingDraws) {
+  for (double curvature : {0.0, 0.8}) {
+    const DisplayModel display = makeNominalDisplay(smallDemo(curvature));
+    const PhysicalScene physical(kernelScene(), display.displayableBox);
+    const RayTextures textures = generateRayTextures(display, 1);
+    RenderOptions scalar;
+    scalar.packetShading = false;
+    RenderCounters packetCounters, scalarCounters;
+    const Frame packets = renderFrame(physical, textures, RenderOptions{}, &packetCounters);
+    const Frame reference = renderFrame(physical, textures, scalar, &scalarCounters);
+    long differing = 0;
+    for (size_t i = 0; i < reference.pixels.size(); ++i)
+      differing += packets.pixels[i] == reference.pixels[i] ? 0 : 1;
+    EXPECT_EQ(differing, 0) << "curvature " << curvature;
+    EXPECT_GT(scalarCounters.textureLookups, 300) << "the floor's texture is sampled";
+    EXPECT_EQ(packetCounters.textureLookups, scalarCounters.textureLookups);
+    EXPECT_EQ(packetCounters.shadow, scalarCounters.shadow);
   }
 }
 

@@ -52,6 +52,12 @@ Scene kernelScene() {
   return scene;
 }
 
+long differingPixels(const Frame& a, const Frame& b) {
+  long differing = 0;
+  for (size_t i = 0; i < a.pixels.size(); ++i) differing += a.pixels[i] == b.pixels[i] ? 0 : 1;
+  return differing;
+}
+
 NominalDisplayOptions smallDemo(double curvature) {
   NominalDisplayOptions options;
   options.preset = "demo";
@@ -93,11 +99,9 @@ TEST(SimdKernels, EveryInstructionSetDrawsTheSameFrame) {
     const std::vector<Frame> frames =
         framePerTarget(makeNominalDisplay(smallDemo(curvature)), targets);
     for (size_t t = 1; t < frames.size(); ++t) {
-      long differing = 0;
-      for (size_t i = 0; i < frames[0].pixels.size(); ++i)
-        differing += frames[t].pixels[i] == frames[0].pixels[i] ? 0 : 1;
-      EXPECT_EQ(differing, 0) << hwy::TargetName(targets[t]) << " against "
-                              << hwy::TargetName(targets[0]) << ", curvature " << curvature;
+      EXPECT_EQ(differingPixels(frames[t], frames[0]), 0)
+          << hwy::TargetName(targets[t]) << " against " << hwy::TargetName(targets[0])
+          << ", curvature " << curvature;
     }
   }
 }
@@ -114,10 +118,7 @@ TEST(SimdKernels, PacketShadingDrawsWhatScalarShadingDraws) {
     RenderCounters packetCounters, scalarCounters;
     const Frame packets = renderFrame(physical, textures, RenderOptions{}, &packetCounters);
     const Frame reference = renderFrame(physical, textures, scalar, &scalarCounters);
-    long differing = 0;
-    for (size_t i = 0; i < reference.pixels.size(); ++i)
-      differing += packets.pixels[i] == reference.pixels[i] ? 0 : 1;
-    EXPECT_EQ(differing, 0) << "curvature " << curvature;
+    EXPECT_EQ(differingPixels(packets, reference), 0) << "curvature " << curvature;
     EXPECT_GT(scalarCounters.textureLookups, 300) << "the floor's texture is sampled";
     EXPECT_EQ(packetCounters.textureLookups, scalarCounters.textureLookups);
     EXPECT_EQ(packetCounters.shadow, scalarCounters.shadow);

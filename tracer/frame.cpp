@@ -1,7 +1,6 @@
 #include "tracer/frame.h"
 
 #include <OpenImageIO/imageio.h>
-#include <immintrin.h>
 
 #include <algorithm>
 #include <array>
@@ -12,9 +11,11 @@
 #include <limits>
 #include <stdexcept>
 
+#include "common/check.h"
 #include "common/image_completeness.h"
 #include "common/input_error.h"
 #include "common/regular_file.h"
+#include "tracer/srgb_encode_kernel.h"
 
 namespace parallax {
 
@@ -48,67 +49,51 @@ Frame frameFromSrgb8(int width, int height, const std::vector<std::uint8_t>& rgb
 namespace {
 
 // srgb8FromLinear by table: the exact formula's pow costs ~10 ns a channel, a third of the
-// daemon's frame time. `code[i]` is the exact code of i/4095; between those points the code can
-// differ by at most one (the curve's steepest slope, 12.92 · 255 codes per unit, is 0.8 codes a
-// step), which one comparison with each neighbouring code's lower bound corrects. So the result
-// equals srgb8FromLinear bit for bit (the test sweeps it), at a lookup and two compares.
+// daemon's frame time. An input's bin is its nearest point i/4095; over a bin the code rises by
+// less than one (the curve's steepest slope, 12.92 · 255 codes per unit, is 0.8 codes a bin), so
+// a bin holds one code or two: the code of its lowest input, and the next code from the step
+// input on. Both are exact (the formula at the bin's lowest input, and the smallest input the
+// formula maps to the next code, found by bisection over the float bit patterns: the formula is
+// monotonic), so the result equals srgb8FromLinear bit for bit (the tests sweep it), at two
+// lookups and one compare, done a SIMD vector at a time (srgb_encode_kernel.h).
 struct SrgbEncoder {
   static constexpr int kSteps = 4095;
-  std::array<std::uint8_t, kSteps + 1> code{};
-  // lowest[k]: the smallest float in [0, 1] that srgb8FromLinear maps to k or above (−inf for
-  // k = 0, +inf for k = 256), found by bisection over the float bit patterns (monotonic).
-  std::array<float, 257> lowest{};
+  std::array<std::int32_t, kSteps + 1> code{};  // 32-bit: what a vector gather loads
+  std::array<float, kSteps + 1> step{};
 
   SrgbEncoder() {
-    for (int i = 0; i <= kSteps; ++i)
-      code[static_cast<size_t>(i)] = srgb8FromLinear(static_cast<float>(i) / kSteps);
-    lowest[0] = -std::numeric_limits<float>::infinity();
-    lowest[256] = std::numeric_limits<float>::infinity();
-    for (int k = 1; k < 256; ++k) {
-      std::uint32_t lo = 0,
-                    hi = std::bit_cast<std::uint32_t>(1.0f);  // srgb8FromLinear(1) = 255 >= k
+    // The smallest float in [0, 1] for which `reaches` holds (it is monotonic in the input).
+    auto smallest = [](auto reaches) {
+      std::uint32_t lo = 0, hi = std::bit_cast<std::uint32_t>(1.0f);
       while (lo < hi) {
         const std::uint32_t mid = lo + (hi - lo) / 2;
-        if (srgb8FromLinear(std::bit_cast<float>(mid)) >= k)
+        if (reaches(std::bit_cast<float>(mid)))
           hi = mid;
         else
           lo = mid + 1;
       }
-      lowest[static_cast<size_t>(k)] = std::bit_cast<float>(lo);
+      return std::bit_cast<float>(lo);
+    };
+    // lowest[k]: the smallest input the formula maps to k or above (+inf for k = 256).
+    std::array<float, 257> lowest{};
+    lowest[256] = std::numeric_limits<float>::infinity();
+    for (int k = 1; k < 256; ++k)
+      lowest[static_cast<size_t>(k)] = smallest([&](float c) { return srgb8FromLinear(c) >= k; });
+    // The kernel's bin of an input (this file is compiled without FMA contraction, as it is).
+    auto binOf = [](float c) { return static_cast<int>(c * kSteps + 0.5f); };
+    float first = 0.0f;  // bin i's lowest input
+    for (int i = 0; i <= kSteps; ++i) {
+      const int k = srgb8FromLinear(first);
+      code[static_cast<size_t>(i)] = k;
+      step[static_cast<size_t>(i)] = lowest[static_cast<size_t>(k) + 1];
+      const float next = i == kSteps ? 2.0f : smallest([&](float c) { return binOf(c) > i; });
+      // The bin's last input is at most one code higher: two codes cover the bin.
+      PARALLAX_CHECK(srgb8FromLinear(std::nextafter(next, 0.0f)) <= k + 1);
+      first = next;
     }
   }
 
-  // n ≤ kBlock channels. Clamping and scaling run over the block first, four at a time, the
-  // table lookups after.
-  static constexpr size_t kBlock = 256;
-  void encode(const float* in, size_t n, std::uint8_t* out) const {
-    alignas(64) float clamped[kBlock];
-    alignas(64) int index[kBlock];
-    // NaN and −inf to 0, +inf to 1, as srgb8FromLinear does: maxps returns its second operand
-    // when either is NaN. (Written with SSE2, x86-64's baseline: GCC at -O2 turned the scalar
-    // min/max into branches, which random data mispredicts.)
-    const __m128 zero = _mm_setzero_ps(), one = _mm_set1_ps(1.0f), steps = _mm_set1_ps(kSteps),
-                 half = _mm_set1_ps(0.5f);
-    size_t i = 0;
-    for (; i + 4 <= n; i += 4) {
-      const __m128 c = _mm_min_ps(_mm_max_ps(_mm_loadu_ps(in + i), zero), one);
-      _mm_store_ps(clamped + i, c);
-      _mm_store_si128(reinterpret_cast<__m128i*>(index + i),
-                      _mm_cvttps_epi32(_mm_add_ps(_mm_mul_ps(c, steps), half)));
-    }
-    for (; i < n; ++i) {
-      const __m128 c = _mm_min_ss(_mm_max_ss(_mm_load_ss(in + i), zero), one);
-      clamped[i] = _mm_cvtss_f32(c);
-      index[i] = _mm_cvttss_si32(_mm_add_ss(_mm_mul_ss(c, steps), half));
-    }
-    for (size_t j = 0; j < n; ++j) {
-      const float c = clamped[j];
-      int k = code[static_cast<unsigned>(index[j])];
-      k += c >= lowest[static_cast<size_t>(k) + 1];
-      k -= c < lowest[static_cast<size_t>(k)];
-      out[j] = static_cast<std::uint8_t>(k);
-    }
-  }
+  SrgbTable table() const { return {kSteps, code.data(), step.data()}; }
 };
 
 const SrgbEncoder& srgbEncoder() {
@@ -119,17 +104,10 @@ const SrgbEncoder& srgbEncoder() {
 }  // namespace
 
 std::vector<std::uint8_t> Frame::toSrgb8() const {
-  const SrgbEncoder& encode = srgbEncoder();
   std::vector<std::uint8_t> out(pixels.size() * 3);
   static_assert(sizeof(Rgb) == 3 * sizeof(float), "Rgb must be 3 packed floats");
-  const float* in = pixels.empty() ? nullptr : pixels.front().data();
-  // Raw pointers: a byte store may alias anything, so through `out` the compiler would reload
-  // its data pointer and size after every store.
-  std::uint8_t* bytes = out.data();
-  const size_t n = out.size();
-  for (size_t i = 0; i < n; i += SrgbEncoder::kBlock) {
-    encode.encode(in + i, std::min(SrgbEncoder::kBlock, n - i), bytes + i);
-  }
+  if (!pixels.empty())
+    encodeSrgbChannels(pixels.front().data(), out.size(), srgbEncoder().table(), out.data());
   return out;
 }
 

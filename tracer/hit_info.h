@@ -21,6 +21,22 @@ struct HitInfo {
   float texelsPerMetreSq = 0.0f;  // uv area / physical area (for the texture footprint)
 };
 
+// The hit's uv and texel density (h->uv, h->texelsPerMetreSq; left as they are on a mesh without
+// uvs). (u, v): Embree's barycentrics of vertices 1 and 2.
+[[gnu::always_inline]] inline void textureCoordinatesOf(const PhysicalMesh& mesh, unsigned prim,
+                                                        float u, float v, HitInfo* h) {
+  if (mesh.uvs.empty()) return;
+  const auto& tri = mesh.triangles[prim];
+  const float w = 1.0f - u - v;
+  const Eigen::Vector2f& t0 = mesh.uvs[tri[0]];
+  const Eigen::Vector2f& t1 = mesh.uvs[tri[1]];
+  const Eigen::Vector2f& t2 = mesh.uvs[tri[2]];
+  h->uv = w * t0 + u * t1 + v * t2;
+  const Eigen::Vector2f a = t1 - t0, b = t2 - t0;
+  const float uvArea = std::abs(a.x() * b.y() - a.y() * b.x());
+  h->texelsPerMetreSq = uvArea / mesh.crossLengths[prim];
+}
+
 // (u, v): Embree's barycentrics of vertices 1 and 2; d: the incoming ray's direction;
 // `wantUv`: the surface samples a texture (its uv and texel density are needed).
 // Always inlined: the HitInfo is then never written to memory and read back (a call was a third
@@ -52,15 +68,7 @@ struct HitInfo {
       h.shadingNormal = n;
     }
   }
-  if (wantUv && !mesh.uvs.empty()) {
-    const Eigen::Vector2f& t0 = mesh.uvs[tri[0]];
-    const Eigen::Vector2f& t1 = mesh.uvs[tri[1]];
-    const Eigen::Vector2f& t2 = mesh.uvs[tri[2]];
-    h.uv = w * t0 + u * t1 + v * t2;
-    const Eigen::Vector2f a = t1 - t0, b = t2 - t0;
-    const float uvArea = std::abs(a.x() * b.y() - a.y() * b.x());
-    h.texelsPerMetreSq = uvArea / mesh.crossLengths[prim];
-  }
+  if (wantUv) textureCoordinatesOf(mesh, prim, u, v, &h);
   if (!mesh.colors.empty())
     h.vertexColor = w * mesh.colors[tri[0]] + u * mesh.colors[tri[1]] + v * mesh.colors[tri[2]];
   return h;

@@ -129,7 +129,9 @@ class TileRenderer {
   void initialRays(int x0, int x1, int y0, int y1, RenderCounters* c);
   void cone(int pixel, Path* path) const;
   void shade(size_t i, int generation, RenderCounters* c);
-  bool shadeDiffusePacket(size_t packet);
+  bool shadeDiffusePacket(size_t packet, RenderCounters* c);
+  void textureDiffusePacket(size_t packet, const PhysicalMesh& mesh, const Material& m,
+                            size_t first, RenderCounters* c);
   void makeShadowRays(const PhysicalLight& light, int lightIndex, int generation,
                       RenderCounters* c);
   void traceShadowRays(ShadowBatch& batch, RTCScene scene, bool coherent, int generation,
@@ -284,7 +286,7 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
     lit_.reset(rays_.size());
     for (size_t first = 0; first < rays_.size(); first += 16) {
       const size_t end = std::min(first + 16, rays_.size());
-      if (generation == 0 && end - first == 16 && shadeDiffusePacket(first / 16)) continue;
+      if (generation == 0 && end - first == 16 && shadeDiffusePacket(first / 16, c)) continue;
       for (size_t i = first; i < end; ++i) shade(i, generation, c);
     }
     if (lit_.size() > 0) {
@@ -605,8 +607,10 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
 }
 
 // A first-generation packet whose 16 rays all met one mesh (no vertex colours) of a plain
-// diffuse material, by the SIMD kernel (diffuse_hit_kernel.h); false leaves it to shade().
-bool TileRenderer::shadeDiffusePacket(size_t packet) {
+// diffuse material, textured or not, by the SIMD kernel (diffuse_hit_kernel.h); false leaves it
+// to shade().
+bool TileRenderer::shadeDiffusePacket(size_t packet, RenderCounters* c) {
+  if (!options_.packetShading) return false;
   const RTCRayHit16& hits = rays_.packets()[packet];
   const unsigned geomID = hits.hit.geomID[0];
   if (geomID == RTC_INVALID_GEOMETRY_ID || scene_.lights().empty()) return false;
@@ -614,12 +618,11 @@ bool TileRenderer::shadeDiffusePacket(size_t packet) {
     if (hits.hit.geomID[lane] != geomID) return false;
   const PhysicalMesh& mesh = scene_.meshes()[geomID];
   const Material& m = scene_.materials()[static_cast<size_t>(mesh.material)];
-  if (m.kind != MaterialKind::kDiffuse || m.diffuseTexture >= 0 || m.emission.maxCoeff() > 0.0f ||
-      !mesh.colors.empty()) {
+  if (m.kind != MaterialKind::kDiffuse || m.emission.maxCoeff() > 0.0f || !mesh.colors.empty())
     return false;
-  }
   const size_t first = lit_.size();
   if (!parallax::shadeDiffusePacket(hits, mesh, m, &lit_)) return false;
+  if (m.diffuseTexture >= 0) textureDiffusePacket(packet, mesh, m, first, c);
   // What shade() adds at once: the ambient term (a first-generation weight is 1), and the
   // frame cache's answers for the static lights.
   const Rgb ambient = m.diffuse.cwiseProduct(scene_.ambient());
@@ -628,7 +631,7 @@ bool TileRenderer::shadeDiffusePacket(size_t packet) {
   for (size_t lane = 0; lane < 16; ++lane) {
     const size_t i = 16 * packet + lane;
     const int pixel = paths_[i].pixel;
-    frame_->pixels[static_cast<size_t>(pixel)] += ambient;
+    if (m.diffuseTexture < 0) frame_->pixels[static_cast<size_t>(pixel)] += ambient;
     pixels[lane] = pixel;
     if (!cache_) continue;
     std::uint8_t staticLights = 0;
@@ -641,6 +644,30 @@ bool TileRenderer::shadeDiffusePacket(size_t packet) {
     flags[lane] |= static_cast<std::int32_t>(staticLights) << LitSurfaces::kStaticLightsShift;
   }
   return true;
+}
+
+// A textured packet after the kernel: each lane's texture colour (hitInfoOf's uv and texel
+// density, the pixel's footprint, the filtered lookup: textureColor, as shade() does) times the
+// material's colour, into the lit surface's albedo and, with the ambient light, the pixel.
+void TileRenderer::textureDiffusePacket(size_t packet, const PhysicalMesh& mesh, const Material& m,
+                                        size_t first, RenderCounters* c) {
+  float* albedo[3] = {lit_.mutableField(LitSurfaces::kDr) + first,
+                      lit_.mutableField(LitSurfaces::kDg) + first,
+                      lit_.mutableField(LitSurfaces::kDb) + first};
+  for (size_t lane = 0; lane < 16; ++lane) {
+    const size_t i = 16 * packet + lane;
+    Path& path = paths_[i];
+    const unsigned prim = rays_.primID(i);
+    HitInfo h;
+    h.geometricNormal = mesh.faceNormals[prim];  // toward the ray or not: only |d · n| is used
+    textureCoordinatesOf(mesh, prim, rays_.u(i), rays_.v(i), &h);
+    if (path.coneSpread == kConeUnknown && texturesUsed_) cone(path.pixel, &path);
+    const Rgb weightedAlbedo =
+        m.diffuse.cwiseProduct(textureColor(m, h, path, rays_.tfar(i), rays_.direction(i), c));
+    for (int k = 0; k < 3; ++k) albedo[k][lane] = weightedAlbedo[k];
+    frame_->pixels[static_cast<size_t>(path.pixel)] +=
+        weightedAlbedo.cwiseProduct(scene_.ambient());
+  }
 }
 
 // The calling worker's buffers. A tile never waits on other TBB work, so no two tiles share

@@ -99,7 +99,8 @@ CalibrationSettings settingsOf(const CalibrationConfig& config, bool simulatorPh
 CalibrationCaptures capturePictures(hw::LinkClient* link, const DisplayModel& nominal,
                                     const CalibrationSettings& settings,
                                     const PipelineProgress& progress,
-                                    const std::function<bool()>& cancelled) {
+                                    const std::function<bool()>& cancelled,
+                                    hw::PatternScreen* screen) {
   if (settings.cameraMetadata.empty()) {
     throw InputError({"", "calibration.camera_metadata", 0},
                      "calibrating needs the camera's metadata (camera.json)");
@@ -155,8 +156,11 @@ CalibrationCaptures capturePictures(hw::LinkClient* link, const DisplayModel& no
     if (progress.pictures) progress.pictures(done, total);
     captureCancelled = cancelled();
   };
+  // The patterns go to every module: through the link, or the cluster's ranks (`screen`).
+  std::optional<hw::LinkPatternScreen> linkScreen;
+  if (link && !screen) screen = &linkScreen.emplace(*link);
   CalibrationCaptures captures =
-      link ? hw::captureCalibration(*link, *camera, nominal, metadata, capture, pictures,
+      link ? hw::captureCalibration(*screen, *camera, nominal, metadata, capture, pictures,
                                     &captureCancelled, &stats)
            : hw::captureCalibrationOffline(*camera, nominal, metadata, capture, pictures,
                                            &captureCancelled, &stats);
@@ -283,7 +287,14 @@ PhotometricRun calibratePhotometry(hw::LinkClient& link, const DisplayModel& geo
 CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& nominal,
                                     const DisplayModel& start, const CalibrationSettings& settings,
                                     std::optional<int> onlyModule, const PipelineProgress& progress,
-                                    const std::function<bool()>& cancelled) {
+                                    const std::function<bool()>& cancelled,
+                                    hw::PatternScreen* screen) {
+  if (screen && settings.photometric != PhotometricMode::kOff) {
+    throw std::runtime_error(
+        "the modules' colours (photometric) are calibrated through one link only: calibrate "
+        "them with one rank (parallaxd without mpirun), or calibrate the geometry alone "
+        "(photometric off)");
+  }
   const auto stage = [&](const std::string& what) {
     if (progress.stage) progress.stage(what);
   };
@@ -297,7 +308,7 @@ CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& no
     stage(fmt::format("pictures: {} of {}", done, total));
   };
   const CalibrationCaptures captures =
-      capturePictures(&link, nominal, settings, pictures, cancelled);
+      capturePictures(&link, nominal, settings, pictures, cancelled, screen);
   // Decoding takes seconds and is not interrupted: a `cancel` meanwhile is seen after it.
   const auto stopIfCancelled = [&cancelled] {
     if (cancelled()) throw hw::CalibrationCancelled();

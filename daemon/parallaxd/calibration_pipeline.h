@@ -92,10 +92,13 @@ struct PipelineProgress {
 // allowAutoExposure is off). Without a link (nullptr), offline: only a folder: camera, from
 // the pictures already in its folder. Throws InputError for bad metadata or camera names,
 // std::runtime_error with one line otherwise, hw::CalibrationCancelled once `cancelled()`.
+// `screen`: where the patterns are shown when not every module is behind `link` (a cluster's
+// ranks); the camera is still `link`'s.
 CalibrationCaptures capturePictures(hw::LinkClient* link, const DisplayModel& nominal,
                                     const CalibrationSettings& settings,
                                     const PipelineProgress& progress,
-                                    const std::function<bool()>& cancelled);
+                                    const std::function<bool()>& cancelled,
+                                    hw::PatternScreen* screen = nullptr);
 
 // Decoding with the settings' pixel step; progress.decoded after each picture set.
 CalibrationObservations decodePictures(const CalibrationCaptures& captures,
@@ -150,10 +153,12 @@ struct CalibrationRun {
 // fitObservations, and the gate, then (settings.photometric) calibratePhotometry — whose
 // failure fails the whole run: nothing is half installed. Returns a fit that passed, or throws with
 // the reason (hw::CalibrationCancelled when cancelled: asked between pictures, between stages and
-// at every solver iteration).
+// at every solver iteration). With a `screen` (a cluster: the patterns on every rank's modules,
+// the camera behind `link`), the geometry only: photometric is refused, naming why.
 CalibrationRun calibrateThroughLink(hw::LinkClient& link, const DisplayModel& nominal,
                                     const DisplayModel& start, const CalibrationSettings& settings,
                                     std::optional<int> onlyModule, const PipelineProgress& progress,
-                                    const std::function<bool()>& cancelled);
+                                    const std::function<bool()>& cancelled,
+                                    hw::PatternScreen* screen = nullptr);
 
 }  // namespace parallax::daemon

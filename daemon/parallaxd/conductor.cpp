@@ -26,7 +26,7 @@ Conductor::Conductor(ConductorOptions options)
       owned_(ownership_.modulesOf(cluster_->rank())),
       calibration_(nominal_),
       calibrationSource_("nominal (uncalibrated)"),
-      store_(options_.config.calibrationFilePath()),
+      store_(options_.config.calibrationFileOfRank(cluster_->rank())),
       cache_(options_.config.cacheDirPath()) {
   PARALLAX_CHECK_OP(ownership_.ranks(), ==, cluster_->size());
   PARALLAX_CHECK_OP(ownership_.modules(), ==, static_cast<int>(nominal_.modules.size()));

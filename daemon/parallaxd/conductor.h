@@ -204,6 +204,37 @@ class Conductor {
   // the owner shows nothing yet); the other ranks send theirs and get an empty vector.
   std::vector<std::shared_ptr<const hw::Image>> gatherImages(const std::vector<int>& modules);
   void endJob(const RanksSilent& e);
+
+  // `calibrate` and `rollback` across the ranks (conductor_cluster_calibration.cpp). Rank 0:
+  // runs `op` on every rank (itself too) and returns their answers, throwing one line naming the
+  // first rank that failed; "done" sends the others back to following.
+  std::vector<nlohmann::json> calibrationStep(const nlohmann::json& op,
+                                              const std::string& payload = {}, int timeoutMs = 0);
+  void finishCalibrationSteps();
+  // Rank 0: sends "done" when the request ends, however it ends.
+  struct CalibrationStepsDone {
+    Conductor* conductor;
+    ~CalibrationStepsDone() { conductor->finishCalibrationSteps(); }
+  };
+  // The other ranks: the steps rank 0 sends, until "done"; the request's reply.
+  nlohmann::json followCalibration();
+  nlohmann::json takeCalibrationStep(const nlohmann::json& op, const std::string& payload);
+  nlohmann::json takeFilesStep(const nlohmann::json& op);
+  // Rank 0: makes `model` (null: each rank's previous calibration, the same everywhere) the
+  // calibration every rank plays, or leaves every rank on the one it had, and throws why.
+  // Returns its content hash.
+  std::string installOnEveryRank(const DisplayModel* model);
+  // A calibration being installed on this rank, until it is committed or undone.
+  struct PendingCalibration {
+    DisplayModel model;
+    std::optional<StoredCalibration> stored;  // what the files step left installed
+    bool wroteFiles = false;
+    bool hadCalibration = false;  // a file was installed before (undo: roll back, not remove)
+    bool texturesMade = false;
+    std::vector<RayTextures> oldTextures;
+    uint64_t oldTexturesHash = 0;
+  };
+  std::optional<PendingCalibration> pending_;
   void stopOthers();
   nlohmann::json clusterJson() const;  // status
 

@@ -4,6 +4,7 @@
 #include "common/atomic_file.h"
 #include "common/input_error.h"
 #include "daemon/parallaxd/calibration_pipeline.h"
+#include "daemon/parallaxd/cluster_pattern_screen.h"
 #include "daemon/parallaxd/conductor.h"  // IWYU pragma: associated
 #include "hw/camera/calibration_capture.h"
 #include "scripts/scene_argument.h"
@@ -73,9 +74,29 @@ Conductor::StageResult Conductor::calibrate(std::optional<int> onlyModule,
       throw std::runtime_error(
           "no geometric calibration installed: calibrate the geometry first (photometric only "
           "keeps the installed one)");
+    // A cluster's patterns go to every rank's modules; the camera is rank 0's.
+    std::optional<ClusterPatternScreen> screen;
+    if (clustered()) {
+      screen.emplace([this](const nlohmann::json& op, const std::string& payload) {
+        return calibrationStep(op, payload);
+      });
+    }
     const CalibrationRun run = calibrateThroughLink(
         *link_, nominal_, onlyModule || colourOnly ? calibration_ : nominal_, settings, onlyModule,
-        calibrationProgress(), [this] { return cancel_.load() || stopAsked(); });
+        calibrationProgress(), [this] { return cancel_.load() || stopAsked(); },
+        screen ? &*screen : nullptr);
+    if (clustered()) {
+      // Every rank installs it and makes its modules' textures, or none keeps it.
+      state_.setStage("installing on every rank");
+      publish();
+      installOnEveryRank(&run.model);
+      writeFileAtomically(store_.path() + ".report.txt", run.summary + "\n" + run.report);
+      spdlog::info("calibration installed on every rank: {}\n{}", store_.path(), run.summary);
+      result.summary = run.summary;
+      state_.succeeded(kCalibrating);
+      state_.enter(back);
+      return result;
+    }
     // Textures first: if they cannot be made, the old calibration stays installed.
     const StageResult textures = regenerate(run.model);
     if (textures.done()) {

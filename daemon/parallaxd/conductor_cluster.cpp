@@ -9,6 +9,7 @@
 #include "common/check.h"
 #include "common/process_cpu_time.h"
 #include "daemon/parallaxd/conductor.h"  // IWYU pragma: associated
+#include "daemon/parallaxd/image_message.h"
 
 // The conductor in a cluster (cluster.h): rank 0 tells the other ranks every step it takes —
 // a queued request, a turn of the render loop, a config reload, the stop — and they follow,
@@ -20,41 +21,6 @@ namespace {
 
 // Rank 0 waits this long at the stop for the others to finish their frames in flight.
 constexpr int kStopTimeoutMs = 5000;
-
-// The images a rank sends rank 0 for `view` and `frame`: per image its module, size, format
-// and bytes.
-struct ImageHeader {
-  int32_t module = 0, width = 0, height = 0, format = 0;
-  uint64_t bytes = 0;
-};
-
-void appendImage(std::string* out, int module, const hw::Image& image) {
-  const ImageHeader h{module, image.width, image.height, static_cast<int32_t>(image.format),
-                      image.pixels.size()};
-  out->append(reinterpret_cast<const char*>(&h), sizeof h);
-  out->append(reinterpret_cast<const char*>(image.pixels.data()), image.pixels.size());
-}
-
-// `into[module]` for every image in `message` (sent by `rank`, which owns those modules).
-void readImages(const std::string& message, const ModuleOwnership& ownership, int rank,
-                std::vector<std::shared_ptr<const hw::Image>>* into) {
-  size_t at = 0;
-  while (at < message.size()) {
-    PARALLAX_CHECK_OP(message.size() - at, >=, sizeof(ImageHeader));
-    ImageHeader h;
-    std::memcpy(&h, message.data() + at, sizeof h);
-    at += sizeof h;
-    PARALLAX_CHECK_OP(message.size() - at, >=, h.bytes);
-    PARALLAX_CHECK_OP(ownership.ownerOf(h.module), ==, rank);
-    auto image = std::make_shared<hw::Image>();
-    image->width = h.width;
-    image->height = h.height;
-    image->format = static_cast<hw::PixelFormat>(h.format);
-    image->pixels.assign(message.data() + at, message.data() + at + h.bytes);
-    at += h.bytes;
-    (*into)[static_cast<size_t>(h.module)] = std::move(image);
-  }
-}
 
 }  // namespace
 
@@ -180,14 +146,18 @@ std::vector<std::shared_ptr<const hw::Image>> Conductor::gatherImages(
     if (cluster_->isConductor()) {
       all[m] = currentImages_[i];
     } else {
-      appendImage(&mine, owned_[i], *currentImages_[i]);
+      appendImageMessage(&mine, owned_[i], *currentImages_[i]);
     }
   }
   if (!clustered()) return all;
   const std::vector<std::string> parts = cluster_->gather(mine, options_.config.cluster.timeoutMs);
   if (!cluster_->isConductor()) return {};
-  for (size_t r = 1; r < parts.size(); ++r)
-    readImages(parts[r], ownership_, static_cast<int>(r), &all);
+  for (size_t r = 1; r < parts.size(); ++r) {
+    for (auto& [module, image] : readImageMessage(parts[r])) {
+      PARALLAX_CHECK_OP(ownership_.ownerOf(module), ==, static_cast<int>(r));
+      all[static_cast<size_t>(module)] = std::move(image);
+    }
+  }
   return all;
 }
 

@@ -30,12 +30,6 @@ Reply ok(Reply j = Reply::object()) {
 
 Reply refused(const std::string& why) { return {{"ok", false}, {"error", why}}; }
 
-// The calibration shows patterns on every module and photographs them through one camera; the
-// ranks of a cluster do not share that session yet.
-constexpr const char* kNotInACluster =
-    "the cluster plays the installed calibration: calibrate (and roll back) with one rank "
-    "(parallaxd without mpirun), then start the cluster again";
-
 }  // namespace
 
 const std::map<std::string_view, Conductor::Handler>& Conductor::handlers() {
@@ -157,7 +151,9 @@ Reply Conductor::answerCancel(const RequestArgs&) {
 // ---- queued to the conductor thread ---------------------------------------------------------
 
 Reply Conductor::answerCalibrate(const RequestArgs& args) {
-  if (clustered()) return refused(kNotInACluster);
+  // In a cluster the other ranks take rank 0's steps (conductor_cluster_calibration.cpp).
+  if (clustered() && !cluster_->isConductor()) return followCalibration();
+  const CalibrationStepsDone stepsDone{this};  // however this ends
   std::optional<PhotometricMode> photometric;
   if (args.has("photometric"))
     photometric = parsePhotometricMode(args.string("photometric"), "photometric");
@@ -170,7 +166,20 @@ Reply Conductor::answerCalibrate(const RequestArgs& args) {
 }
 
 Reply Conductor::answerRollback(const RequestArgs&) {
-  if (clustered()) return refused(kNotInACluster);
+  if (clustered()) {
+    if (!cluster_->isConductor()) return followCalibration();
+    const CalibrationStepsDone stepsDone{this};
+    try {
+      installOnEveryRank(nullptr);
+    } catch (const RanksSilent&) {
+      throw;
+    } catch (const std::exception& e) {
+      return refused(e.what());
+    }
+    return ok({{"calibration", calibrationSource_},
+               {"hash", hashHex(texturesHash_)},
+               {"photometry", photometryJson()}});
+  }
   // The previous version, geometry and photometry, is checked before anything changes.
   const StoredCalibration previous = store_.rollback(nominal_);
   const StageResult result = regenerate(previous.model);

@@ -314,6 +314,13 @@ std::string DaemonConfig::cacheDirPath() const {
 std::string DaemonConfig::calibrationFilePath() const {
   return calibration.file.empty() ? cacheDirPath() + "/calibration.json" : calibration.file;
 }
+std::string DaemonConfig::calibrationFileOfRank(int rank) const {
+  std::string path = calibrationFilePath();
+  const std::string placeholder = "{rank}";
+  for (size_t at = path.find(placeholder); at != std::string::npos; at = path.find(placeholder))
+    path.replace(at, placeholder.size(), std::to_string(rank));
+  return path;
+}
 std::string DaemonConfig::stateDirPath() const {
   const std::string folder =
       std::filesystem::absolute(calibrationFilePath()).parent_path().string();

@@ -14,7 +14,7 @@
 //                  usb: vid = 0x1d50, pid = 0x6150, [hardware.modules] "SERIAL" = index
 //                  present_deadline_ms = 100   (swap lock: modules later than this after the
 //                       push are presented without, and reported lagging in `status`)
-//   [calibration]  file = "calibration.json", auto = true,
+//   [calibration]  file = "calibration.json", auto = true,   ("{rank}" in it: the rank's number)
 //                  camera = "link" | "opencv:SPEC"   (hw/camera/camera_name.h; default link)
 //                  camera_metadata = "camera.json"   (intrinsics, tape-measured stations)
 //                  pixel_step = 4, allow_auto_exposure = false,
@@ -136,6 +136,9 @@ struct DaemonConfig {
   std::string controlSocketPath() const;
   std::string cacheDirPath() const;
   std::string calibrationFilePath() const;
+  // The calibration file of one rank of a cluster: calibrationFilePath() with "{rank}" replaced
+  // by its number, for ranks that share a filesystem but keep a file each, as separate nodes do.
+  std::string calibrationFileOfRank(int rank) const;
   // The daemon's state: the installed calibration's folder (/var/lib/parallax as installed).
   std::string stateDirPath() const;
   // The folder of `parallax report` folders the panel serves (panel_reports.h).

@@ -47,15 +47,6 @@ struct ClusterEnded : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// The display with only `modules` (in that order): what one rank's simulator shows.
-parallax::DisplayModel displayOfModules(const parallax::DisplayModel& display,
-                                        const std::vector<int>& modules) {
-  parallax::DisplayModel part = display;
-  part.modules.clear();
-  for (int m : modules) part.modules.push_back(display.modules[static_cast<size_t>(m)]);
-  return part;
-}
-
 // Signals are taken by one thread with sigwait, never by handlers: every other thread
 // inherits the mask, so no library call is interrupted at a random point. The thread exists
 // from the first line of run(), before any file is read, so SIGTERM and SIGINT are answered
@@ -147,13 +138,16 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
   std::unique_ptr<SimhwChild> simulator;
   std::string simulatorCamera, simulatorFolder;
   if (linkSpec.empty() && !ownership.modulesOf(cluster.rank()).empty()) {
-    // Each rank of a cluster simulates the modules its link would reach, with its own files.
+    // Each rank of a cluster simulates the modules its link would reach, with its own files,
+    // of one simulated display: the camera of each sees every rank's modules through the room
+    // in rank 0's runtime folder (hw/simulator/shared_room.h), as one camera sees one screen.
     HardwareConfig hardware = config.hardware;
     const std::string rankFolder = clustered ? fmt::format("/rank-{}", cluster.rank()) : "";
     if (!hardware.dump.empty()) hardware.dump += rankFolder;
-    simulator = std::make_unique<SimhwChild>(
-        displayOfModules(nominal, ownership.modulesOf(cluster.rank())), hardware,
-        folder + "/simhw.sock", config.cacheDirPath() + rankFolder);
+    SimhwChild::Part part;
+    if (clustered) part = {ownership.modulesOf(cluster.rank()), top + "/simulated-room"};
+    simulator = std::make_unique<SimhwChild>(nominal, hardware, folder + "/simhw.sock",
+                                             config.cacheDirPath() + rankFolder, part);
     linkSpec = simulator->linkSpec();
     // What a real installation measures once; the daemon never sees the simulator's truth.
     // Kept apart from the config, so a reload that names no camera still has it.

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <signal.h>
 #include <spawn.h>
 #include <spdlog/spdlog.h>
@@ -61,7 +62,7 @@ std::string SimhwChild::folderFor(const std::string& cacheDir, const DisplayMode
 }
 
 SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardware,
-                       const std::string& socketPath, const std::string& cacheDir)
+                       const std::string& socketPath, const std::string& cacheDir, const Part& part)
     : socketPath_(socketPath), folder_(folderFor(cacheDir, nominal, hardware.seed)) {
   // The seeded truth and camera rig, as `parallax simulate` makes them: a 640×360 camera with
   // the default's field of view at five stations spread over four times the module row's half
@@ -106,6 +107,14 @@ SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardwa
 
   arguments_ = {findBinary(), "--exit-with-parent", "--socket", socketPath_,
                 "--truth",    groundTruthPath(),    "--camera", folder_ + "/camera_truth.json"};
+  if (!part.modules.empty()) {
+    arguments_.push_back("--link-modules");
+    arguments_.push_back(fmt::format("{}", fmt::join(part.modules, ",")));
+  }
+  if (!part.room.empty()) {
+    arguments_.push_back("--room");
+    arguments_.push_back(part.room);
+  }
   for (const std::string& fault : hardware.faults) {
     arguments_.push_back("--fault");
     arguments_.push_back(fault);

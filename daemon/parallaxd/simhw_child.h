@@ -28,9 +28,16 @@ namespace parallax::daemon {
 
 class SimhwChild {
  public:
+  // One rank's part of a simulated display in a cluster: the modules its link reaches (display
+  // indices; empty: all) and the room where the ranks' simulators show each other's modules to
+  // their cameras (hw/simulator/shared_room.h).
+  struct Part {
+    std::vector<int> modules;
+    std::string room;
+  };
   // Throws std::runtime_error when the binary is missing or the child cannot start.
   SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardware,
-             const std::string& socketPath, const std::string& cacheDir);
+             const std::string& socketPath, const std::string& cacheDir, const Part& part = {});
   ~SimhwChild();
   SimhwChild(const SimhwChild&) = delete;
   SimhwChild& operator=(const SimhwChild&) = delete;

@@ -37,21 +37,14 @@ std::shared_ptr<const Image> moduleFrame(const cv::Mat& linear, PixelFormat form
 // Puts the modules back into playback mode and unlocks the camera however the session ends.
 class SessionGuard {
  public:
-  SessionGuard(LinkClient* link, Camera& camera) : link_(link), camera_(camera) {}
+  SessionGuard(PatternScreen* screen, Camera& camera) : screen_(screen), camera_(camera) {}
   ~SessionGuard() {
-    try {
-      if (link_) {
-        link_->flush();
-        link_->takeOutcomes();
-        link_->setMode(DisplayMode::kPlayback);
-      }
-    } catch (...) {  // a dead link: nothing more can be done from here
-    }
+    if (screen_) screen_->end();
     camera_.unlock();
   }
 
  private:
-  LinkClient* link_;
+  PatternScreen* screen_;
   Camera& camera_;
 };
 
@@ -79,7 +72,7 @@ CaptureSessionKey sessionKey(const DisplayModel& nominal, const CameraMetadata& 
   return key;
 }
 
-CalibrationCaptures runSession(LinkClient* link, Camera& camera, const DisplayModel& nominal,
+CalibrationCaptures runSession(PatternScreen* screen, Camera& camera, const DisplayModel& nominal,
                                const CameraMetadata& metadata,
                                const CalibrationCaptureOptions& options,
                                const std::function<void(int done, int total)>& progress,
@@ -129,7 +122,16 @@ CalibrationCaptures captureCalibration(LinkClient& link, Camera& camera,
                                        const CalibrationCaptureOptions& options,
                                        const std::function<void(int done, int total)>& progress,
                                        const std::atomic<bool>* cancel, CaptureSyncStats* stats) {
-  return runSession(&link, camera, nominal, metadata, options, progress, cancel, stats);
+  LinkPatternScreen screen(link);
+  return runSession(&screen, camera, nominal, metadata, options, progress, cancel, stats);
+}
+
+CalibrationCaptures captureCalibration(PatternScreen& screen, Camera& camera,
+                                       const DisplayModel& nominal, const CameraMetadata& metadata,
+                                       const CalibrationCaptureOptions& options,
+                                       const std::function<void(int done, int total)>& progress,
+                                       const std::atomic<bool>* cancel, CaptureSyncStats* stats) {
+  return runSession(&screen, camera, nominal, metadata, options, progress, cancel, stats);
 }
 
 CalibrationCaptures captureCalibrationOffline(
@@ -147,7 +149,7 @@ CalibrationCaptures captureCalibrationOffline(
 
 namespace {
 
-CalibrationCaptures runSession(LinkClient* link, Camera& camera, const DisplayModel& nominal,
+CalibrationCaptures runSession(PatternScreen* screen, Camera& camera, const DisplayModel& nominal,
                                const CameraMetadata& metadata,
                                const CalibrationCaptureOptions& options,
                                const std::function<void(int done, int total)>& progress,
@@ -155,12 +157,14 @@ CalibrationCaptures runSession(LinkClient* link, Camera& camera, const DisplayMo
   options.validate(metadata);
   const int modules = static_cast<int>(nominal.modules.size());
   const int mw = nominal.modules.front().width, mh = nominal.modules.front().height;
-  if (link && static_cast<int>(link->modules().size()) != modules) {
+  const std::vector<ModuleLinkInfo> screenModules =
+      screen ? screen->modules() : std::vector<ModuleLinkInfo>{};
+  if (screen && static_cast<int>(screenModules.size()) != modules) {
     throw std::runtime_error(fmt::format("the link has {} modules, the nominal display {}",
-                                         link->modules().size(), modules));
+                                         screenModules.size(), modules));
   }
   bool grey = true;
-  for (const ModuleLinkInfo& m : link ? link->modules() : std::vector<ModuleLinkInfo>{}) {
+  for (const ModuleLinkInfo& m : screenModules) {
     if (static_cast<int>(m.info.width) != mw || static_cast<int>(m.info.height) != mh) {
       throw std::runtime_error(
           fmt::format("module {} shows {}x{}, the nominal display's modules are {}x{}", m.module,
@@ -215,8 +219,8 @@ CalibrationCaptures runSession(LinkClient* link, Camera& camera, const DisplayMo
   const PictureQualityLimits quality;
   BlurCheck blurCheck(quality);
   std::vector<std::pair<std::string, std::string>> judged;  // blurCheck's pictures: what, file
-  SessionGuard guard(link, camera);
-  if (link && !link->setMode(DisplayMode::kPattern))
+  SessionGuard guard(screen, camera);
+  if (screen && !screen->setMode(DisplayMode::kPattern))
     throw std::runtime_error("the modules did not switch to pattern mode");
   if (progress) progress(0, total);
 
@@ -227,18 +231,10 @@ CalibrationCaptures runSession(LinkClient* link, Camera& camera, const DisplayMo
   int sequence = 0;  // frames shown so far: the sync code is its residue
   const auto show = [&](const std::vector<int>& group, const std::shared_ptr<const Image>& frame,
                         const std::string& what) {
-    if (link) {
-      std::vector<bool> inGroup(static_cast<size_t>(modules), false);
-      for (int m : group) inGroup[static_cast<size_t>(m)] = true;
-      for (int m = 0; m < modules; ++m)
-        link->submit(m, inGroup[static_cast<size_t>(m)] ? frame : dark);
-      link->flush();
-      for (const FrameOutcome& o : link->takeOutcomes()) {
-        if (o.status == FrameStatus::kDelivered || o.status == FrameStatus::kSkippedUnchanged)
-          continue;
-        throw std::runtime_error(fmt::format("{}: module {} did not show it ({}: {})", what,
-                                             o.module, frameStatusName(o.status), o.reason));
-      }
+    if (screen) {
+      std::vector<std::shared_ptr<const Image>> frames(static_cast<size_t>(modules), dark);
+      for (int m : group) frames[static_cast<size_t>(m)] = frame;
+      screen->show(frames, what);
     }
     camera.showing(what);
     ++sequence;

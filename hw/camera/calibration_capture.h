@@ -23,6 +23,7 @@
 #include "calibration/capture/calibration_captures.h"
 #include "calibration/capture/sync_code.h"
 #include "hw/camera/camera.h"
+#include "hw/camera/pattern_screen.h"
 #include "hw/link/link_client.h"
 
 namespace parallax::hw {
@@ -67,6 +68,12 @@ class CalibrationCancelled : public std::runtime_error {
 CalibrationCaptures captureCalibration(
     LinkClient& link, Camera& camera, const DisplayModel& nominal, const CameraMetadata& metadata,
     const CalibrationCaptureOptions& options,
+    const std::function<void(int done, int total)>& progress = {},
+    const std::atomic<bool>* cancel = nullptr, CaptureSyncStats* stats = nullptr);
+// The same session on a screen whose modules are not all behind one link (a cluster's).
+CalibrationCaptures captureCalibration(
+    PatternScreen& screen, Camera& camera, const DisplayModel& nominal,
+    const CameraMetadata& metadata, const CalibrationCaptureOptions& options,
     const std::function<void(int done, int total)>& progress = {},
     const std::atomic<bool>* cancel = nullptr, CaptureSyncStats* stats = nullptr);
 

@@ -10,6 +10,9 @@
 // (hw/simulator/calibration_physics.h); the modules are then the truth's. With
 // --photometric-truth they also show their light as that truth says (response, black,
 // primaries, falloff), and the camera answers colour captures in colour.
+// With --link-modules (one rank's simulator in a cluster, issue 23) the link serves only those
+// modules of the truth (display indices, in that order); with --room the camera also sees the
+// other modules, as the other ranks' simulators write them there (hw/simulator/shared_room.h).
 
 #include <fmt/format.h>
 #include <sys/prctl.h>
@@ -32,6 +35,7 @@
 #include "hw/simulator/calibration_physics.h"
 #include "hw/simulator/camera_feed.h"
 #include "hw/simulator/fault_spec.h"
+#include "hw/simulator/shared_room.h"
 #include "hw/simulator/simhw_server.h"
 #include "hw/simulator/simulated_hardware.h"
 
@@ -48,6 +52,8 @@ struct Args {
   std::vector<std::string> faults;
   std::string dump;
   std::string truth, camera, photometricTruth;
+  std::vector<int> linkModules;
+  std::string room;
   std::string cameraFeed, cameraFeedStation;
   bool cameraFeedAutoExposure = false;
   uint32_t maxChunk = 4u << 20;
@@ -66,6 +72,7 @@ int run(const Args& args) {
                      "the calibration physics needs both --truth and --camera");
   }
   std::unique_ptr<hw::CameraPhysics> physics;
+  std::shared_ptr<hw::SharedRoom> room;
   std::string displaySource = args.display;
   std::optional<DisplayModel> truth;
   if (!args.truth.empty()) {
@@ -74,9 +81,27 @@ int run(const Args& args) {
     truth = loadDisplayModel(args.truth);
     displaySource = args.truth;
   }
+  if ((!args.linkModules.empty() || !args.room.empty()) && !truth) {
+    throw InputError({"", args.room.empty() ? "--link-modules" : "--room", 0},
+                     "needs the calibration physics (--truth, --camera)");
+  }
+  if (!args.room.empty() && args.linkModules.empty())
+    throw InputError({"", "--room", 0}, "needs --link-modules (which modules are this one's)");
+  if (!args.cameraFeed.empty() && !args.linkModules.empty())
+    throw InputError({"", "--camera-feed", 0}, "not with --link-modules");
   if (!displaySource.empty()) {
     const DisplayModel model = truth ? *truth : resolveDisplay(displaySource);
     options.modules = static_cast<int>(model.modules.size());
+    if (!args.linkModules.empty()) options.modules = static_cast<int>(args.linkModules.size());
+    std::vector<bool> seen(model.modules.size(), false);
+    for (int m : args.linkModules) {
+      if (m < 0 || m >= static_cast<int>(model.modules.size()) || seen[static_cast<size_t>(m)]) {
+        throw InputError({"", "--link-modules", 0},
+                         fmt::format("module {}: not a module of {} (0..{}), or given twice", m,
+                                     displaySource, model.modules.size() - 1));
+      }
+      seen[static_cast<size_t>(m)] = true;
+    }
     options.width = model.modules.front().width;
     options.height = model.modules.front().height;
     for (size_t i = 0; i < model.modules.size(); ++i) {
@@ -100,11 +125,23 @@ int run(const Args& args) {
     if (!args.photometricTruth.empty()) photometry = loadPhotometricTruth(args.photometricTruth);
     physics = std::make_unique<hw::CalibrationPhysics>(*truth, loadCameraTruth(args.camera),
                                                        std::move(photometry));
+    if (!args.linkModules.empty()) {
+      // A rank's simulator: its link's modules are some of the display's; the camera sees the
+      // rest in the room (or dark, without one).
+      room = std::make_shared<hw::SharedRoom>(args.room.empty() ? std::string() : args.room,
+                                              args.linkModules);
+      physics = std::make_unique<hw::RoomPhysics>(std::move(physics),
+                                                  static_cast<int>(truth->modules.size()), room);
+    }
   }
   if (!args.cameraFeed.empty() && !truth) {
     throw InputError({"", "--camera-feed", 0}, "needs the calibration physics (--truth, --camera)");
   }
   hw::SimulatedHardware hardware(options, std::move(physics));
+  if (room && !args.room.empty()) {
+    hardware.setOnShown([&hardware, &room] { room->update(hardware); });
+    hardware.setOnModeChanged([&hardware, &room] { room->update(hardware); });
+  }
   std::unique_ptr<hw::CameraFeed> feed;
   if (!args.cameraFeed.empty()) {
     feed = std::make_unique<hw::CameraFeed>(
@@ -203,6 +240,13 @@ int main(int argc, char** argv) {
                "the feed camera's exposure follows the scene, lagging a picture");
   app.add_option("--photometric-truth", args.photometricTruth,
                  "the modules' photometric truth (photometric_truth.json; with --truth)");
+  app.add_option("--link-modules", args.linkModules,
+                 "with --truth: the link serves only these modules of it (display indices, in "
+                 "order): one rank's simulator in a cluster")
+      ->delimiter(',');
+  app.add_option("--room", args.room,
+                 "with --link-modules: the folder where the simulators of one display share what "
+                 "their modules show, so that each camera sees every module");
   app.add_option("--max-chunk", args.maxChunk, "largest chunk the modules accept (bytes)");
   app.add_flag("--exit-with-parent", args.exitWithParent,
                "stop when the process that started this one ends (parallaxd's own simulator)");

@@ -181,6 +181,7 @@ SimAction SimulatedHardware::handlePacket(const PacketHeader& header,
         return reject(e);
       }
       mode_ = mode;
+      if (onModeChanged_) onModeChanged_();
       ack(header.module, header.sequence, AckStatus::kOk, 0, replies);
       return action;
     }

@@ -98,6 +98,10 @@ class SimulatedHardware {
   void arm(int module, const Fault& fault);
   // Called (on the serving thread) each time a module shows a new frame.
   void setOnShown(std::function<void()> onShown) { onShown_ = std::move(onShown); }
+  // Called (on the serving thread) after a SetMode, before it is acknowledged.
+  void setOnModeChanged(std::function<void()> onModeChanged) {
+    onModeChanged_ = std::move(onModeChanged);
+  }
   // A new connection starts: partial uploads are abandoned (the host resends them).
   void resetSession();
 
@@ -168,7 +172,7 @@ class SimulatedHardware {
   std::vector<Module> modules_;
   CameraSettings camera_;
   DisplayMode mode_ = DisplayMode::kPlayback;
-  std::function<void()> onShown_;
+  std::function<void()> onShown_, onModeChanged_;
   std::deque<PresentRecord> presents_;
 };
 

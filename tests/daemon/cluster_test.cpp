@@ -9,7 +9,9 @@
 #include <gtest/gtest.h>
 #include <signal.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -52,18 +54,19 @@ class ClusterTest : public ::testing::Test {
   }
 
   // A daemon of `ranks` ranks under mpirun (0: parallaxd without a launcher) playing `scene`.
-  // `display` adds keys to [display]; `more` adds tables.
+  // `display` adds keys to [display], `calibration` to [calibration]; `more` adds tables.
   std::unique_ptr<testing::DaemonProcess> start(int ranks, const std::string& scene,
                                                 const std::string& name, int timeoutMs = 20000,
                                                 const std::string& display = "",
-                                                const std::string& more = "") {
+                                                const std::string& more = "",
+                                                const std::string& calibration = "") {
     const fs::path folder = root_ / name;
     fs::create_directories(folder);
     socket_ = (folder / "run" / "parallax.sock").string();
     std::ofstream(folder / "parallax.toml")
         << "[display]\npreset = \"demo\"\n"
         << display << "[calibration]\nauto = false\n"
-        << "[scene]\nscript = \"" << scene << "\"\nfps = 10\n"
+        << calibration << "[scene]\nscript = \"" << scene << "\"\nfps = 10\n"
         << "[daemon]\nsocket = \"" << socket_ << "\"\ncache_dir = \"" << (root_ / "cache").string()
         << "\"\n"
         << "[panel]\nenabled = false\n"
@@ -175,6 +178,137 @@ TEST_F(ClusterTest, FramesAreTheSameBytesWithOneTwoOrThreeRanks) {
   // The changes did change what the modules show (else the comparisons prove little).
   EXPECT_NE(reference.cornell[5], reference.deeper[5]);
   EXPECT_NE(reference.cornell[5], reference.shapes[5]);
+}
+
+// Every number of two calibration files (display model JSON) agrees within `relative`.
+void expectSameNumbers(const json& a, const json& b, double relative, const std::string& at = "") {
+  ASSERT_EQ(a.type(), b.type()) << at;
+  if (a.is_object()) {
+    for (const auto& [key, value] : a.items()) {
+      if (key == "checksum") continue;  // of the file's bytes
+      ASSERT_TRUE(b.contains(key)) << at << "." << key;
+      expectSameNumbers(value, b[key], relative, at + "." + key);
+    }
+  } else if (a.is_array()) {
+    ASSERT_EQ(a.size(), b.size()) << at;
+    for (size_t i = 0; i < a.size(); ++i)
+      expectSameNumbers(a[i], b[i], relative, at + "[" + std::to_string(i) + "]");
+  } else if (a.is_number()) {
+    const double x = a.get<double>(), y = b.get<double>();
+    EXPECT_LE(std::abs(x - y), relative * std::max(1.0, std::abs(x))) << at;
+  } else {
+    EXPECT_EQ(a, b) << at;
+  }
+}
+
+// `calibrate` with 2 ranks (rank 0's camera; each rank's simulator shows its own modules, the
+// camera sees them all) installs the same calibration as one rank does, on every rank; the
+// frames are then the bytes one rank shows with it. A rank that cannot install it leaves every
+// rank on the calibration of before; `rollback` brings every rank back to the one before.
+TEST_F(ClusterTest, CalibrateAndRollBackAcrossRanks) {
+  const auto request = [this](const json& r) {
+    return tryAskDaemon(socket_, r, 900.0).value_or(nullptr);
+  };
+  const auto shutdown = [&](testing::DaemonProcess& daemon) {
+    EXPECT_TRUE(request({{"request", "shutdown"}}).value("ok", false));
+    const int exit = daemon.waitExit(60000);
+    EXPECT_TRUE(WIFEXITED(exit) && WEXITSTATUS(exit) == 0) << exit << "\n" << daemon.log();
+  };
+  // Every rank reports `hash` as the calibration it plays (reports come after a turn).
+  const auto expectEveryRankOn = [&](const std::string& hash) {
+    json status;
+    for (int i = 0; i < 1200; ++i) {
+      status = ask(socket_, {{"request", "status"}});
+      bool all = status.is_object() && status["calibration"]["hash"] == hash;
+      for (const json& r : status.value("cluster", json::object()).value("rank", json::array()))
+        all = all && r["calibration"] == hash;
+      if (all) return;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    ADD_FAILURE() << "not every rank plays " << hash << ": " << status;
+  };
+  // The display frames shown so far; the frames once one more is shown (a static scene shows
+  // one after a calibration is installed or rolled back).
+  const auto framesShown = [&] {
+    return ask(socket_, {{"request", "stats"}}).value("display_frames", 0);
+  };
+  const auto framesAfter = [&](int shown, const std::string& tag,
+                               const testing::DaemonProcess& daemon) {
+    waitForFrames(shown + 1, daemon);
+    return moduleFrames(tag);
+  };
+
+  // The reference: one rank (parallaxd without mpirun) calibrates.
+  const fs::path oneFile = root_ / "one.json";
+  {
+    auto daemon =
+        start(0, "cornell", "one", 20000, "", "", "file = \"" + oneFile.string() + "\"\n");
+    waitForFrames(1, *daemon);
+    const json r = request({{"request", "calibrate"}});
+    ASSERT_TRUE(r.is_object() && r.value("ok", false)) << r << daemon->log();
+    shutdown(*daemon);
+  }
+
+  // Two ranks, each with its own file (as two nodes would have).
+  const fs::path rank0File = root_ / "two" / "cal-0.json", rank1File = root_ / "two" / "cal-1.json";
+  auto daemon = start(2, "cornell", "two", 120000, "", "",
+                      "file = \"" + (root_ / "two" / "cal-{rank}.json").string() + "\"\n");
+  waitForFrames(1, *daemon);
+  int shown = framesShown();
+  json r = request({{"request", "calibrate"}});
+  ASSERT_TRUE(r.is_object() && r.value("ok", false)) << r << daemon->log();
+  const std::string installed = r["hash"];
+  expectEveryRankOn(installed);
+  const std::string installedBytes = readFile(rank0File);
+  EXPECT_EQ(readFile(rank1File), installedBytes) << "each rank installs the bytes rank 0 fitted";
+  // The same fit as one rank's: the same pictures, up to the solver's order of summation.
+  expectSameNumbers(json::parse(readFile(oneFile)), json::parse(installedBytes), 1e-5);
+  const std::vector<std::string> calibrated = framesAfter(shown, "calibrated", *daemon);
+
+  // Rank 1 cannot write its file (a folder stands there): nothing changes on any rank.
+  fs::remove(rank1File);
+  fs::create_directory(rank1File);
+  r = request({{"request", "calibrate"}, {"module", 9}});
+  ASSERT_TRUE(r.is_object()) << daemon->log();
+  EXPECT_FALSE(r.value("ok", true)) << r;
+  EXPECT_NE(r.value("error", "").find("rank 1 (modules 8-15): " + rank1File.string()),
+            std::string::npos)
+      << r;
+  EXPECT_NE(r.value("error", "").find("every rank is back on its calibration of before"),
+            std::string::npos)
+      << r;
+  expectEveryRankOn(installed);
+  EXPECT_EQ(readFile(rank0File), installedBytes) << "rank 0's file was not put back";
+  fs::remove(rank1File);
+  fs::copy_file(rank0File, rank1File);
+
+  // Module 9 (rank 1's) calibrated again, then rolled back: every rank on the first again.
+  r = request({{"request", "calibrate"}, {"module", 9}});
+  ASSERT_TRUE(r.is_object() && r.value("ok", false)) << r << daemon->log();
+  EXPECT_NE(r["hash"], installed);
+  expectEveryRankOn(r["hash"]);
+  shown = framesShown();
+  r = request({{"request", "rollback"}});
+  ASSERT_TRUE(r.is_object() && r.value("ok", false)) << r << daemon->log();
+  EXPECT_EQ(r["hash"], installed);
+  expectEveryRankOn(installed);
+  EXPECT_EQ(readFile(rank0File), installedBytes);
+  EXPECT_EQ(readFile(rank1File), installedBytes);
+  const std::vector<std::string> rolledBack = framesAfter(shown, "rolled_back", *daemon);
+  shutdown(*daemon);
+
+  // One rank playing the calibration the cluster installed shows the same bytes.
+  auto replay =
+      start(0, "cornell", "replay", 20000, "", "", "file = \"" + rank0File.string() + "\"\n");
+  waitForFrames(1, *replay);
+  const std::vector<std::string> oneRank = moduleFrames("replay");
+  shutdown(*replay);
+  for (int m = 0; m < kDemoModules; ++m) {
+    const auto i = static_cast<size_t>(m);
+    EXPECT_FALSE(calibrated[i].empty());
+    EXPECT_TRUE(calibrated[i] == oneRank[i]) << "module " << m << ": 2 ranks and 1 differ";
+    EXPECT_TRUE(rolledBack[i] == calibrated[i]) << "module " << m << " after the rollback";
+  }
 }
 
 // Rank 1 of 3 as status names it: its pid and "rank 1 (modules A-B)".

@@ -1,11 +1,16 @@
 // The tracer's SIMD kernels (Highway, chosen at run time) draw the same frame, bit for bit,
 // whichever instruction set runs them: each target this machine supports is forced in turn
 // (scalar, SSE4, AVX2, AVX-512, ...). A fused multiply-add, a reordered sum or an approximate
-// reciprocal in one target's code would show here as a pixel that differs.
+// reciprocal in one target's code would show here as a pixel that differs. The same holds for
+// the sRGB encode of a frame's channels.
 
 #include <gtest/gtest.h>
 #include <hwy/targets.h>
 
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "calibration/display/display_presets.h"
@@ -30,7 +35,37 @@ Scene kernelScene() {
     }
   }
   EXPECT_TRUE(fractional);
+  // A checkered floor: textured diffuse packets (the texture looked up lane by lane).
+  Texture checker;
+  checker.width = checker.height = 8;
+  for (int i = 0; i < 64; ++i)
+    for (int c = 0; c < 3; ++c) checker.pixels.push_back((i + i / 8) % 2 == 0 ? 0.8f : 0.15f);
+  const int texture = scene.addTexture(checker);
+  bool textured = false;
+  for (const Mesh& mesh : scene.meshes) {
+    if (mesh.name == "floor") {
+      scene.materials[static_cast<size_t>(mesh.material)].diffuseTexture = texture;
+      textured = true;
+    }
+  }
+  EXPECT_TRUE(textured);
   return scene;
+}
+
+long differingPixels(const Frame& a, const Frame& b) {
+  long differing = 0;
+  for (size_t i = 0; i < a.pixels.size(); ++i) differing += a.pixels[i] == b.pixels[i] ? 0 : 1;
+  return differing;
+}
+
+NominalDisplayOptions smallDemo(double curvature) {
+  NominalDisplayOptions options;
+  options.preset = "demo";
+  options.modules = 3;
+  options.width = 150;  // rows end in a partial vector on every target
+  options.height = 100;
+  options.curvature = curvature;
+  return options;
 }
 
 struct TargetGuard {
@@ -61,20 +96,83 @@ TEST(SimdKernels, EveryInstructionSetDrawsTheSameFrame) {
   // A flat screen, and a curved one (the primary rays' sag). 150 pixels a row: rows end in a
   // partial vector on every target.
   for (double curvature : {0.0, 0.8}) {
-    NominalDisplayOptions options;
-    options.preset = "demo";
-    options.modules = 3;
-    options.width = 150;
-    options.height = 100;
-    options.curvature = curvature;
-    const std::vector<Frame> frames = framePerTarget(makeNominalDisplay(options), targets);
+    const std::vector<Frame> frames =
+        framePerTarget(makeNominalDisplay(smallDemo(curvature)), targets);
     for (size_t t = 1; t < frames.size(); ++t) {
-      long differing = 0;
-      for (size_t i = 0; i < frames[0].pixels.size(); ++i)
-        differing += frames[t].pixels[i] == frames[0].pixels[i] ? 0 : 1;
-      EXPECT_EQ(differing, 0) << hwy::TargetName(targets[t]) << " against "
-                              << hwy::TargetName(targets[0]) << ", curvature " << curvature;
+      EXPECT_EQ(differingPixels(frames[t], frames[0]), 0)
+          << hwy::TargetName(targets[t]) << " against " << hwy::TargetName(targets[0])
+          << ", curvature " << curvature;
     }
+  }
+}
+
+// The diffuse shading kernel (diffuse_hit_kernel.h, with the textured packets' lookups after it)
+// draws what the scalar shade() draws, bit for bit, on a flat and a curved screen.
+TEST(SimdKernels, PacketShadingDrawsWhatScalarShadingDraws) {
+  for (double curvature : {0.0, 0.8}) {
+    const DisplayModel display = makeNominalDisplay(smallDemo(curvature));
+    const PhysicalScene physical(kernelScene(), display.displayableBox);
+    const RayTextures textures = generateRayTextures(display, 1);
+    RenderOptions scalar;
+    scalar.packetShading = false;
+    RenderCounters packetCounters, scalarCounters;
+    const Frame packets = renderFrame(physical, textures, RenderOptions{}, &packetCounters);
+    const Frame reference = renderFrame(physical, textures, scalar, &scalarCounters);
+    EXPECT_EQ(differingPixels(packets, reference), 0) << "curvature " << curvature;
+    EXPECT_GT(scalarCounters.textureLookups, 300) << "the floor's texture is sampled";
+    EXPECT_EQ(packetCounters.textureLookups, scalarCounters.textureLookups);
+    EXPECT_EQ(packetCounters.shadow, scalarCounters.shadow);
+  }
+}
+
+// The sRGB encode (srgb_encode_kernel.h) gives srgb8FromLinear's byte for every input on every
+// target: a sweep of [0, 1] and beyond, the inputs on either side of every code boundary,
+// negatives, infinities and NaN, in a frame whose channel count ends in a partial vector.
+TEST(SimdKernels, EveryInstructionSetEncodesTheFormulasBytes) {
+  std::vector<float> values;
+  for (std::uint32_t bits = 0; bits <= std::bit_cast<std::uint32_t>(1.0f) + 1000; bits += 997)
+    values.push_back(std::bit_cast<float>(bits));
+  for (int k = 1; k < 256; ++k) {
+    std::uint32_t lo = 0, hi = std::bit_cast<std::uint32_t>(1.0f);  // the boundary, by bisection
+    while (lo < hi) {
+      const std::uint32_t mid = lo + (hi - lo) / 2;
+      if (srgb8FromLinear(std::bit_cast<float>(mid)) >= k)
+        hi = mid;
+      else
+        lo = mid + 1;
+    }
+    for (std::uint32_t b = lo - 3; b <= lo + 3; ++b) values.push_back(std::bit_cast<float>(b));
+  }
+  for (int i = 0; i <= 4095; ++i) {  // around each table point's bin edges
+    const float edge = (static_cast<float>(i) - 0.5f) / 4095.0f;
+    for (float v = std::nextafter(std::nextafter(edge, 0.0f), 0.0f);
+         v <= std::nextafter(std::nextafter(edge, 1.0f), 1.0f); v = std::nextafter(v, 1.0f))
+      values.push_back(v);
+  }
+  const float inf = std::numeric_limits<float>::infinity();
+  for (float v : {-1.0f, -0.0f, 2.0f, 1e30f, -inf, inf, std::numeric_limits<float>::quiet_NaN(),
+                  -std::numeric_limits<float>::quiet_NaN()})
+    values.push_back(v);
+  while (values.size() % 3 != 0 || (values.size() / 3) % 16 == 0) values.push_back(0.5f);
+  Frame frame(static_cast<int>(values.size() / 3), 1);
+  for (size_t i = 0; i < values.size(); ++i)
+    frame.pixels[i / 3][static_cast<int>(i % 3)] = values[i];
+
+  const std::vector<int64_t> targets = hwy::SupportedAndGeneratedTargets();
+  ASSERT_GE(targets.size(), 2u);
+  TargetGuard guard;
+  for (int64_t target : targets) {
+    hwy::SetSupportedTargetsForTest(target);
+    const std::vector<std::uint8_t> bytes = frame.toSrgb8();
+    ASSERT_EQ(bytes.size(), values.size());
+    long differing = 0;
+    for (size_t i = 0; i < values.size(); ++i) {
+      if (bytes[i] != srgb8FromLinear(values[i]) && ++differing <= 3) {
+        ADD_FAILURE() << hwy::TargetName(target) << ": linear " << values[i] << " gives "
+                      << int{bytes[i]} << ", the formula " << int{srgb8FromLinear(values[i])};
+      }
+    }
+    EXPECT_EQ(differing, 0) << hwy::TargetName(target);
   }
 }
 

@@ -1,0 +1,73 @@
+// Compiled once per instruction set by Highway's foreach_target, as shadow_ray_kernel.cpp is.
+#ifndef HWY_DISABLED_TARGETS
+#define HWY_DISABLED_TARGETS HWY_SSSE3  // SSSE3 without SSE4 (CPUs before 2008): one compile less
+#endif
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "tracer/srgb_encode_kernel.cpp"
+#include "tracer/srgb_encode_kernel.h"
+
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+#include <cstring>
+
+HWY_BEFORE_NAMESPACE();
+namespace parallax {
+namespace HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+void EncodeSrgbChannels(const float* in, size_t n, const SrgbTable& table, std::uint8_t* out) {
+  const hn::ScalableTag<float> d;
+  const hn::RebindToSigned<decltype(d)> di;
+  const hn::Rebind<std::uint8_t, decltype(d)> d8;
+  using V = hn::Vec<decltype(d)>;
+  constexpr size_t kMaxLanes = HWY_MAX_BYTES / sizeof(float);
+  const size_t lanes = hn::Lanes(d);
+  const V zero = hn::Zero(d), one = hn::Set(d, 1.0f), half = hn::Set(d, 0.5f);
+  const V steps = hn::Set(d, static_cast<float>(table.steps));
+
+  for (size_t i = 0; i < n; i += lanes) {
+    const size_t here = n - i < lanes ? n - i : lanes;
+    V x;
+    if (here == lanes) {
+      x = hn::LoadU(d, in + i);
+    } else {
+      HWY_ALIGN float tail[kMaxLanes] = {};
+      std::memcpy(tail, in + i, here * sizeof(float));
+      x = hn::Load(d, tail);
+    }
+    // maxps(x, 0) then minps(·, 1): NaN and −inf to 0, +inf to 1, as srgb8FromLinear does.
+    V c = hn::IfThenElse(hn::Gt(x, zero), x, zero);
+    c = hn::IfThenElse(hn::Lt(c, one), c, one);
+    const auto index = hn::ConvertTo(di, hn::Add(hn::Mul(c, steps), half));  // truncates
+    // The point's code and the input where its bin steps up to the next code.
+    const auto k = hn::GatherIndex(di, table.code, index);
+    const V step = hn::GatherIndex(d, table.step, index);
+    // A true mask is −1 as a vector: subtracting it adds one.
+    const auto code = hn::Sub(k, hn::VecFromMask(di, hn::RebindMask(di, hn::Ge(c, step))));
+    const auto bytes = hn::DemoteTo(d8, code);
+    if (here == lanes) {
+      hn::StoreU(bytes, d8, out + i);
+    } else {
+      HWY_ALIGN std::uint8_t tail[kMaxLanes];
+      hn::StoreU(bytes, d8, tail);
+      std::memcpy(out + i, tail, here);
+    }
+  }
+}
+
+}  // namespace HWY_NAMESPACE
+}  // namespace parallax
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace parallax {
+
+HWY_EXPORT(EncodeSrgbChannels);
+
+void encodeSrgbChannels(const float* in, size_t n, const SrgbTable& table, std::uint8_t* out) {
+  HWY_DYNAMIC_DISPATCH(EncodeSrgbChannels)(in, n, table, out);
+}
+
+}  // namespace parallax
+#endif

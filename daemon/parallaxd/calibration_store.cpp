@@ -44,6 +44,13 @@ void removeIfPresent(const std::string& path) {
   if (ec) throw InputError({path, "", 0}, "cannot remove it: " + ec.message());
 }
 
+// Whether `path` is a regular file of exactly `bytes`.
+bool holdsBytes(const std::string& path, const std::string& bytes) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec) || fs::file_size(path, ec) != bytes.size() || ec) return false;
+  return readRegularFile(path, bytes.size()) == bytes;
+}
+
 constexpr size_t kMaxPhotometryFileBytes = size_t{64} << 20;
 
 // The bytes of the photometry file at `path` when it loads and belongs to `geometry`; nullopt
@@ -165,6 +172,17 @@ std::optional<StoredCalibration> CalibrationStore::loadFor(const DisplayModel& n
 StoredCalibration CalibrationStore::install(
     const DisplayModel& model, Photometry mode,
     const std::optional<DisplayColourCorrection>& photometry) const {
+  const Files before = files();
+  try {
+    return installOver(model, mode, photometry);
+  } catch (const std::exception&) {
+    undoAfter(before, std::current_exception());
+  }
+}
+
+StoredCalibration CalibrationStore::installOver(
+    const DisplayModel& model, Photometry mode,
+    const std::optional<DisplayColourCorrection>& photometry) const {
   const fs::path parent = fs::path(path_).parent_path();
   if (!parent.empty()) {
     std::error_code ec;
@@ -221,6 +239,15 @@ StoredCalibration CalibrationStore::install(
 }
 
 StoredCalibration CalibrationStore::rollback(const DisplayModel& nominal) const {
+  const Files before = files();
+  try {
+    return swapVersions(nominal);
+  } catch (const std::exception&) {
+    undoAfter(before, std::current_exception());
+  }
+}
+
+StoredCalibration CalibrationStore::swapVersions(const DisplayModel& nominal) const {
   if (!present(previousPath())) {
     throw InputError({previousPath(), "", 0}, "no previous calibration to roll back to");
   }
@@ -265,6 +292,44 @@ StoredCalibration CalibrationStore::rollback(const DisplayModel& nominal) const 
   StoredCalibration out{std::move(previous), path_, "", std::move(previousCorrection), {}, {}};
   if (out.photometry) out.photometrySource = photometryPath();
   return out;
+}
+
+CalibrationStore::Files CalibrationStore::files() const {
+  // Photometry before geometry, .previous before current: the order `install` writes them in.
+  Files out;
+  for (const auto& [path, maxBytes] : {std::pair{previousPhotometryPath(), kMaxPhotometryFileBytes},
+                                       std::pair{previousPath(), kMaxDisplayFileBytes},
+                                       std::pair{photometryPath(), kMaxPhotometryFileBytes},
+                                       std::pair{path_, kMaxDisplayFileBytes}}) {
+    out.contents.emplace_back(
+        path, present(path) ? std::optional(readRegularFile(path, maxBytes)) : std::nullopt);
+  }
+  return out;
+}
+
+void CalibrationStore::restore(const Files& before) const {
+  for (const auto& [path, bytes] : before.contents) {
+    if (!bytes) {
+      removeIfPresent(path);
+    } else if (!holdsBytes(path, *bytes)) {
+      writeFileAtomically(path, *bytes);
+    }
+  }
+}
+
+void CalibrationStore::undoAfter(const Files& before, const std::exception_ptr& failure) const {
+  try {
+    restore(before);
+  } catch (const std::exception& undo) {
+    try {
+      std::rethrow_exception(failure);
+    } catch (const std::exception& e) {
+      throw InputError(
+          {path_, "", 0},
+          fmt::format("{}; and putting its files back as they were: {}", e.what(), undo.what()));
+    }
+  }
+  std::rethrow_exception(failure);
 }
 
 }  // namespace parallax::daemon

@@ -15,8 +15,11 @@
 // not describe this display (module count or resolution differ from the nominal) is refused
 // as "not a calibration of it".
 
+#include <exception>
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "calibration/display/colour_correction.h"
 #include "calibration/display/display_model.h"
@@ -57,14 +60,27 @@ class CalibrationStore {
   // are written durably and read back. kKeep carries the current photometric correction over
   // to the new geometry (a geometric recalibration does not change the modules' colours).
   // Returns what is now installed once it is on disk; throws InputError naming the file and
-  // the reason otherwise (a full disk), with no partial .previous.
+  // the reason otherwise (a full disk), with every file (.previous too) as it was before.
   StoredCalibration install(const DisplayModel& model, Photometry mode = Photometry::kKeep,
                             const std::optional<DisplayColourCorrection>& photometry = {}) const;
   // Swaps the current and previous versions, geometry and photometry together; returns the one
   // now installed. Throws InputError when there is no previous calibration, or when it (or
-  // its photometry) does not verify or fit `nominal` — with nothing changed. A current file
-  // that does not verify is dropped, not kept as .previous.
+  // its photometry) does not verify or fit `nominal`, or a write fails — with every file as it
+  // was. A current file that does not verify is dropped, not kept as .previous.
   StoredCalibration rollback(const DisplayModel& nominal) const;
+
+  // Every file of the store (current and previous, geometry and photometry) byte for byte, or
+  // its absence: what `restore` puts back. An install or rollback that is undone (it failed
+  // part way; in a cluster, another rank could not take it) must leave .previous as it was
+  // too, else a later `rollback` would go to the very calibration that was undone.
+  struct Files {
+    std::vector<std::pair<std::string, std::optional<std::string>>> contents;  // path, bytes
+  };
+  // Throws InputError naming a file that is there but cannot be read (a folder, too large):
+  // what cannot be put back is not replaced.
+  Files files() const;
+  // Makes the store's files exactly `before` again (files already so are not rewritten).
+  void restore(const Files& before) const;
 
   // InputError unless `candidate` has the nominal's module count and resolutions.
   static void requireSameDisplay(const DisplayModel& nominal, const DisplayModel& candidate,
@@ -76,6 +92,14 @@ class CalibrationStore {
                                         const std::string& file);
 
  private:
+  // Rethrows `failure` once the files are `before` again; when they cannot be put back, an
+  // InputError saying both.
+  [[noreturn]] void undoAfter(const Files& before, const std::exception_ptr& failure) const;
+  // install and rollback themselves, undone by the callers above when they throw.
+  StoredCalibration installOver(const DisplayModel& model, Photometry mode,
+                                const std::optional<DisplayColourCorrection>& photometry) const;
+  StoredCalibration swapVersions(const DisplayModel& nominal) const;
+
   std::string path_;
 };
 

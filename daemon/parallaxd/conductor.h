@@ -228,8 +228,8 @@ class Conductor {
   struct PendingCalibration {
     DisplayModel model;
     std::optional<StoredCalibration> stored;  // what the files step left installed
-    bool wroteFiles = false;
-    bool hadCalibration = false;  // a file was installed before (undo: roll back, not remove)
+    // The store's files before this rank wrote them (undo: exactly these again, .previous too).
+    std::optional<CalibrationStore::Files> filesBefore;
     bool texturesMade = false;
     std::vector<RayTextures> oldTextures;
     uint64_t oldTexturesHash = 0;

@@ -1,8 +1,6 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include <filesystem>
-
 #include "calibration/display/display_model_json.h"
 #include "common/check.h"
 #include "daemon/parallaxd/cluster_pattern_screen.h"
@@ -16,8 +14,9 @@
 //             as rank 0's); ranks of one machine may share one file, which the later ones then
 //             find written and leave alone
 //   textures  the ray textures of the rank's modules for it; the old ones are kept aside
-//   undo      a step failed somewhere: files rolled back where they were written, old textures
-//             back, so every rank stays on the last good calibration
+//   undo      a step failed somewhere: files put back byte for byte where they were written
+//             (.previous too: a later rollback goes where it would have), old textures back, so
+//             every rank stays on the last good calibration
 //   commit    every step succeeded on every rank: it is the one in use everywhere
 //   done      the other ranks go back to following rank 0
 // A rank that dies or hangs meanwhile ends the job (as at any moment): nothing half done plays.
@@ -115,18 +114,12 @@ nlohmann::json Conductor::takeCalibrationStep(const nlohmann::json& op,
     }
     if (kind == "undo") {
       std::vector<std::string> problems;
-      if (pending_->wroteFiles) {
+      if (pending_->filesBefore) {
         try {
-          if (pending_->hadCalibration) {
-            const StoredCalibration back = store_.rollback(nominal_);
-            spdlog::warn("cluster calibration undone: {} is back to {}", store_.path(),
-                         hashHex(displayContentHash(back.model)));
-          } else {
-            // The first calibration installed: none is the last good one.
-            std::filesystem::remove(store_.path());
-            std::filesystem::remove(store_.photometryPath());
-            spdlog::warn("cluster calibration undone: {} removed", store_.path());
-          }
+          // Not a rollback: that would keep the undone calibration as .previous.
+          store_.restore(*pending_->filesBefore);
+          spdlog::warn("cluster calibration undone: {} and its .previous are as before",
+                       store_.path());
         } catch (const std::exception& e) {
           problems.push_back(e.what());
         }
@@ -173,17 +166,15 @@ nlohmann::json Conductor::takeFilesStep(const nlohmann::json& op) {
     if (std::optional<StoredCalibration> shared = holds(hash)) {
       pending_->stored = std::move(shared);  // a file an earlier rank of this machine wrote
     } else {
-      pending_->hadCalibration = std::filesystem::exists(store_.path());
+      pending_->filesBefore = store_.files();
       pending_->stored = store_.install(pending_->model);
-      pending_->wroteFiles = true;
     }
     return {{"ok", true}, {"hash", hash}};
   }
   // rollback: rank 0's previous calibration is the target; the others' must be the same one.
-  pending_->hadCalibration = true;  // a rollback swaps back
   if (cluster_->isConductor()) {
+    pending_->filesBefore = store_.files();
     pending_->stored = store_.rollback(nominal_);
-    pending_->wroteFiles = true;
     pending_->model = pending_->stored->model;
     return {{"ok", true}, {"hash", hashHex(displayContentHash(pending_->model))}};
   }
@@ -191,17 +182,18 @@ nlohmann::json Conductor::takeFilesStep(const nlohmann::json& op) {
   if (std::optional<StoredCalibration> shared = holds(target)) {
     pending_->stored = std::move(shared);
   } else {
+    pending_->filesBefore = store_.files();
     StoredCalibration previous = store_.rollback(nominal_);
     const std::string hash = hashHex(displayContentHash(previous.model));
     if (hash != target) {
-      store_.rollback(nominal_);  // swapped back: this rank stays where it was
+      store_.restore(*pending_->filesBefore);  // this rank stays where it was
+      pending_->filesBefore.reset();
       return {{"ok", false},
               {"error", fmt::format("its previous calibration is {}, rank 0's is {}: the nodes' "
                                     "calibration files have different histories",
                                     hash, target)}};
     }
     pending_->stored = std::move(previous);
-    pending_->wroteFiles = true;
   }
   pending_->model = pending_->stored->model;
   return {{"ok", true}, {"hash", target}};

@@ -181,9 +181,13 @@ Reply Conductor::answerRollback(const RequestArgs&) {
                {"photometry", photometryJson()}});
   }
   // The previous version, geometry and photometry, is checked before anything changes.
+  const CalibrationStore::Files before = store_.files();
   const StoredCalibration previous = store_.rollback(nominal_);
   const StageResult result = regenerate(previous.model);
-  if (!result.done()) return refused(result.error);
+  if (!result.done()) {
+    store_.restore(before);  // not played, so not installed: the files as they were
+    return refused(result.error);
+  }
   calibration_ = previous.model;
   calibrationSource_ = store_.path() + " (rolled back)";
   applyPhotometry(previous.photometry, previous.photometrySource);

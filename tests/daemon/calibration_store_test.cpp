@@ -174,10 +174,57 @@ TEST_F(CalibrationStoreTest, AFailedInstallAfterThePreviousWasKeptStillKeepsBoth
     m.fx += 0.111111111111111;
     m.fy += 0.222222222222222;
   }
+  const std::string previous = bytesOf(store.previousPath());
   EXPECT_TRUE(installThrowsUnderFileSizeLimit(path_, longer, current.size() + 8));
   EXPECT_EQ(bytesOf(path_), current);
-  EXPECT_TRUE(sameModel(loadDisplayModel(store.previousPath()), display(2.0)) ||
-              sameModel(loadDisplayModel(store.previousPath()), display(1.0)));
+  // .previous is put back too: a rollback still goes to display(1.0), not to display(2.0)
+  // which the failed install had copied there.
+  EXPECT_EQ(bytesOf(store.previousPath()), previous);
+  EXPECT_TRUE(sameModel(store.rollback(display(0.0)).model, display(1.0)));
+}
+
+// An install undone because another rank of a cluster could not take it (issue 23): every file
+// is put back byte for byte, .previous too, so a later rollback goes where it would have gone
+// before the attempt, not to the calibration that was undone.
+TEST_F(CalibrationStoreTest, RestoreAfterAnInstallPutsBackTheCurrentAndThePrevious) {
+  const CalibrationStore store(path_);
+  store.install(display(1.0));
+  store.install(display(2.0));
+  const std::string current = bytesOf(path_), previous = bytesOf(store.previousPath());
+  const CalibrationStore::Files before = store.files();
+  store.install(display(3.0));
+  store.restore(before);
+  EXPECT_EQ(bytesOf(path_), current);
+  EXPECT_EQ(bytesOf(store.previousPath()), previous);
+  EXPECT_TRUE(sameModel(store.rollback(display(0.0)).model, display(1.0)));
+}
+
+TEST_F(CalibrationStoreTest, RestoreAfterTheFirstInstallLeavesNoCalibration) {
+  const CalibrationStore store(path_);
+  const CalibrationStore::Files before = store.files();
+  store.install(display(1.0));
+  store.install(display(2.0));  // a .previous too
+  store.restore(before);
+  EXPECT_TRUE(fs::is_empty(folder_));
+  EXPECT_FALSE(store.loadFor(display(0.0)).has_value());
+}
+
+// What cannot be read cannot be put back: a folder where the calibration file should be is
+// refused before anything is written, naming it.
+TEST_F(CalibrationStoreTest, AnInstallOverAFolderChangesNothingAndNamesIt) {
+  const CalibrationStore store(path_);
+  store.install(display(1.0));
+  fs::rename(path_, store.previousPath());
+  fs::create_directory(path_);
+  const std::string previous = bytesOf(store.previousPath());
+  try {
+    store.install(display(2.0));
+    FAIL() << "installed over a folder";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.location().file, path_) << e.what();
+  }
+  EXPECT_TRUE(fs::is_directory(path_));
+  EXPECT_EQ(bytesOf(store.previousPath()), previous);
 }
 
 }  // namespace

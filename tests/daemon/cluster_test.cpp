@@ -204,7 +204,8 @@ void expectSameNumbers(const json& a, const json& b, double relative, const std:
 // `calibrate` with 2 ranks (rank 0's camera; each rank's simulator shows its own modules, the
 // camera sees them all) installs the same calibration as one rank does, on every rank; the
 // frames are then the bytes one rank shows with it. A rank that cannot install it leaves every
-// rank on the calibration of before; `rollback` brings every rank back to the one before.
+// rank's files (current and .previous) as they were; `rollback` then brings every rank back to
+// the calibration before the last good one.
 TEST_F(ClusterTest, CalibrateAndRollBackAcrossRanks) {
   const auto request = [this](const json& r) {
     return tryAskDaemon(socket_, r, 900.0).value_or(nullptr);
@@ -265,7 +266,22 @@ TEST_F(ClusterTest, CalibrateAndRollBackAcrossRanks) {
   expectSameNumbers(json::parse(readFile(oneFile)), json::parse(installedBytes), 1e-5);
   const std::vector<std::string> calibrated = framesAfter(shown, "calibrated", *daemon);
 
-  // Rank 1 cannot write its file (a folder stands there): nothing changes on any rank.
+  // Module 9 (rank 1's) calibrated again: every rank on a new one, the first as .previous.
+  r = request({{"request", "calibrate"}, {"module", 9}});
+  ASSERT_TRUE(r.is_object() && r.value("ok", false)) << r << daemon->log();
+  const std::string recalibrated = r["hash"];
+  EXPECT_NE(recalibrated, installed);
+  expectEveryRankOn(recalibrated);
+  // A rank's current and previous calibration files.
+  const auto filesOf = [](const fs::path& file) {
+    return std::pair{readFile(file), readFile(file.string() + ".previous")};
+  };
+  const auto rank0Before = filesOf(rank0File), rank1Before = filesOf(rank1File);
+  EXPECT_EQ(rank0Before.second, installedBytes);
+  EXPECT_EQ(rank1Before.second, installedBytes);
+
+  // Rank 1 cannot write its file (a folder stands there): nothing changes on any rank, not even
+  // the .previous of rank 0, which had written the new one before rank 1 failed.
   fs::remove(rank1File);
   fs::create_directory(rank1File);
   r = request({{"request", "calibrate"}, {"module", 9}});
@@ -277,16 +293,12 @@ TEST_F(ClusterTest, CalibrateAndRollBackAcrossRanks) {
   EXPECT_NE(r.value("error", "").find("every rank is back on its calibration of before"),
             std::string::npos)
       << r;
-  expectEveryRankOn(installed);
-  EXPECT_EQ(readFile(rank0File), installedBytes) << "rank 0's file was not put back";
+  expectEveryRankOn(recalibrated);
+  EXPECT_TRUE(filesOf(rank0File) == rank0Before) << "rank 0's files were not put back as they were";
   fs::remove(rank1File);
-  fs::copy_file(rank0File, rank1File);
+  std::ofstream(rank1File, std::ios::binary) << rank1Before.first;
 
-  // Module 9 (rank 1's) calibrated again, then rolled back: every rank on the first again.
-  r = request({{"request", "calibrate"}, {"module", 9}});
-  ASSERT_TRUE(r.is_object() && r.value("ok", false)) << r << daemon->log();
-  EXPECT_NE(r["hash"], installed);
-  expectEveryRankOn(r["hash"]);
+  // So `rollback` goes where it would have gone before the failed attempt: to the first one.
   shown = framesShown();
   r = request({{"request", "rollback"}});
   ASSERT_TRUE(r.is_object() && r.value("ok", false)) << r << daemon->log();

@@ -27,7 +27,10 @@ void LinkOptions::validate() const {
   require(reconnectAttempts >= 0 && reconnectAttempts <= 100, "reconnect_attempts",
           "must be in 0..100");
   require(reconnectDelayMs >= 0, "reconnect_delay_ms", "must not be negative");
+  require(reconnectBudgetMs >= 1, "reconnect_budget_ms", "must be positive");
   require(linkDownRetryMs >= 0, "link_down_retry_ms", "must not be negative");
+  require(linkDownRetryMaxMs >= linkDownRetryMs && linkDownRetryMaxMs <= 3600000,
+          "link_down_retry_max_ms", "must be in link_down_retry_ms..3600000");
 }
 
 std::string_view frameStatusName(FrameStatus status) {
@@ -53,7 +56,7 @@ LinkClient::LinkClient(std::unique_ptr<LinkTransport> transport, LinkOptions opt
   if (!transport_->isOpen() && transport_->open(&error) != TransportStatus::kOk) {
     throw std::runtime_error(error);
   }
-  if (!helloOk()) {
+  if (!helloOk(options_.ackTimeoutMs)) {
     if (transport_->lastProtocolError() == ProtocolError::kBadVersion) {
       throw std::runtime_error(fmt::format(
           "{}: the device speaks link protocol version {}, this host version {} (frames "
@@ -67,14 +70,14 @@ LinkClient::LinkClient(std::unique_ptr<LinkTransport> transport, LinkOptions opt
 
 LinkClient::~LinkClient() = default;
 
-bool LinkClient::helloOk() {
+bool LinkClient::helloOk(int timeoutMs) {
   const uint32_t seq = nextSequence();
   const HeaderBytes h = encodeHeader({PacketType::kHello, 0, kAllModules, seq, 0, 0}, {});
   iovec piece{const_cast<uint8_t*>(h.data()), h.size()};
   if (transport_->send(kAllModules, {&piece, 1}) != TransportStatus::kOk) return false;
   std::vector<ModuleLinkInfo> found;
   uint16_t expected = 0;
-  const auto deadline = Clock::now() + std::chrono::milliseconds(options_.ackTimeoutMs);
+  const auto deadline = Clock::now() + std::chrono::milliseconds(timeoutMs);
   while (expected == 0 || found.size() < expected) {
     std::vector<ReceivedPacket> packets;
     const int left = static_cast<int>(
@@ -393,14 +396,23 @@ bool LinkClient::reconnect(const std::string& why) {
   int delay = options_.reconnectDelayMs;
   std::string error;
   bool up = false;
+  const auto giveUp = Clock::now() + std::chrono::milliseconds(options_.reconnectBudgetMs);
+  const auto leftMs = [&] {
+    return std::chrono::duration_cast<std::chrono::milliseconds>(giveUp - Clock::now()).count();
+  };
   for (int attempt = 0; attempt <= options_.reconnectAttempts && !up; ++attempt) {
     if (attempt > 0) {
+      if (leftMs() < delay) {
+        error += fmt::format(" (gave up after {} attempts in {} ms)", attempt,
+                             options_.reconnectBudgetMs - leftMs());
+        break;
+      }
       std::this_thread::sleep_for(std::chrono::milliseconds(delay));
       delay *= 2;
     }
     ++stats_.reconnects;
     if (transport_->open(&error) != TransportStatus::kOk) continue;
-    if (!helloOk()) {
+    if (!helloOk(static_cast<int>(std::clamp<int64_t>(leftMs(), 1, options_.ackTimeoutMs)))) {
       error = "the device did not answer Hello";
       transport_->close();
       continue;
@@ -422,9 +434,15 @@ bool LinkClient::reconnect(const std::string& why) {
       }
     }
   }
-  if (!up) {
-    downReason_ = fmt::format("link down ({}; reconnecting failed: {})", why, error);
-    downUntil_ = Clock::now() + std::chrono::milliseconds(options_.linkDownRetryMs);
+  if (up) {
+    quietMs_ = options_.linkDownRetryMs;
+  } else {
+    // Growing pauses: a device that stays hung costs a reconnect budget ever more rarely.
+    quietMs_ = std::clamp(quietMs_, options_.linkDownRetryMs, options_.linkDownRetryMaxMs);
+    downReason_ = fmt::format("link down ({}; reconnecting failed: {}; next try in {} ms)", why,
+                              error, quietMs_);
+    downUntil_ = Clock::now() + std::chrono::milliseconds(quietMs_);
+    quietMs_ = std::min(quietMs_ * 2, options_.linkDownRetryMaxMs);
     for (Pending& p : pending_) finish(p, FrameStatus::kFailed, downReason_);
   }
   // No prune() here: callers may be iterating pending_.

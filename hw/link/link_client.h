@@ -38,9 +38,15 @@ struct LinkOptions {
   int keepAliveMs = 1000;  // idle time after which the link is probed before sending
   int reconnectAttempts = 5;
   int reconnectDelayMs = 50;  // doubled after each failed attempt
+  // The most one reconnect may take, attempts, pauses and Hello waits together: a hung device
+  // (its connection accepted, Hello never answered) would otherwise hold the caller's thread —
+  // the render loop, and in a cluster every rank waiting for this one — for every attempt.
+  int reconnectBudgetMs = 3000;
   // After reconnecting failed, frames fail at once ("link down") for this long before the
   // next reconnect: a dead link must not cost every frame of the render loop a full back-off.
+  // Doubled after each reconnect that failed in a row, up to linkDownRetryMaxMs.
   int linkDownRetryMs = 1000;
+  int linkDownRetryMaxMs = 16000;
   bool skipUnchanged = true;  // content hash: unchanged frames are not re-sent
 
   // Throws InputError naming the field.
@@ -144,7 +150,7 @@ class LinkClient {
   };
   using Clock = std::chrono::steady_clock;
 
-  bool helloOk();
+  bool helloOk(int timeoutMs);
   // Closes, reopens (bounded attempts with back-off), says hello and resends what was in
   // flight; when it cannot, fails every pending frame with the reason. False if still down.
   bool reconnect(const std::string& why);
@@ -188,6 +194,7 @@ class LinkClient {
   uint64_t sessions_ = 0;
   bool reconnecting_ = false;
   Clock::time_point downUntil_;  // no reconnect attempts before this
+  int quietMs_ = 0;              // the pause after the next failed reconnect
   std::string downReason_;
   Clock::time_point lastHeard_;
 };

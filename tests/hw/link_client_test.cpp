@@ -5,9 +5,15 @@
 #include "hw/link/link_client.h"
 
 #include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
 
+#include <cstring>
+#include <filesystem>
 #include <map>
 #include <random>
+#include <thread>
 
 #include "common/input_error.h"
 #include "hw/link/socket_transport.h"
@@ -272,6 +278,7 @@ TEST(LinkClient, ADeadLinkFailsFramesAtOnceInsteadOfRetryingEachOne) {
   LinkOptions options = fastOptions();
   options.reconnectAttempts = 2;
   options.linkDownRetryMs = 60000;  // longer than this test
+  options.linkDownRetryMaxMs = 60000;
   auto link = connect(sim, options);
   sim.stop();
   for (int i = 0; i < 10; ++i) link->submit(0, makeFrame(i));
@@ -284,6 +291,50 @@ TEST(LinkClient, ADeadLinkFailsFramesAtOnceInsteadOfRetryingEachOne) {
   }
   // One round of reconnect attempts (1 + reconnectAttempts), not one per frame.
   EXPECT_EQ(link->stats().reconnects, 3u);
+}
+
+// A hung device: its socket takes connections and never answers Hello. One reconnect costs at
+// most its budget (not 1 + reconnectAttempts Hello waits: in a cluster every rank waits for it),
+// and the pauses between reconnects grow, up to their maximum.
+TEST(LinkClient, AReconnectToAHungDeviceStopsAtItsBudgetAndThePausesGrow) {
+  InProcessSimhw sim(smallDisplay(1));
+  LinkOptions options = fastOptions();
+  options.reconnectAttempts = 10;  // 11 Hello waits of 400 ms without the budget
+  options.reconnectBudgetMs = 600;
+  options.linkDownRetryMs = 50;
+  options.linkDownRetryMaxMs = 150;
+  auto link = connect(sim, options);
+  sim.stop();
+  std::filesystem::remove(sim.path());
+  const int hung = ::socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  std::strncpy(address.sun_path, sim.path().c_str(), sizeof address.sun_path - 1);
+  ASSERT_EQ(::bind(hung, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+  ASSERT_EQ(::listen(hung, 64), 0);
+
+  // Each frame after the pause of the last failed reconnect: a new reconnect, which fails.
+  std::vector<std::string> reasons;
+  for (int pause : {0, 60, 110, 160}) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(pause));
+    const uint64_t before = link->stats().reconnects;
+    link->submit(0, makeFrame(static_cast<uint32_t>(pause)));
+    link->flush();
+    const auto outcomes = link->takeOutcomes();
+    ASSERT_EQ(outcomes.size(), 1u);
+    EXPECT_EQ(outcomes[0].status, FrameStatus::kFailed);
+    reasons.push_back(outcomes[0].reason);
+    // 400 ms, then what is left of 600 ms: two Hello waits at most.
+    EXPECT_GE(link->stats().reconnects - before, 1u);
+    EXPECT_LE(link->stats().reconnects - before, 2u) << outcomes[0].reason;
+  }
+  EXPECT_NE(reasons[0].find("the device did not answer Hello"), std::string::npos) << reasons[0];
+  EXPECT_NE(reasons[0].find("next try in 50 ms"), std::string::npos) << reasons[0];
+  EXPECT_NE(reasons[1].find("next try in 100 ms"), std::string::npos) << reasons[1];
+  EXPECT_NE(reasons[2].find("next try in 150 ms"), std::string::npos) << reasons[2];
+  EXPECT_NE(reasons[3].find("next try in 150 ms"), std::string::npos) << reasons[3];
+  link.reset();
+  ::close(hung);
 }
 
 TEST(LinkClient, CameraCaptureReturnsTheRawPattern) {

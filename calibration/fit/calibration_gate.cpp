@@ -18,7 +18,6 @@ void GateLimits::validate() const {
   positive(worstPx, "gate_worst_px");
   positive(worstObserverMm, "gate_worst_observer_mm");
   positive(sigmas, "gate_sigmas");
-  positive(maxStripeMisfit, "gate_max_stripe_misfit");
 }
 
 int GateResult::failingModules() const {
@@ -65,15 +64,6 @@ ModuleGate judgeModule(const DisplayModel& fitted, const ModuleFit& fit, bool he
     g.boundPx = g.boundObserverMm = kInf;
     g.reason = g.predicted.bounded ? "none of its pixels reaches the observer line"
                                    : "its covariance is not finite: its rays cannot be bounded";
-    return g;
-  }
-  if (fit.stripeMisfit > limits.maxStripeMisfit) {
-    g.boundPx = g.boundObserverMm = kInf;
-    g.reason = fmt::format(
-        "its stripe centres scatter {:.1f}× the fit's σ (at most {:.1f}×): the model does not "
-        "explain its light (a response or brightness across its image that bends its stripes, "
-        "misread stripes), so its error cannot be bounded",
-        fit.stripeMisfit, limits.maxStripeMisfit);
     return g;
   }
   g.boundPx = limits.sigmas * g.predicted.worstPx;

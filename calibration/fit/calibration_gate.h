@@ -19,14 +19,8 @@
 //     no eye ever receives the view meant for the other eye or the next module's, and at 2 m
 //     it is 0.43°, a quarter of `default`'s 1.9° angular pitch.
 // A module no camera saw, or one whose error cannot be bounded (rank deficient: no finite
-// covariance), fails. So does one whose stripe centres scatter over `maxStripeMisfit` times the
-// fit's σ (ModuleFit::stripeMisfit): its light is not what the model explains (a response or
-// brightness across its image that bends its stripes, misread stripes), and a covariance that
-// assumed σ does not bound its rays: on demo through the link with modules of γ 1.9-2.5, such
-// modules (2.4-3.2×) were 70-110 mm off on the observer line while their 3σ said 10 mm. Sound
-// fits measure 1.0-1.5 (chance, and noise that differs between modules under one σ). A failure of
-// the whole fit (not converged, stopped, a transfer the data cannot decide, cameras or k
-// undetermined) fails every module.
+// covariance), fails. A failure of the whole fit (not converged, stopped, a transfer the data
+// cannot decide, cameras or k undetermined) fails every module.
 
 #include <string>
 #include <vector>
@@ -39,7 +33,6 @@ struct GateLimits {
   double worstPx = 3.0;           // module px
   double worstObserverMm = 15.0;  // mm on the observer line
   double sigmas = 3.0;            // the predicted worst error: this many σ at the worst pixel
-  double maxStripeMisfit = 2.0;   // stripe RMS over the fit's σ (see above)
   // Install the modules that pass, the others held at their nominal calibration and named;
   // without it, one failing module refuses the whole calibration.
   bool allowPartial = false;

@@ -94,10 +94,6 @@ struct ModuleFit {
   int correspondences = 0, stripes = 0, outliers = 0;
   double rmsPx = 0.0;  // correspondences, robust inliers (module px)
   double stripeRmsMm = 0.0;
-  // Its stripe centres' RMS over the fit's stripe σ, each residual capped at kOutlierSigmas σ
-  // (an outlier the robust loss set aside counts, but only so much): about 1 when the model
-  // explains its light; the gate fails a module far over it (calibration_gate.h).
-  double stripeMisfit = 0.0;
   BlockConditioning conditioning;
   // Standard deviations: rotation about x, y, z (deg), position x, y, z (mm), fx, fy, cx, cy
   // (px), k1, k2. +inf where the data cannot determine the parameter.

@@ -68,9 +68,8 @@ void summarizeResiduals(const FitInputs& in, const FitState& state, const Corres
   }
 
   // ---- stripes (mm on the screen) ----
-  std::vector<double> stripeAbs, stripeSumSq(modules, 0.0), cappedSumSq(modules, 0.0);
+  std::vector<double> stripeAbs, stripeSumSq(modules, 0.0);
   double stripeTotal = 0.0;
-  const double cap = kOutlierSigmas * sigmas.stripeMm;
   for (size_t i = 0; i < obs.stripes.size(); ++i) {
     const StripeCentre& s = obs.stripes[i];
     if (!in.observed[static_cast<size_t>(s.module)]) continue;
@@ -79,15 +78,12 @@ void summarizeResiduals(const FitInputs& in, const FitState& state, const Corres
     ++result->modules[static_cast<size_t>(s.module)].stripes;
     result->stripeResidualsMm.push_back(r);
     stripeSumSq[static_cast<size_t>(s.module)] += r * r;
-    cappedSumSq[static_cast<size_t>(s.module)] += std::min(r * r, cap * cap);
     stripeTotal += r * r;
     stripeAbs.push_back(std::abs(r));
   }
   for (size_t m = 0; m < modules; ++m) {
     ModuleFit& mf = result->modules[m];
-    if (!mf.stripes) continue;
-    mf.stripeRmsMm = std::sqrt(stripeSumSq[m] / mf.stripes);
-    mf.stripeMisfit = std::sqrt(cappedSumSq[m] / mf.stripes) / sigmas.stripeMm;
+    if (mf.stripes) mf.stripeRmsMm = std::sqrt(stripeSumSq[m] / mf.stripes);
   }
   if (!stripeAbs.empty())
     result->stripeRmsMm = std::sqrt(stripeTotal / static_cast<double>(stripeAbs.size()));

@@ -328,9 +328,6 @@ SyncReading readSyncCode(const cv::Mat& linear, const SyncGeometry& geometry,
   // Per column: its code; kMixed where the cells are lit alike (two modules' bands meet there),
   // kDark where none is lit (a module still on a frame whose band is dark).
   constexpr int kMixed = -1, kDark = -2;
-  // Cells and the white are judged above each picture's own dark level (an automatic
-  // exposure moves it from picture to picture).
-  const double black = pictureBlack(linear);
   std::vector<int> read(geometry.columns.size(), kMixed);
   int readable = 0;
   std::vector<double> contrasts;
@@ -341,20 +338,19 @@ SyncReading readSyncCode(const cv::Mat& linear, const SyncGeometry& geometry,
     for (int b = 0; b < SyncCodeLayout::kBits; ++b) {
       const auto [a0, a1] = cellRange(geometry, i, layout, 2 * b);
       const auto [b0, b1] = cellRange(geometry, i, layout, 2 * b + 1);
-      const double one = std::max(0.0, columnMean(linear, geometry.columns[i], a0, a1) - black);
-      const double zero = std::max(0.0, columnMean(linear, geometry.columns[i], b0, b1) - black);
+      const double one = columnMean(linear, geometry.columns[i], a0, a1);
+      const double zero = columnMean(linear, geometry.columns[i], b0, b1);
       const double hi = std::max(one, zero), lo = std::min(one, zero);
       // One cell of the pair lit, the other clearly darker: a bit. Both alike: no code here.
       if (!(hi > 0.0) || lo > 0.5 * hi) ok = false;
       if (one > zero) code |= 1 << b;
-      lit += hi + black;
+      lit += hi;
       brightest = std::max(brightest, hi);
       weakest = std::min(weakest, hi > 0.0 ? (hi - lo) / hi : 0.0);
     }
-    const double white = geometry.whiteTop[i] - geometry.black;
-    if (brightest >= 0.3 * white) contrasts.push_back(weakest);
+    if (brightest >= 0.3 * geometry.whiteTop[i]) contrasts.push_back(weakest);
     if (!ok) {
-      if (brightest < 0.3 * white) read[i] = kDark;
+      if (brightest < 0.3 * geometry.whiteTop[i]) read[i] = kDark;
       continue;
     }
     ++readable;

@@ -85,9 +85,11 @@ struct SyncGeometry {
 
 // The dark level of a picture (linear light): its 2nd percentile. Light that reaches the dark
 // parts of the screen as well as the lit ones (a room's lights, the camera's flare and black
-// offset) lifts the band and the patterns' dark parts alike; the sync code's cells are judged
-// above it, or a dim module's flanks read as lit (a photometric truth with modules at 83-92%
-// of full brightness lost a third of its stripes so).
+// offset) lifts the band and the patterns' dark parts alike; the white reference's band and the
+// black reference are judged above it, or a dim module's flanks read as lit (a photometric
+// truth with modules at 83-92% of full brightness lost a third of its stripes so). A coded
+// picture's cells are still read against zero: there, a flank whose cells the pedestal lifts
+// reads as mixed and says nothing, where read above it, it could read a neighbour's band.
 double pictureBlack(const cv::Mat& linear);
 
 // From a picture that should be a white reference (linear light, CV_32F): the columns whose

@@ -136,6 +136,12 @@ double medianOf(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+// A set's white and black references as the camera recorded them, for the lobes when the
+// modules (not the camera) bend the patterns.
+StripeReferences recordedReferences(const StationCaptures& s, double assumedGamma) {
+  return StripeReferences{s.columnFrames[0], s.columnFrames[1], clippedLinear(assumedGamma)};
+}
+
 // The phase pictures measured a response the camera.json did not state: the camera's, or the
 // modules' own (a projector driven without linearization), which the phase alone cannot tell
 // apart. The lobes can: they are the screen's diffusion, lit by a white module (whatever its
@@ -149,8 +155,7 @@ void decideWhichEndBends(const CalibrationCaptures& captures, const DisplayModel
   CaptureDecoderOptions probe = decoder;
   probe.pixelStep = std::max(decoder.pixelStep, 4);  // a lobe width needs few rows
   probe.onPictureSet = nullptr;
-  const StripeReferences recorded{s.columnFrames[0], s.columnFrames[1],
-                                  clippedLinear(response->assumedGamma)};
+  const StripeReferences recorded = recordedReferences(s, response->assumedGamma);
   const auto medianWidth = [&](const StripeReferences* references) {
     CalibrationObservations scratch = observationsFrame(captures.camera);
     std::vector<double> widths;
@@ -186,11 +191,6 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
     return out;
   };
   decoder.saturatedLinear = clippedLinear(response.usedGamma());
-  // The lobes and fiducials in the camera's light: as recorded when the modules bend the light.
-  const auto references = [&](const StationCaptures& s) {
-    return StripeReferences{s.columnFrames[0], s.columnFrames[1],
-                            clippedLinear(response.assumedGamma)};
-  };
   if (response.corrected) decideWhichEndBends(captures, nominal, decoder, linear, &response);
   CalibrationObservations obs = observationsFrame(captures.camera);
   obs.cameraResponse = response;
@@ -209,7 +209,8 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
   for (int i = 0; i < sets; ++i) {
     const StationCaptures& s = captures.stations[static_cast<size_t>(i)];
     const auto& pose = poses[static_cast<size_t>(s.station)];
-    const StripeReferences recorded = references(s);
+    // The lobes and fiducials in the camera's light: as recorded when the modules bend it.
+    const StripeReferences recorded = recordedReferences(s, response.assumedGamma);
     decodeStation(linear(s.columnFrames), linear(s.rowFrames), s.group, nominal, s.station, decoder,
                   &obs, pose ? &*pose : nullptr, response.modulesBend ? &recorded : nullptr);
     if (options.onPictureSet) options.onPictureSet(i + 1, sets);

@@ -362,12 +362,10 @@ CalibrationCaptures runSession(PatternScreen* screen, Camera& camera, const Disp
       show(group, moduleFrame(pattern, format), what);
       out->push_back(take(what, kind, code, prediction, geometry, &geometry, earlierWhite));
       if (f == 0) firstWhite = camera.lastPicture();
-      // The set is done only once its white reference agrees again: until then one short of
-      // it (a set taken again counts up once more, and the last one ends the bar).
-      if (progress)
-        progress(std::min(done + static_cast<int>(out->size()),
-                          std::max(0, done + static_cast<int>(patterns.size()) - 1)),
-                 total);
+      // A set's last picture counts once its white reference agrees again (below): a set taken
+      // again after the bar's end would start a second one.
+      if (progress && out->size() < patterns.size())
+        progress(done + static_cast<int>(out->size()), total);
     }
     if (!sync) return true;
     const std::string what = fmt::format("station {}, modules {}, {} white reference again",

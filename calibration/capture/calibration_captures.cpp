@@ -136,6 +136,27 @@ double medianOf(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+// A coded picture linearized above the set's black reference: where the modules' own response
+// bends the patterns, it shapes only the light above their black (their black level and the
+// room's light add after it). Clipped pixels stay as recorded, so the decoder still sees them
+// clipped; pixels no brighter in the white than in the black are left alone.
+cv::Mat linearizedAboveBlack(const cv::Mat& picture, const cv::Mat& white, const cv::Mat& black,
+                             double exponent, double clipped) {
+  cv::Mat out = picture.clone();
+  for (int y = 0; y < out.rows; ++y) {
+    const float* w = white.ptr<float>(y);
+    const float* b = black.ptr<float>(y);
+    float* v = out.ptr<float>(y);
+    for (int x = 0; x < out.cols; ++x) {
+      const double range = static_cast<double>(w[x]) - b[x];
+      if (!(range > 0.0) || v[x] >= clipped) continue;
+      const double above = std::max(0.0, (static_cast<double>(v[x]) - b[x]) / range);
+      v[x] = static_cast<float>(b[x] + range * std::pow(above, exponent));
+    }
+  }
+  return out;
+}
+
 // A set's white and black references as the camera recorded them, for the lobes when the
 // modules (not the camera) bend the patterns.
 StripeReferences recordedReferences(const StationCaptures& s, double assumedGamma) {
@@ -161,7 +182,7 @@ void decideWhichEndBends(const CalibrationCaptures& captures, const DisplayModel
     std::vector<double> widths;
     decodeStation(linear(s.columnFrames), linear(s.rowFrames), s.group, nominal, s.station, probe,
                   &scratch, nullptr, references, &widths);
-    return medianOf(std::move(widths)) / (radians(nominal.screen.diffusionDeg) / 2.354820045);
+    return medianOf(std::move(widths)) / diffusionSigma(nominal.screen.diffusionDeg);
   };
   response->lobeWidthRecorded = medianWidth(&recorded);
   response->lobeWidthRelinearized = medianWidth(nullptr);
@@ -192,6 +213,19 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
   };
   decoder.saturatedLinear = clippedLinear(response.usedGamma());
   if (response.corrected) decideWhichEndBends(captures, nominal, decoder, linear, &response);
+  // The modules bend: the patterns linearized above each set's black, the camera's clipping
+  // as recorded.
+  const bool aboveBlack = response.modulesGamma() > 0.0;
+  if (aboveBlack) decoder.saturatedLinear = clippedLinear(response.assumedGamma);
+  const auto decoded = [&](const std::vector<cv::Mat>& frames) {
+    if (!aboveBlack) return linear(frames);
+    std::vector<cv::Mat> out = frames;  // the references as recorded
+    for (size_t f = 2; f < frames.size(); ++f) {
+      out[f] = linearizedAboveBlack(frames[f], frames[0], frames[1], response.aboveBlackExponent,
+                                    decoder.saturatedLinear);
+    }
+    return out;
+  };
   CalibrationObservations obs = observationsFrame(captures.camera);
   obs.cameraResponse = response;
   // Fiducials first (from each station's first black reference picture): the pose they give
@@ -211,8 +245,9 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
     const auto& pose = poses[static_cast<size_t>(s.station)];
     // The lobes and fiducials in the camera's light: as recorded when the modules bend it.
     const StripeReferences recorded = recordedReferences(s, response.assumedGamma);
-    decodeStation(linear(s.columnFrames), linear(s.rowFrames), s.group, nominal, s.station, decoder,
-                  &obs, pose ? &*pose : nullptr, response.modulesBend ? &recorded : nullptr);
+    decodeStation(decoded(s.columnFrames), decoded(s.rowFrames), s.group, nominal, s.station,
+                  decoder, &obs, pose ? &*pose : nullptr,
+                  response.modulesBend ? &recorded : nullptr);
     if (options.onPictureSet) options.onPictureSet(i + 1, sets);
   }
   return obs;

@@ -16,8 +16,10 @@ struct PhaseSamples {
   size_t pixels() const { return steps ? values.size() / static_cast<size_t>(steps) : 0; }
 };
 
+// With `aboveBlack`, each sample less the black reference's value at that pixel: the light a
+// module's own response curve shapes, before its black and the room's light add to it.
 void collect(const std::vector<cv::Mat>& frames, int steps, double minContrast, double saturated,
-             int step, PhaseSamples* out) {
+             int step, bool aboveBlack, PhaseSamples* out) {
   const cv::Mat& white = frames[0];
   const cv::Mat& black = frames[1];
   const size_t first = frames.size() - static_cast<size_t>(steps);
@@ -28,9 +30,11 @@ void collect(const std::vector<cv::Mat>& frames, int steps, double minContrast, 
       double lo = 1e300, hi = 0.0;
       bool usable = true;
       for (int k = 0; k < steps; ++k) {
-        const double value = frames[first + static_cast<size_t>(k)].at<float>(y, x);
+        const double recorded = frames[first + static_cast<size_t>(k)].at<float>(y, x);
         // Clipped samples say only "at least this"; zero or less has no power.
-        if (!(value > 0.0 && value < saturated)) usable = false;
+        if (!(recorded > 0.0 && recorded < saturated)) usable = false;
+        const double value = aboveBlack ? recorded - black.at<float>(y, x) : recorded;
+        if (!(value > 0.0)) usable = false;
         v[static_cast<size_t>(k)] = value;
         lo = std::min(lo, value);
         hi = std::max(hi, value);
@@ -118,23 +122,29 @@ CameraResponseCheck checkCameraResponse(const CalibrationCaptures& captures,
   const int step =
       std::max(1, static_cast<int>(std::sqrt(candidates / (4.0 * std::max(options.maxPixels, 1)))));
   const double saturated = clippedLinear(captures.camera.responseGamma);
-  PhaseSamples samples;
-  samples.steps = steps;
-  for (const StationCaptures& s : captures.stations) {
-    collect(s.columnFrames, steps, captures.patterns.minContrast, saturated, step, &samples);
-    collect(s.rowFrames, steps, captures.patterns.minContrast, saturated, step, &samples);
-  }
-  // Every k-th pixel when more passed than the measurement needs.
-  const size_t keep = static_cast<size_t>(std::max(options.maxPixels, 1));
-  if (samples.pixels() > keep) {
-    const size_t stride = (samples.pixels() + keep - 1) / keep;
-    const size_t n = static_cast<size_t>(steps);
-    size_t kept = 0;
-    for (size_t p = 0; p < samples.pixels(); p += stride, ++kept)
-      std::copy_n(samples.values.begin() + static_cast<long>(p * n), n,
-                  samples.values.begin() + static_cast<long>(kept * n));
-    samples.values.resize(kept * n);
-  }
+  const auto gather = [&](bool aboveBlack) {
+    PhaseSamples samples;
+    samples.steps = steps;
+    for (const StationCaptures& s : captures.stations) {
+      collect(s.columnFrames, steps, captures.patterns.minContrast, saturated, step, aboveBlack,
+              &samples);
+      collect(s.rowFrames, steps, captures.patterns.minContrast, saturated, step, aboveBlack,
+              &samples);
+    }
+    // Every k-th pixel when more passed than the measurement needs.
+    const size_t keep = static_cast<size_t>(std::max(options.maxPixels, 1));
+    if (samples.pixels() > keep) {
+      const size_t stride = (samples.pixels() + keep - 1) / keep;
+      const size_t n = static_cast<size_t>(steps);
+      size_t kept = 0;
+      for (size_t p = 0; p < samples.pixels(); p += stride, ++kept)
+        std::copy_n(samples.values.begin() + static_cast<long>(p * n), n,
+                    samples.values.begin() + static_cast<long>(kept * n));
+      samples.values.resize(kept * n);
+    }
+    return samples;
+  };
+  const PhaseSamples samples = gather(false);
   check.pixels = static_cast<int>(samples.pixels());
   if (check.pixels < options.minPixels) return check;
   const double e = bestExponent(samples, 0.2, 5.0, 0, 1);
@@ -158,6 +168,16 @@ CameraResponseCheck checkCameraResponse(const CalibrationCaptures& captures,
   check.disagrees =
       difference > 3.0 * check.sigma && difference > options.relativeTolerance * check.assumedGamma;
   check.corrected = check.disagrees && !check.stated;
+  // The same shape above the black reference: the modules' response when it is theirs (the
+  // decoder tells which end bends). Their black and the room's light add after it, so raised
+  // whole, a dim flank's samples bend otherwise than a bright centre's.
+  if (check.corrected) {
+    const PhaseSamples above = gather(true);
+    if (static_cast<int>(above.pixels()) >= options.minPixels) {
+      const double ea = bestExponent(above, 0.2, 5.0, 0, 1);
+      if (std::isfinite(ea) && ea > 0.2 * 1.01 && ea < 5.0 / 1.01) check.aboveBlackExponent = ea;
+    }
+  }
   return check;
 }
 

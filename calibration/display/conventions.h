@@ -37,6 +37,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cmath>
 #include <numbers>
 
 namespace parallax {
@@ -44,6 +45,11 @@ namespace parallax {
 // Angles are degrees in files, options and reports, radians in the code.
 inline constexpr double radians(double degrees) { return degrees * std::numbers::pi / 180.0; }
 inline constexpr double degrees(double radians) { return radians * 180.0 / std::numbers::pi; }
+// The screen's diffusion_deg is the lobe's full width at half maximum; its Gaussian σ (rad) is
+// that over 2·sqrt(2·ln 2).
+inline double diffusionSigma(double diffusionDeg) {
+  return radians(diffusionDeg) / (2.0 * std::sqrt(2.0 * std::numbers::ln2));
+}
 
 // OpenCV pixel coordinates (centres on integers) → ours (centres on half integers).
 inline Eigen::Vector2d pixelFromOpenCv(const Eigen::Vector2d& opencv) {

@@ -93,6 +93,11 @@ void applyGate(const DisplayModel& nominal, const GateLimits& limits,
   if (result->stopped) gate.reasons.push_back("stopped before it finished");
   if (!result->converged) gate.reasons.push_back("the solver did not converge");
   if (result->transferMismatch) gate.reasons.push_back("the screen transfer is not decided");
+  if (result->cameraResponseUndecided) {
+    gate.reasons.push_back(
+        "the camera's response is not decided (camera.json gives none and the pictures cannot "
+        "tell the camera's bend from the modules'): state response_gamma in camera.json");
+  }
   for (const Deficiency& d : result->deficiencies) {
     if (d.module < 0 && d.state == Conditioning::kRankDeficient)
       gate.reasons.push_back("the cameras or the curvature are undetermined");

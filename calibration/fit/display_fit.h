@@ -136,6 +136,9 @@ struct FitResult {
   double fiducialRmsPx = 0.0;
   // Set when the transfer cannot be decided and the choice matters (transfer_selection.h).
   bool transferMismatch = false;
+  // Set when camera.json gives no response, the pictures bend, and the decoder cannot tell
+  // which end bends (CameraResponseCheck::undecided).
+  bool cameraResponseUndecided = false;
   std::optional<TransferEvidence> transferEvidence;  // when both transfers were fitted
   std::optional<double> otherTransferStripeRmsMm;    // when the other transfer was tried
   std::vector<std::string> notes;  // findings a user must read (mismatch, unseen modules, ...)

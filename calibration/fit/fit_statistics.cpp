@@ -115,6 +115,15 @@ void summarizeResiduals(const FitInputs& in, const FitState& state, const Corres
   // ---- what the decoder found of the camera's response, when it decoded pictures ----
   if (obs.cameraResponse && (obs.cameraResponse->disagrees || !obs.cameraResponse->measured))
     result->notes.push_back(describeCameraResponse(*obs.cameraResponse));
+  if (obs.cameraResponse && obs.cameraResponse->undecided()) {
+    result->cameraResponseUndecided = true;
+    result->notes.push_back(fmt::format(
+        "camera response: neither the camera's response nor the modules' alone gives lobes of the "
+        "screen's width ({:.2f}× the nominal's as recorded, {:.2f}× re-linearized): both may "
+        "bend, so the patterns' linearization is a guess; state response_gamma in camera.json "
+        "(1 for a linear or raw camera, 2.2 for an sRGB one)",
+        obs.cameraResponse->lobeWidthRecorded, obs.cameraResponse->lobeWidthRelinearized));
+  }
 
   // ---- the transfer check: stripes that the assumed transfer cannot explain ----
   const double stripeSigma = robustSigma(stripeAbs);

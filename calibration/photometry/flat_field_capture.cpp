@@ -29,7 +29,7 @@ std::vector<PixelView> viewsFromStation(const DisplayModel& model,
   for (const OpticalModule& m : model.modules) optics.emplace_back(m);
   // FWHM = diffusion width ⇒ σ = FWHM / (2 √(2 ln 2)): the lobe the simulator and the observer
   // view use.
-  const double sigma = radians(model.screen.diffusionDeg) / 2.354820045;
+  const double sigma = diffusionSigma(model.screen.diffusionDeg);
   const auto camera = packCamera(pose);
   const int columns = (intrinsics.width + step - 1) / step,
             rows = (intrinsics.height + step - 1) / step;

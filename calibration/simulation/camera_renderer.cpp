@@ -93,7 +93,7 @@ StationView viewFromStation(const DisplayModel& truth, const CameraIntrinsics& i
   std::vector<ModuleOptics> optics;
   for (const OpticalModule& m : truth.modules) optics.emplace_back(m);
   // FWHM = diffusion width ⇒ σ = FWHM / (2 √(2 ln 2)).
-  const double sigma = radians(truth.screen.diffusionDeg) / 2.354820045;
+  const double sigma = diffusionSigma(truth.screen.diffusionDeg);
   const auto camera = packCamera(pose);
   // Rows in parallel, each into its own list; joined in row order below.
   std::vector<std::vector<LobeContribution>> rowContributions(static_cast<size_t>(view.height));

@@ -166,6 +166,32 @@ TEST(CalibrationGate, TheLimitsAreFixedNotScaledByTheNoise) {
   EXPECT_TRUE(named);
 }
 
+// camera.json gives no response, the pictures bend, and the lobes match the nominal's width
+// under neither end's bend (measured so on demo through the link: a γ 2.2 camera over modules
+// of a response of their own, 1.23× as recorded and 1.34× re-linearized, installed 70 mm off on
+// the observer line): refused, naming the remedy. A decision the lobes back (0.96×, as a γ 2.2
+// display under a linear camera measures) passes.
+TEST(CalibrationGate, ACameraResponseTheLobesCannotDecideIsRefusedNamingTheRemedy) {
+  Session s = demoSession(42, {});
+  CameraResponseCheck response;
+  response.measured = response.disagrees = response.corrected = true;
+  response.measuredGamma = 0.45;
+  response.modulesBend = true;
+  response.lobeWidthRecorded = 1.23;
+  response.lobeWidthRelinearized = 1.34;
+  s.data.observations.cameraResponse = response;
+  const FitResult undecided = fitDisplay(s.nominal, s.data.observations, FitOptions{});
+  EXPECT_FALSE(undecided.passesQualityChecks());
+  bool named = false;
+  for (const std::string& line : undecided.gate.describe())
+    named |= line.find("state response_gamma in camera.json") != std::string::npos;
+  EXPECT_TRUE(named);
+  response.lobeWidthRecorded = 0.96;
+  response.lobeWidthRelinearized = 1.28;
+  s.data.observations.cameraResponse = response;
+  EXPECT_TRUE(fitDisplay(s.nominal, s.data.observations, FitOptions{}).passesQualityChecks());
+}
+
 TEST(CalibrationGate, LimitsAreValidated) {
   GateLimits limits;
   limits.worstObserverMm = 0.0;

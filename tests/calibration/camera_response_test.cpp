@@ -100,6 +100,7 @@ TEST(CameraResponse, AGammaCameraWhoseCameraJsonGivesNoneIsMeasuredAndCorrected)
       decodeCaptures(unstated.captures, unstated.nominal, decoder);
   ASSERT_TRUE(corrected.cameraResponse && corrected.cameraResponse->corrected);
   EXPECT_FALSE(corrected.cameraResponse->modulesBend) << "the lobes say the camera bends";
+  EXPECT_FALSE(corrected.cameraResponse->undecided()) << "the re-linearized lobes fit the nominal";
   const double rightMm = medianStripeErrorMm(right, withRight);
   const double correctedMm = medianStripeErrorMm(unstated, corrected);
   std::printf(
@@ -132,6 +133,11 @@ TEST(CameraResponse, GammaModulesUnderALinearCameraBendOnlyThePatterns) {
   EXPECT_TRUE(r.modulesBend);
   EXPECT_NEAR(r.lobeWidthRecorded, 1.0, 0.2);
   EXPECT_DOUBLE_EQ(r.cameraGamma(), 1.0);
+  EXPECT_FALSE(r.undecided()) << "the recorded lobes fit the nominal";
+  // The modules' response measured above their black, not the chain's (whose blur-mixed
+  // neighbouring pattern pixels bend it further: γ 3.5 for these γ 2.2 modules).
+  EXPECT_GT(r.modulesGamma(), 1.5);
+  EXPECT_LT(r.modulesGamma(), 1.0 / r.measuredGamma);
   const double referenceMm = medianStripeErrorMm(right, reference);
   const double bentMm = medianStripeErrorMm(bent, obs);
   std::printf("stripe centres, median from the truth: %.3f mm (linear modules), %.3f mm (γ 2.2)\n",

@@ -13,6 +13,7 @@
 #include "calibration/camera/calibration_geometry.h"
 #include "calibration/capture/calibration_captures.h"
 #include "calibration/capture/checkerboard_calibration.h"
+#include "calibration/display/conventions.h"
 #include "calibration/display/display_presets.h"
 #include "calibration/display/ray_error.h"
 #include "calibration/fit/display_fit.h"
@@ -97,7 +98,7 @@ TEST(ImageCalibration, DemoDisplayFromRenderedPatterns) {
             owner = g;
           }
         }
-        const double sigma = truth.screen.diffusionDeg * 3.14159265 / 180.0 / 2.3548;
+        const double sigma = diffusionSigma(truth.screen.diffusionDeg);
         const double own = std::abs(stripeAngle(
             truth.screen, s, m.position, camera.truth.poses[static_cast<size_t>(c.camera)].centre));
         if (owner != c.module) ++misassigned;

@@ -69,7 +69,7 @@ TEST(StructuredLight, TheSimulatedCameraSeesEveryLitModulesLobe) {
   }
   SeededRandom random(1);
   const cv::Mat frame = renderFrame(view, images, render, random);
-  const double sigma = radians(truth.screen.diffusionDeg) / 2.354820045;
+  const double sigma = diffusionSigma(truth.screen.diffusionDeg);
   const auto camera = packCamera(pose);
   int compared = 0;
   for (int y = 10; y < view.height; y += 40) {

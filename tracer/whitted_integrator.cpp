@@ -251,11 +251,14 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
   // coneWidth holds the distance skipped, which it grows over.
   const int* pixel = staged.pixels();
   const float* skipped = staged.field(StagedRays::kR);
+  // Filled through a plain pointer: emplace_back reloaded the (thread-local) vector's bounds for
+  // every ray.
+  paths_.resize(staged.size());
+  Path* path = paths_.data();
   for (size_t i = 0; i < staged.size(); ++i) {
-    Path& path = paths_.emplace_back();
-    path.pixel = pixel[i];
-    path.coneWidth = skipped[i];
-    path.coneSpread = kConeUnknown;
+    path[i].pixel = pixel[i];
+    path[i].coneWidth = skipped[i];
+    path[i].coneSpread = kConeUnknown;
   }
   rays_.assign(staged);
   c->pixels += static_cast<long>(capacity);
@@ -371,8 +374,14 @@ void TileRenderer::traceShadowRays(ShadowBatch& batch, RTCScene scene, bool cohe
     // No glass: the plain query, no per-ray state.
     occludedPackets(scene, rays, options_.traversal, coherent);
     clock->lap(RenderPhase::kOcclude);
-    for (size_t i = 0; i < rays.size(); ++i) {
-      if (!rays.occluded(i)) pixels[pixel[i]] += Rgb(red[i], green[i], blue[i]);
+    if (generation == 0 && options_.packetShading) {
+      // One ray a pixel toward this light: the SIMD gather and scatter (shadow_ray_kernel.h).
+      addUnblockedLight(batch.staged, rays.packets(), pixels);
+    } else {
+      // Later generations may bring a pixel twice (glass's two branches).
+      for (size_t i = 0; i < rays.size(); ++i) {
+        if (!rays.occluded(i)) pixels[pixel[i]] += Rgb(red[i], green[i], blue[i]);
+      }
     }
   }
   clock->lap(RenderPhase::kGather);

@@ -362,7 +362,10 @@ CalibrationCaptures runSession(PatternScreen* screen, Camera& camera, const Disp
       show(group, moduleFrame(pattern, format), what);
       out->push_back(take(what, kind, code, prediction, geometry, &geometry, earlierWhite));
       if (f == 0) firstWhite = camera.lastPicture();
-      if (progress) progress(done + static_cast<int>(out->size()), total);
+      // A set's last picture counts once its white reference agrees again (below): a set taken
+      // again after the bar's end would start a second one.
+      if (progress && out->size() < patterns.size())
+        progress(done + static_cast<int>(out->size()), total);
     }
     if (!sync) return true;
     const std::string what = fmt::format("station {}, modules {}, {} white reference again",
@@ -370,6 +373,14 @@ CalibrationCaptures runSession(PatternScreen* screen, Camera& camera, const Disp
     cv::Mat white = patterns[0].clone();
     drawSyncCode(&white, std::nullopt, layout);
     show(group, moduleFrame(white, format), what);
+    // How late this camera's pictures have come so far: the longest any took to settle. Until
+    // that long after the white was shown, a picture may still show the set's last pattern on
+    // some module, and a slow camera (a loaded machine rendering its feed) gives the same late
+    // picture several times over: two alike prove nothing before then.
+    const auto shownAgain = Clock::now();
+    const double lateMs =
+        settleMs.empty() ? 0.0 : *std::max_element(settleMs.begin(), settleMs.end());
+    const double giveUpMs = 1000.0 * options.settleTimeoutS + 1.5 * lateMs;
     cv::Mat previous;
     for (int attempt = 0;; ++attempt) {
       SyncGeometry againGeometry;
@@ -384,18 +395,30 @@ CalibrationCaptures runSession(PatternScreen* screen, Camera& camera, const Disp
             what, camera.lastPicture(), firstWhite, *differs));
       }
       if (attempt > 0) ++retaken;
-      if (attempt >= 50) {
+      const double sinceShownMs =
+          std::chrono::duration<double, std::milli>(Clock::now() - shownAgain).count();
+      if (sinceShownMs > giveUpMs) {
         throw std::runtime_error(fmt::format(
-            "{}: the camera's pictures of the white reference keep changing ({})", what, *differs));
+            "{}: after {:.1f} s the camera's pictures of the white reference still differ from "
+            "the first ({})",
+            what, 0.001 * sinceShownMs, *differs));
       }
       const WhiteStripes stripes = compareWhiteStripes(geometry, againGeometry);
       // This picture misses stripes the first shows: some module was still changing when it
       // was taken (two such pictures in a row prove nothing): taken again.
       if (stripes.secondMissesStripes) continue;
+      // The first misses stripes this one shows: a module of the group was still dark or on its
+      // frame before when the first was taken (no module outside the group is lit during the
+      // set, so a later picture cannot add a stripe of its own): the set is taken again.
+      if (stripes.firstMissesStripes) {
+        *torn = *differs;
+        return false;
+      }
       // Otherwise the first was torn (a module of the group still dark, or one of the group
       // before still lit: the set's other pictures may show it too), or the camera moved: two
-      // pictures alike and unlike the first, and the set is taken again.
-      if (!previous.empty() && !whitesDiffer(previous, again)) {
+      // pictures alike and unlike the first, the later one taken once the camera's longest
+      // delay has passed (half as long again), and the set is taken again.
+      if (!previous.empty() && !whitesDiffer(previous, again) && sinceShownMs >= 1.5 * lateMs) {
         *torn = *differs;
         return false;
       }
@@ -442,6 +465,7 @@ CalibrationCaptures runSession(PatternScreen* screen, Camera& camera, const Disp
           }
         }
         done += static_cast<int>(patterns->size());
+        if (progress) progress(done, total);
         if (sync) lastWhite = out->front();
       }
 

@@ -16,14 +16,15 @@ namespace parallax {
 namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
-bool ShadeDiffusePacket(const RTCRayHit16& packet, const PhysicalMesh& mesh,
-                        const Material& material, LitSurfaces* lit) {
+// kMasked: the packet met other meshes (or missed) too; only this mesh's lanes are written.
+template <bool kMasked>
+bool ShadeDiffuseLanes(const RTCRayHit16& packet, unsigned geomID, const PhysicalMesh& mesh,
+                       const Material& material, LitSurfaces* lit, size_t first) {
   const hn::ScalableTag<float> d;
   const hn::RebindToSigned<decltype(d)> di;
   using V = hn::Vec<decltype(d)>;
   const size_t lanes = hn::Lanes(d);
   if (lanes > 16 || 16 % lanes != 0) return false;
-  const size_t first = lit->extend(16);
   const auto* triangles = reinterpret_cast<const std::int32_t*>(mesh.triangles.data());
   const float* positions = mesh.positions.data()->data();
   const float* faceNormals = mesh.faceNormals.data()->data();
@@ -32,9 +33,23 @@ bool ShadeDiffusePacket(const RTCRayHit16& packet, const PhysicalMesh& mesh,
   const V one = hn::Set(d, 1.0f), zero = hn::Zero(d), two = hn::Set(d, 2.0f);
   const auto three = hn::Set(di, 3);
   auto out = [&](LitSurfaces::Field f, size_t j) { return lit->mutableField(f) + first + j; };
+  const auto mesh32 = hn::Set(di, static_cast<std::int32_t>(geomID));
   for (size_t j = 0; j < 16; j += lanes) {
-    const auto prim3 =
-        hn::Mul(hn::LoadU(di, reinterpret_cast<const std::int32_t*>(packet.hit.primID + j)), three);
+    // This mesh's lanes; the others read its first triangle (in bounds) and store nothing.
+    const auto mineI =
+        hn::Eq(hn::LoadU(di, reinterpret_cast<const std::int32_t*>(packet.hit.geomID + j)), mesh32);
+    if (kMasked && hn::AllFalse(di, mineI)) continue;
+    const auto mine = hn::RebindMask(d, mineI);
+    auto prim = hn::LoadU(di, reinterpret_cast<const std::int32_t*>(packet.hit.primID + j));
+    if constexpr (kMasked) prim = hn::IfThenElseZero(mineI, prim);
+    const auto prim3 = hn::Mul(prim, three);
+    const auto store = [&](V value, LitSurfaces::Field f) {
+      if constexpr (kMasked) {
+        hn::BlendedStore(value, mine, d, out(f, j));
+      } else {
+        hn::StoreU(value, d, out(f, j));
+      }
+    };
     const V u = hn::LoadU(d, packet.hit.u + j), v = hn::LoadU(d, packet.hit.v + j);
     const V w = hn::Sub(hn::Sub(one, u), v);
     // From the vertices, not o + t d (hit_info.h says why): w p0 + u p1 + v p2.
@@ -80,34 +95,45 @@ bool ShadeDiffusePacket(const RTCRayHit16& packet, const PhysicalMesh& mesh,
       }
     }
 
-    hn::StoreU(position[0], d, out(LitSurfaces::kPx, j));
-    hn::StoreU(position[1], d, out(LitSurfaces::kPy, j));
-    hn::StoreU(position[2], d, out(LitSurfaces::kPz, j));
-    hn::StoreU(shading[0], d, out(LitSurfaces::kNx, j));
-    hn::StoreU(shading[1], d, out(LitSurfaces::kNy, j));
-    hn::StoreU(shading[2], d, out(LitSurfaces::kNz, j));
-    hn::StoreU(normal[0], d, out(LitSurfaces::kGx, j));
-    hn::StoreU(normal[1], d, out(LitSurfaces::kGy, j));
-    hn::StoreU(normal[2], d, out(LitSurfaces::kGz, j));
+    store(position[0], LitSurfaces::kPx);
+    store(position[1], LitSurfaces::kPy);
+    store(position[2], LitSurfaces::kPz);
+    store(shading[0], LitSurfaces::kNx);
+    store(shading[1], LitSurfaces::kNy);
+    store(shading[2], LitSurfaces::kNz);
+    store(normal[0], LitSurfaces::kGx);
+    store(normal[1], LitSurfaces::kGy);
+    store(normal[2], LitSurfaces::kGz);
     // A first-generation path's weight is 1: weight × albedo is the albedo.
-    hn::StoreU(hn::Set(d, material.diffuse.x()), d, out(LitSurfaces::kDr, j));
-    hn::StoreU(hn::Set(d, material.diffuse.y()), d, out(LitSurfaces::kDg, j));
-    hn::StoreU(hn::Set(d, material.diffuse.z()), d, out(LitSurfaces::kDb, j));
+    store(hn::Set(d, material.diffuse.x()), LitSurfaces::kDr);
+    store(hn::Set(d, material.diffuse.y()), LitSurfaces::kDg);
+    store(hn::Set(d, material.diffuse.z()), LitSurfaces::kDb);
     if (highlight) {
       // reflect(d, n) = d − 2 (d·n) n.
       const V twice = hn::Mul(two, Dot3(dx, dy, dz, shading[0], shading[1], shading[2]));
-      hn::StoreU(hn::Sub(dx, hn::Mul(twice, shading[0])), d, out(LitSurfaces::kRx, j));
-      hn::StoreU(hn::Sub(dy, hn::Mul(twice, shading[1])), d, out(LitSurfaces::kRy, j));
-      hn::StoreU(hn::Sub(dz, hn::Mul(twice, shading[2])), d, out(LitSurfaces::kRz, j));
-      hn::StoreU(hn::Set(d, material.specular.x()), d, out(LitSurfaces::kSr, j));
-      hn::StoreU(hn::Set(d, material.specular.y()), d, out(LitSurfaces::kSg, j));
-      hn::StoreU(hn::Set(d, material.specular.z()), d, out(LitSurfaces::kSb, j));
-      hn::StoreU(hn::Set(d, material.shininess), d, out(LitSurfaces::kShininess, j));
+      store(hn::Sub(dx, hn::Mul(twice, shading[0])), LitSurfaces::kRx);
+      store(hn::Sub(dy, hn::Mul(twice, shading[1])), LitSurfaces::kRy);
+      store(hn::Sub(dz, hn::Mul(twice, shading[2])), LitSurfaces::kRz);
+      store(hn::Set(d, material.specular.x()), LitSurfaces::kSr);
+      store(hn::Set(d, material.specular.y()), LitSurfaces::kSg);
+      store(hn::Set(d, material.specular.z()), LitSurfaces::kSb);
+      store(hn::Set(d, material.shininess), LitSurfaces::kShininess);
     }
-    hn::StoreU(hn::Set(di, highlight ? LitSurfaces::kHighlight : 0), di,
-               lit->mutableFlags() + first + j);
+    const auto flags = hn::Set(di, highlight ? LitSurfaces::kHighlight : 0);
+    if constexpr (kMasked) {
+      hn::BlendedStore(flags, mineI, di, lit->mutableFlags() + first + j);
+    } else {
+      hn::StoreU(flags, di, lit->mutableFlags() + first + j);
+    }
   }
   return true;
+}
+
+bool ShadeDiffusePacket(const RTCRayHit16& packet, unsigned geomID, const PhysicalMesh& mesh,
+                        const Material& material, LitSurfaces* lit, size_t first,
+                        bool wholePacket) {
+  return wholePacket ? ShadeDiffuseLanes<false>(packet, geomID, mesh, material, lit, first)
+                     : ShadeDiffuseLanes<true>(packet, geomID, mesh, material, lit, first);
 }
 
 }  // namespace HWY_NAMESPACE
@@ -119,9 +145,11 @@ namespace parallax {
 
 HWY_EXPORT(ShadeDiffusePacket);
 
-bool shadeDiffusePacket(const RTCRayHit16& packet, const PhysicalMesh& mesh,
-                        const Material& material, LitSurfaces* lit) {
-  return HWY_DYNAMIC_DISPATCH(ShadeDiffusePacket)(packet, mesh, material, lit);
+bool shadeDiffusePacket(const RTCRayHit16& packet, unsigned geomID, const PhysicalMesh& mesh,
+                        const Material& material, LitSurfaces* lit, size_t first,
+                        bool wholePacket) {
+  return HWY_DYNAMIC_DISPATCH(ShadeDiffusePacket)(packet, geomID, mesh, material, lit, first,
+                                                  wholePacket);
 }
 
 }  // namespace parallax

@@ -1,7 +1,8 @@
 #pragma once
 // The commonest first-generation hits, a SIMD vector at a time (Google Highway, chosen at run
-// time): a whole packet of 16 primary rays that all met the same mesh (without vertex colours)
-// of a plain diffuse material (no texture, no emission). Each lane's hit point (from the
+// time): the lanes of a packet of 16 primary rays that met one mesh (without vertex colours) of
+// a plain diffuse material (no emission); a packet that met several such meshes is shaded by one
+// call a mesh. Each lane's hit point (from the
 // triangle's vertices), its face normal turned toward the ray and its shading normal (the
 // vertex normals interpolated, where the mesh has them), with the material's albedo and
 // highlight, go into 16 new LitSurfaces entries; the caller adds the
@@ -15,9 +16,11 @@
 
 namespace parallax {
 
-// Appends the packet's 16 surfaces to `lit` (pixels and flags but the highlight bit left to the
-// caller). Returns false, touching nothing, where the CPU's vectors do not divide a packet.
-bool shadeDiffusePacket(const RTCRayHit16& packet, const PhysicalMesh& mesh,
-                        const Material& material, LitSurfaces* lit);
+// Writes the surfaces of the packet's lanes that met mesh `geomID` into `lit`, lane k at index
+// first + k (the caller extends `lit`; pixels and flags but the highlight bit are left to it).
+// wholePacket: every lane met this mesh (no masking). Returns false, touching nothing, where the
+// CPU's vectors do not divide a packet.
+bool shadeDiffusePacket(const RTCRayHit16& packet, unsigned geomID, const PhysicalMesh& mesh,
+                        const Material& material, LitSurfaces* lit, size_t first, bool wholePacket);
 
 }  // namespace parallax

@@ -75,6 +75,14 @@ class LitSurfaces {
     size_ += n;
     return first;
   }
+  // Surface `from` copied over surface `to` (a kernel's output closed up over lanes it left out).
+  void copy(size_t from, size_t to) {
+    float* f = floats_.data();
+    const size_t s = stride();
+    for (size_t k = 0; k < kFields; ++k) f[k * s + to] = f[k * s + from];
+    flags_[to] = flags_[from];
+    pixels_[to] = pixels_[from];
+  }
   float* mutableField(Field f) { return floats_.data() + static_cast<size_t>(f) * stride(); }
   std::int32_t* mutableFlags() { return flags_.data(); }
   int* mutablePixels() { return pixels_.data(); }

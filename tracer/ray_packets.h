@@ -131,6 +131,7 @@ class OcclusionPackets {
 
   size_t packetCount() const { return (size_ + 15) / 16; }
   RTCRay16* packets() { return packets_.data(); }
+  const RTCRay16* packets() const { return packets_.data(); }
 
  private:
   void grow();

@@ -161,6 +161,40 @@ long MakeShadowRays(const ShadowRayJob& job) {
                                               : MakeShadowRaysFor<false>(job);
 }
 
+void AddUnblockedLight(const StagedRays& staged, const RTCRay16* packets, Rgb* pixels) {
+  const hn::ScalableTag<float> d;
+  const hn::RebindToSigned<decltype(d)> di;
+  const size_t lanes = hn::Lanes(d);
+  const size_t n = staged.size();
+  const int* pixel = staged.pixels();
+  const float* contribution[3] = {staged.field(StagedRays::kR), staged.field(StagedRays::kG),
+                                  staged.field(StagedRays::kB)};
+  float* colours = pixels->data();  // 3 floats a pixel (Rgb is Eigen's packed Vector3f)
+  size_t j = 0;
+  // Whole vectors only, each within one packet: a partial one would scatter to the stale pixels
+  // of its unused lanes (another tile's, perhaps, being drawn at the same time).
+  if (lanes <= 16 && 16 % lanes == 0) {
+    const auto zero = hn::Zero(d);
+    const auto three = hn::Set(di, 3);
+    for (; j + lanes <= n; j += lanes) {
+      // Embree sets tfar to −inf on a blocked ray (OcclusionPackets::occluded).
+      const auto clear = hn::Ge(hn::LoadU(d, packets[j / 16].tfar + j % 16), zero);
+      if (hn::AllFalse(d, clear)) continue;
+      const auto index = hn::Mul(hn::LoadU(di, pixel + j), three);
+      for (int c = 0; c < 3; ++c) {
+        const auto before = hn::GatherIndex(d, colours + c, index);
+        const auto after = hn::Add(before, hn::LoadU(d, contribution[c] + j));
+        // A blocked lane writes back what it read: the same bits.
+        hn::ScatterIndex(hn::IfThenElse(clear, after, before), d, colours + c, index);
+      }
+    }
+  }
+  for (; j < n; ++j) {
+    if (packets[j / 16].tfar[j % 16] >= 0.0f)
+      pixels[pixel[j]] += Rgb(contribution[0][j], contribution[1][j], contribution[2][j]);
+  }
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace parallax
 HWY_AFTER_NAMESPACE();
@@ -169,8 +203,13 @@ HWY_AFTER_NAMESPACE();
 namespace parallax {
 
 HWY_EXPORT(MakeShadowRays);
+HWY_EXPORT(AddUnblockedLight);
 
 long makeShadowRays(const ShadowRayJob& job) { return HWY_DYNAMIC_DISPATCH(MakeShadowRays)(job); }
+
+void addUnblockedLight(const StagedRays& staged, const RTCRay16* packets, Rgb* pixels) {
+  HWY_DYNAMIC_DISPATCH(AddUnblockedLight)(staged, packets, pixels);
+}
 
 }  // namespace parallax
 #endif

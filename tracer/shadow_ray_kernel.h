@@ -11,6 +11,8 @@
 // a static surface blocks the light (counted in `answered`), and a ray against the dynamic
 // objects only (`dynamic`) when none does.
 
+#include <embree3/rtcore.h>
+
 #include <cstddef>
 #include <cstdint>
 
@@ -32,5 +34,12 @@ struct ShadowRayJob {
 
 // Returns the rays the frame cache answered (no ray made).
 long makeShadowRays(const ShadowRayJob& job);
+
+// After Embree traced them (`packets`: the staged rays in order, tfar −inf where blocked), adds
+// each unblocked ray's contribution (kR, kG, kB) to its pixel, a vector of rays at a time: the
+// pixels' colours gathered, added to and scattered back. The rays' pixels must differ (a first
+// generation's rays toward one light: one a pixel), so a vector's lanes never write the same
+// pixel; each colour gets exactly the scalar `+=`, so the frame is bit-identical.
+void addUnblockedLight(const StagedRays& staged, const RTCRay16* packets, Rgb* pixels);
 
 }  // namespace parallax

@@ -130,8 +130,9 @@ class TileRenderer {
   void cone(int pixel, Path* path) const;
   void shade(size_t i, int generation, RenderCounters* c);
   bool shadeDiffusePacket(size_t packet, RenderCounters* c);
-  void textureDiffusePacket(size_t packet, const PhysicalMesh& mesh, const Material& m,
-                            size_t first, RenderCounters* c);
+  bool shadeOneMeshPacket(size_t packet, RenderCounters* c);
+  void textureDiffusePacket(size_t packet, unsigned geomID, const PhysicalMesh& mesh,
+                            const Material& m, size_t first, RenderCounters* c);
   void makeShadowRays(const PhysicalLight& light, int lightIndex, int generation,
                       RenderCounters* c);
   void traceShadowRays(ShadowBatch& batch, RTCScene scene, bool coherent, int generation,
@@ -140,6 +141,7 @@ class TileRenderer {
   // The frame cache around the first generation's intersection.
   RTCScene primaryScene() const;
   void limitToStaticHits();
+  std::uint8_t cachedStaticLights(size_t ray, int pixel);
   void takeStaticHits(RenderCounters* c);
   void recordStaticHits();
   Rgb textureColor(const Material& m, const HitInfo& h, const Path& path, float t,
@@ -251,11 +253,14 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
   // coneWidth holds the distance skipped, which it grows over.
   const int* pixel = staged.pixels();
   const float* skipped = staged.field(StagedRays::kR);
+  // Filled through a plain pointer: emplace_back reloaded the (thread-local) vector's bounds for
+  // every ray.
+  paths_.resize(staged.size());
+  Path* path = paths_.data();
   for (size_t i = 0; i < staged.size(); ++i) {
-    Path& path = paths_.emplace_back();
-    path.pixel = pixel[i];
-    path.coneWidth = skipped[i];
-    path.coneSpread = kConeUnknown;
+    path[i].pixel = pixel[i];
+    path[i].coneWidth = skipped[i];
+    path[i].coneSpread = kConeUnknown;
   }
   rays_.assign(staged);
   c->pixels += static_cast<long>(capacity);
@@ -371,8 +376,14 @@ void TileRenderer::traceShadowRays(ShadowBatch& batch, RTCScene scene, bool cohe
     // No glass: the plain query, no per-ray state.
     occludedPackets(scene, rays, options_.traversal, coherent);
     clock->lap(RenderPhase::kOcclude);
-    for (size_t i = 0; i < rays.size(); ++i) {
-      if (!rays.occluded(i)) pixels[pixel[i]] += Rgb(red[i], green[i], blue[i]);
+    if (generation == 0 && options_.packetShading) {
+      // One ray a pixel toward this light: the SIMD gather and scatter (shadow_ray_kernel.h).
+      addUnblockedLight(batch.staged, rays.packets(), pixels);
+    } else {
+      // Later generations may bring a pixel twice (glass's two branches).
+      for (size_t i = 0; i < rays.size(); ++i) {
+        if (!rays.occluded(i)) pixels[pixel[i]] += Rgb(red[i], green[i], blue[i]);
+      }
     }
   }
   clock->lap(RenderPhase::kGather);
@@ -511,6 +522,15 @@ void TileRenderer::pushBranch(const Path& parent, const Rgb& weight, const Eigen
   nextRays_.push(origin, dir);
 }
 
+// With the frame cache, a first-generation diffuse hit's answers for the static lights (its
+// LitSurfaces flag bits): building, known, as the shadow rays about to be traced answer them;
+// else what the cache held for primary ray `ray` (takeStaticHits).
+std::uint8_t TileRenderer::cachedStaticLights(size_t ray, int pixel) {
+  if (!cache_->build) return primaryLights_[ray];
+  cache_->hits[static_cast<size_t>(pixel)].setLights(StaticHit::kLightsKnown);
+  return StaticHit::kLightsKnown;
+}
+
 void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
   Path& path = paths_[i];
   Rgb& out = frame_->pixels[static_cast<size_t>(path.pixel)];
@@ -555,16 +575,8 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
       const Rgb weightedAlbedo = weight.cwiseProduct(albedo);
       out += weightedAlbedo.cwiseProduct(scene_.ambient());
       if (scene_.lights().empty()) return;
-      std::uint8_t staticLights = 0;
-      if (generation == 0 && cache_) {
-        if (cache_->build) {
-          // Its static lights are answered by the shadow rays about to be traced.
-          staticLights = StaticHit::kLightsKnown;
-          cache_->hits[static_cast<size_t>(path.pixel)].setLights(StaticHit::kLightsKnown);
-        } else {
-          staticLights = primaryLights_[i];
-        }
-      }
+      const std::uint8_t staticLights =
+          generation == 0 && cache_ ? cachedStaticLights(i, path.pixel) : 0;
       lit_.push(h.position, h.shadingNormal, h.geometricNormal, weightedAlbedo, path.pixel,
                 staticLights);
       if (m.specular.maxCoeff() > 0.0f) {
@@ -606,14 +618,13 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
   }
 }
 
-// A first-generation packet whose 16 rays all met one mesh (no vertex colours) of a plain
-// diffuse material, textured or not, by the SIMD kernel (diffuse_hit_kernel.h); false leaves it
-// to shade().
-bool TileRenderer::shadeDiffusePacket(size_t packet, RenderCounters* c) {
-  if (!options_.packetShading) return false;
+// The commonest packet: all 16 rays met one plain diffuse mesh (no vertex colours, no
+// emission). The kernel without masks and the ambient term computed once; false when the packet
+// is not of this kind.
+bool TileRenderer::shadeOneMeshPacket(size_t packet, RenderCounters* c) {
   const RTCRayHit16& hits = rays_.packets()[packet];
   const unsigned geomID = hits.hit.geomID[0];
-  if (geomID == RTC_INVALID_GEOMETRY_ID || scene_.lights().empty()) return false;
+  if (geomID == RTC_INVALID_GEOMETRY_ID) return false;
   for (int lane = 1; lane < 16; ++lane)
     if (hits.hit.geomID[lane] != geomID) return false;
   const PhysicalMesh& mesh = scene_.meshes()[geomID];
@@ -621,8 +632,9 @@ bool TileRenderer::shadeDiffusePacket(size_t packet, RenderCounters* c) {
   if (m.kind != MaterialKind::kDiffuse || m.emission.maxCoeff() > 0.0f || !mesh.colors.empty())
     return false;
   const size_t first = lit_.size();
-  if (!parallax::shadeDiffusePacket(hits, mesh, m, &lit_)) return false;
-  if (m.diffuseTexture >= 0) textureDiffusePacket(packet, mesh, m, first, c);
+  if (!parallax::shadeDiffusePacket(hits, geomID, mesh, m, &lit_, first, true)) return false;
+  lit_.extend(16);
+  if (m.diffuseTexture >= 0) textureDiffusePacket(packet, geomID, mesh, m, first, c);
   // What shade() adds at once: the ambient term (a first-generation weight is 1), and the
   // frame cache's answers for the static lights.
   const Rgb ambient = m.diffuse.cwiseProduct(scene_.ambient());
@@ -634,28 +646,97 @@ bool TileRenderer::shadeDiffusePacket(size_t packet, RenderCounters* c) {
     if (m.diffuseTexture < 0) frame_->pixels[static_cast<size_t>(pixel)] += ambient;
     pixels[lane] = pixel;
     if (!cache_) continue;
-    std::uint8_t staticLights = 0;
-    if (cache_->build) {
-      staticLights = StaticHit::kLightsKnown;
-      cache_->hits[static_cast<size_t>(pixel)].setLights(StaticHit::kLightsKnown);
-    } else {
-      staticLights = primaryLights_[i];
-    }
-    flags[lane] |= static_cast<std::int32_t>(staticLights) << LitSurfaces::kStaticLightsShift;
+    flags[lane] |= static_cast<std::int32_t>(cachedStaticLights(i, pixel))
+                   << LitSurfaces::kStaticLightsShift;
   }
   return true;
 }
 
-// A textured packet after the kernel: each lane's texture colour (hitInfoOf's uv and texel
-// density, the pixel's footprint, the filtered lookup: textureColor, as shade() does) times the
-// material's colour, into the lit surface's albedo and, with the ambient light, the pixel.
-void TileRenderer::textureDiffusePacket(size_t packet, const PhysicalMesh& mesh, const Material& m,
-                                        size_t first, RenderCounters* c) {
+// A first-generation packet whose rays met plain diffuse meshes (no vertex colours, no
+// emission; one, or up to kPacketMeshes of them, textured or not) or missed, by the SIMD kernel
+// (diffuse_hit_kernel.h, a call a mesh); the misses get the background and no lit surface, as in
+// shade(). false leaves the packet to shade().
+bool TileRenderer::shadeDiffusePacket(size_t packet, RenderCounters* c) {
+  constexpr int kPacketMeshes = 4;
+  constexpr int kMiss = -1;
+  if (!options_.packetShading || scene_.lights().empty()) return false;
+  const RTCRayHit16& hits = rays_.packets()[packet];
+  if (shadeOneMeshPacket(packet, c)) return true;
+  unsigned meshes[kPacketMeshes];
+  int slot[16];  // per lane: its mesh's index in meshes, or kMiss
+  int meshCount = 0;
+  bool missed = false;
+  for (int lane = 0; lane < 16; ++lane) {
+    const unsigned geomID = hits.hit.geomID[lane];
+    int k = 0;
+    while (k < meshCount && meshes[k] != geomID) ++k;
+    if (geomID == RTC_INVALID_GEOMETRY_ID) {
+      missed = true;
+      k = kMiss;
+    } else if (k == meshCount) {
+      if (meshCount == kPacketMeshes) return false;
+      meshes[meshCount++] = geomID;
+    }
+    slot[lane] = k;
+  }
+  if (meshCount == 0) return false;  // all missed: shade() only adds the background
+  // Per mesh, what shade() adds at once to an untextured hit's pixel: the ambient term (a
+  // first-generation weight is 1); a textured one's comes with its texture colour.
+  Rgb ambient[kPacketMeshes];
+  bool textured[kPacketMeshes];
+  for (int k = 0; k < meshCount; ++k) {
+    const PhysicalMesh& mesh = scene_.meshes()[meshes[k]];
+    const Material& m = scene_.materials()[static_cast<size_t>(mesh.material)];
+    if (m.kind != MaterialKind::kDiffuse || m.emission.maxCoeff() > 0.0f || !mesh.colors.empty())
+      return false;
+    ambient[k] = m.diffuse.cwiseProduct(scene_.ambient());
+    textured[k] = m.diffuseTexture >= 0;
+  }
+  const size_t first = lit_.size();
+  for (int k = 0; k < meshCount; ++k) {
+    const PhysicalMesh& mesh = scene_.meshes()[meshes[k]];
+    const Material& m = scene_.materials()[static_cast<size_t>(mesh.material)];
+    if (!parallax::shadeDiffusePacket(hits, meshes[k], mesh, m, &lit_, first, false)) return false;
+    if (textured[k]) textureDiffusePacket(packet, meshes[k], mesh, m, first, c);
+  }
+  // A miss gets the background, as in shade(), and its lane is closed up: the surfaces stay in
+  // ray order. A hit gets the frame cache's answers for the static lights.
+  const Path* paths = paths_.data() + 16 * packet;
+  Rgb* frame = frame_->pixels.data();
+  std::int32_t* flags = lit_.mutableFlags();
+  int* pixels = lit_.mutablePixels();
+  size_t surface = first;
+  for (size_t lane = 0; lane < 16; ++lane) {
+    const int pixel = paths[lane].pixel;
+    const int k = slot[lane];
+    if (k == kMiss) {
+      frame[pixel] += paths[lane].weight.cwiseProduct(scene_.background());
+      continue;
+    }
+    if (!textured[k]) frame[pixel] += ambient[k];
+    if (missed && surface != first + lane) lit_.copy(first + lane, surface);
+    pixels[surface] = pixel;
+    if (cache_) {
+      flags[surface] |= static_cast<std::int32_t>(cachedStaticLights(16 * packet + lane, pixel))
+                        << LitSurfaces::kStaticLightsShift;
+    }
+    ++surface;
+  }
+  lit_.extend(surface - first);
+  return true;
+}
+
+// The lanes of a textured mesh after the kernel: each one's texture colour (hitInfoOf's uv and
+// texel density, the pixel's footprint, the filtered lookup: textureColor, as shade() does) times
+// the material's colour, into the lit surface's albedo and, with the ambient light, the pixel.
+void TileRenderer::textureDiffusePacket(size_t packet, unsigned geomID, const PhysicalMesh& mesh,
+                                        const Material& m, size_t first, RenderCounters* c) {
   float* albedo[3] = {lit_.mutableField(LitSurfaces::kDr) + first,
                       lit_.mutableField(LitSurfaces::kDg) + first,
                       lit_.mutableField(LitSurfaces::kDb) + first};
   for (size_t lane = 0; lane < 16; ++lane) {
     const size_t i = 16 * packet + lane;
+    if (rays_.geomID(i) != geomID) continue;
     Path& path = paths_[i];
     const unsigned prim = rays_.primID(i);
     HitInfo h;

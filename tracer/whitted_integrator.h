@@ -38,8 +38,8 @@ struct RenderOptions {
   // Time each phase of the render (RenderCounters::phaseThreadMs): a clock read at every phase
   // change of every tile, about 2% of a frame, so only the bench asks for it.
   bool timePhases = false;
-  // false: every hit through the scalar shading (the reference the SIMD shading kernel's test
-  // compares with, bit for bit).
+  // false: every hit through the scalar shading, and every shadow ray's light added one by one
+  // (the reference the SIMD shading kernels' test compares with, bit for bit).
   bool packetShading = true;
 
   // Throws InputError naming the option.

@@ -117,6 +117,7 @@ nlohmann::json Conductor::statsJson() const {
                  {"failed", l.failed},
                  {"retries", l.retries},
                  {"reconnects", l.reconnects},
+                 {"hangs", l.hangs},
                  {"bytes_sent", l.payloadBytesSent},
                  {"sessions", link_->sessions()}};
   }

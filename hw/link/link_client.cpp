@@ -27,7 +27,7 @@ void LinkOptions::validate() const {
   require(reconnectAttempts >= 0 && reconnectAttempts <= 100, "reconnect_attempts",
           "must be in 0..100");
   require(reconnectDelayMs >= 0, "reconnect_delay_ms", "must not be negative");
-  require(reconnectBudgetMs >= 1, "reconnect_budget_ms", "must be positive");
+  require(stallLimitMs >= 1 && stallLimitMs <= 3600000, "stall_limit_ms", "must be in 1..3600000");
   require(linkDownRetryMs >= 0, "link_down_retry_ms", "must not be negative");
   require(linkDownRetryMaxMs >= linkDownRetryMs && linkDownRetryMaxMs <= 3600000,
           "link_down_retry_max_ms", "must be in link_down_retry_ms..3600000");
@@ -74,7 +74,7 @@ bool LinkClient::helloOk(int timeoutMs) {
   const uint32_t seq = nextSequence();
   const HeaderBytes h = encodeHeader({PacketType::kHello, 0, kAllModules, seq, 0, 0}, {});
   iovec piece{const_cast<uint8_t*>(h.data()), h.size()};
-  if (transport_->send(kAllModules, {&piece, 1}) != TransportStatus::kOk) return false;
+  if (transport_->send(kAllModules, {&piece, 1}, timeoutMs) != TransportStatus::kOk) return false;
   std::vector<ModuleLinkInfo> found;
   uint16_t expected = 0;
   const auto deadline = Clock::now() + std::chrono::milliseconds(timeoutMs);
@@ -112,7 +112,54 @@ bool LinkClient::helloOk(int timeoutMs) {
   std::fill(hashValid_.begin(), hashValid_.end(), false);
   ++sessions_;
   lastHeard_ = Clock::now();
+  silence_ = {};
   return true;
+}
+
+int LinkClient::stallLeftMs() const {
+  const auto silentMs = std::chrono::duration_cast<std::chrono::milliseconds>(silence_).count();
+  return static_cast<int>(std::max<int64_t>(0, options_.stallLimitMs - silentMs));
+}
+
+bool LinkClient::expectingAnswers() const {
+  return awaitingReply_ ||
+         std::any_of(pending_.begin(), pending_.end(), [](const Pending& p) { return !p.done; });
+}
+
+TransportStatus LinkClient::sendWithinStallLimit(uint16_t module, std::span<const iovec> pieces) {
+  const auto started = Clock::now();
+  const TransportStatus status = transport_->send(module, pieces, std::max(1, stallLeftMs()));
+  if (status == TransportStatus::kTimeout) silence_ += Clock::now() - started;
+  return status;
+}
+
+void LinkClient::afterFailedSend(TransportStatus status, const std::string& what) {
+  if (status == TransportStatus::kTimeout) {
+    declareHung(what);
+  } else {
+    reconnect(what + " failed");
+  }
+}
+
+void LinkClient::declareHung(const std::string& doing) {
+  ++stats_.hangs;
+  const std::string what =
+      fmt::format("the device answered nothing in {} ms of waiting on it ({}): it hangs",
+                  options_.stallLimitMs, doing);
+  spdlog::warn("link: {}: {}", transport_->name(), what);
+  transport_->close();
+  inbox_.clear();
+  goDown(what);
+}
+
+void LinkClient::goDown(const std::string& what) {
+  // Growing pauses: a device that stays hung costs a reconnect ever more rarely.
+  quietMs_ = std::clamp(quietMs_, options_.linkDownRetryMs, options_.linkDownRetryMaxMs);
+  downReason_ = fmt::format("link down ({}; next try in {} ms)", what, quietMs_);
+  downUntil_ = Clock::now() + std::chrono::milliseconds(quietMs_);
+  quietMs_ = std::min(quietMs_ * 2, options_.linkDownRetryMaxMs);
+  silence_ = {};  // the next reconnect has the whole stall limit
+  for (Pending& p : pending_) finish(p, FrameStatus::kFailed, downReason_);
 }
 
 uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame, uint32_t displayFrame) {
@@ -139,6 +186,8 @@ uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame, uint
     return ticket;
   }
 
+  // Nothing was awaited: the stall limit counts from here.
+  if (!expectingAnswers()) silence_ = {};
   // A link idle for a while may have died quietly: probe it before trusting it with a frame.
   if (Clock::now() - lastHeard_ > std::chrono::milliseconds(options_.keepAliveMs)) ping();
   while (static_cast<int>(pending_.size()) >= options_.windowFrames) waitForProgress();
@@ -164,14 +213,17 @@ uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame, uint
   latestTicket_[module] = ticket;
   submittedFrame_[module] = displayFrame;
   pending_.push_back(std::move(p));
-  if (!transport_->isOpen() || !sendFrame(pending_.back())) {
+  if (!transport_->isOpen()) {
     reconnect("sending a frame failed");
+  } else if (const TransportStatus sent = sendFrame(pending_.back());
+             sent != TransportStatus::kOk) {
+    afterFailedSend(sent, "sending a frame");
   }
   pump(0);
   return ticket;
 }
 
-bool LinkClient::sendFrame(Pending& p) {
+TransportStatus LinkClient::sendFrame(Pending& p) {
   p.sequence = nextSequence();
   ++p.attempts;
   ++stats_.attempts;
@@ -226,9 +278,9 @@ bool LinkClient::sendFrame(Pending& p) {
   scratchHeaders_[chunks + 1] =
       encodeHeader({PacketType::kFrameEnd, 0, module, p.sequence, 0, 0}, {});
   iov.push_back({scratchHeaders_[chunks + 1].data(), kHeaderSize});
-  if (transport_->send(module, iov) != TransportStatus::kOk) return false;
-  if (!reuse) stats_.payloadBytesSent += size;
-  return true;
+  const TransportStatus sent = sendWithinStallLimit(module, iov);
+  if (sent == TransportStatus::kOk && !reuse) stats_.payloadBytesSent += size;
+  return sent;
 }
 
 bool LinkClient::supersede(Pending& p) {
@@ -246,7 +298,11 @@ void LinkClient::retryOrFail(Pending& p, const std::string& why) {
     finish(p, FrameStatus::kFailed, p.history);
     return;
   }
-  if (!transport_->isOpen() || !sendFrame(p)) reconnect("resending a frame failed");
+  if (!transport_->isOpen()) {
+    reconnect("resending a frame failed");
+  } else if (const TransportStatus sent = sendFrame(p); sent != TransportStatus::kOk) {
+    afterFailedSend(sent, "resending a frame");
+  }
 }
 
 void LinkClient::finish(Pending& p, FrameStatus status, const std::string& reason) {
@@ -273,7 +329,11 @@ void LinkClient::prune() {
 
 TransportStatus LinkClient::pump(int timeoutMs) {
   std::vector<ReceivedPacket> packets;
+  const bool expecting = expectingAnswers();
+  if (expecting) timeoutMs = std::min(timeoutMs, stallLeftMs());
+  const auto started = Clock::now();
   const TransportStatus status = transport_->receive(&packets, timeoutMs);
+  if (expecting && packets.empty()) silence_ += Clock::now() - started;
   for (const ReceivedPacket& packet : packets) handle(packet);
   if (status == TransportStatus::kDisconnected || status == TransportStatus::kProtocolError) {
     const std::string why = status == TransportStatus::kProtocolError
@@ -283,12 +343,15 @@ TransportStatus LinkClient::pump(int timeoutMs) {
     if (!reconnecting_) reconnect(why);
   }
   checkDeadlines();
+  if (!reconnecting_ && transport_->isOpen() && expectingAnswers() && stallLeftMs() == 0)
+    declareHung(awaitingReply_ ? "a request unanswered" : "frames unacknowledged");
   prune();
   return status;
 }
 
 void LinkClient::handle(const ReceivedPacket& packet) {
   lastHeard_ = Clock::now();
+  silence_ = {};
   if (packet.header.type == PacketType::kAck) {
     Ack ack;
     if (decodeAck(packet.payload, &ack) != ProtocolError::kOk ||
@@ -370,7 +433,9 @@ bool LinkClient::present(uint32_t displayFrame) {
       encodeHeader({PacketType::kPresent, 0, kAllModules, nextSequence(), 0, 0}, body);
   const iovec pieces[2] = {{const_cast<uint8_t*>(h.data()), h.size()},
                            {const_cast<uint8_t*>(body.data()), body.size()}};
-  return transport_->send(kAllModules, pieces) == TransportStatus::kOk;
+  const TransportStatus sent = sendWithinStallLimit(kAllModules, pieces);
+  if (sent == TransportStatus::kTimeout) declareHung("sending a Present");
+  return sent == TransportStatus::kOk;
 }
 
 void LinkClient::flush() {
@@ -396,15 +461,16 @@ bool LinkClient::reconnect(const std::string& why) {
   int delay = options_.reconnectDelayMs;
   std::string error;
   bool up = false;
-  const auto giveUp = Clock::now() + std::chrono::milliseconds(options_.reconnectBudgetMs);
+  // Within the stall limit: what the waits before it left of it (all of it after a pause).
+  const int budgetMs = stallLeftMs();
+  const auto giveUp = Clock::now() + std::chrono::milliseconds(budgetMs);
   const auto leftMs = [&] {
     return std::chrono::duration_cast<std::chrono::milliseconds>(giveUp - Clock::now()).count();
   };
   for (int attempt = 0; attempt <= options_.reconnectAttempts && !up; ++attempt) {
     if (attempt > 0) {
       if (leftMs() < delay) {
-        error += fmt::format(" (gave up after {} attempts in {} ms)", attempt,
-                             options_.reconnectBudgetMs - leftMs());
+        error += fmt::format(" (gave up after {} attempts in {} ms)", attempt, budgetMs - leftMs());
         break;
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(delay));
@@ -426,8 +492,10 @@ bool LinkClient::reconnect(const std::string& why) {
       if (supersede(p)) continue;
       if (p.attempts > options_.maxRetries) {
         finish(p, FrameStatus::kFailed, p.history);
-      } else if (!sendFrame(p)) {
-        error = "the link dropped again while resending";
+      } else if (const TransportStatus sent = sendFrame(p); sent != TransportStatus::kOk) {
+        error = sent == TransportStatus::kTimeout
+                    ? "the device took no byte of a resent frame (it hangs)"
+                    : "the link dropped again while resending";
         up = false;
         transport_->close();
         break;
@@ -437,13 +505,7 @@ bool LinkClient::reconnect(const std::string& why) {
   if (up) {
     quietMs_ = options_.linkDownRetryMs;
   } else {
-    // Growing pauses: a device that stays hung costs a reconnect budget ever more rarely.
-    quietMs_ = std::clamp(quietMs_, options_.linkDownRetryMs, options_.linkDownRetryMaxMs);
-    downReason_ = fmt::format("link down ({}; reconnecting failed: {}; next try in {} ms)", why,
-                              error, quietMs_);
-    downUntil_ = Clock::now() + std::chrono::milliseconds(quietMs_);
-    quietMs_ = std::min(quietMs_ * 2, options_.linkDownRetryMaxMs);
-    for (Pending& p : pending_) finish(p, FrameStatus::kFailed, downReason_);
+    goDown(fmt::format("{}; reconnecting failed: {}", why, error));
   }
   // No prune() here: callers may be iterating pending_.
   reconnecting_ = false;
@@ -453,6 +515,13 @@ bool LinkClient::reconnect(const std::string& why) {
 bool LinkClient::request(PacketType type, uint16_t module, std::span<const uint8_t> body,
                          std::initializer_list<PacketType> answers, ReceivedPacket* reply,
                          int timeoutMs) {
+  // Waiting for the answer counts toward the stall limit, but for a capture's (an explicit
+  // timeoutMs): a camera takes its time, and says nothing meanwhile.
+  if (!expectingAnswers()) silence_ = {};
+  struct Awaiting {
+    bool& flag;
+    ~Awaiting() { flag = false; }
+  } awaiting{awaitingReply_};
   // A link that drops under a request (a disconnect fault firing, a device replugged) gets one
   // reconnect and one more try; a request that simply goes unanswered does not.
   for (int attempt = 0; attempt < 2; ++attempt) {
@@ -461,12 +530,18 @@ bool LinkClient::request(PacketType type, uint16_t module, std::span<const uint8
     const HeaderBytes h = encodeHeader({type, 0, module, seq, 0, 0}, body);
     iovec pieces[2] = {{const_cast<uint8_t*>(h.data()), h.size()},
                        {const_cast<uint8_t*>(body.data()), body.size()}};
-    if (transport_->send(module, {pieces, body.empty() ? 1u : 2u}) != TransportStatus::kOk) {
+    const TransportStatus sent = sendWithinStallLimit(module, {pieces, body.empty() ? 1u : 2u});
+    if (sent == TransportStatus::kTimeout) {
+      declareHung("sending a request");
+      return false;
+    }
+    if (sent != TransportStatus::kOk) {
       if (!reconnect("sending a request failed")) return false;
       continue;
     }
     const auto deadline =
         Clock::now() + std::chrono::milliseconds(timeoutMs > 0 ? timeoutMs : options_.ackTimeoutMs);
+    awaitingReply_ = timeoutMs <= 0;
     bool dropped = false;
     while (!dropped) {
       for (auto it = inbox_.begin(); it != inbox_.end(); ++it) {

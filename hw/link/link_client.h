@@ -38,10 +38,14 @@ struct LinkOptions {
   int keepAliveMs = 1000;  // idle time after which the link is probed before sending
   int reconnectAttempts = 5;
   int reconnectDelayMs = 50;  // doubled after each failed attempt
-  // The most one reconnect may take, attempts, pauses and Hello waits together: a hung device
-  // (its connection accepted, Hello never answered) would otherwise hold the caller's thread —
-  // the render loop, and in a cluster every rank waiting for this one — for every attempt.
-  int reconnectBudgetMs = 3000;
+  // The most the caller's thread (the render loop; in a cluster every rank waits for it) spends
+  // blocked on a device that gives no sign of life: ack waits, resends, sends the device does
+  // not take a byte of, and reconnects (attempts, pauses, Hello waits) together, counted from
+  // the last packet heard. Then the link is down (see linkDownRetryMs). Time the caller spends
+  // elsewhere (rendering) does not count: only waiting on the device. 3 s: one lost ack (an
+  // ackTimeoutMs, 2 s) is retried first; a live device, even on a loaded machine, answers a
+  // frame or a keep-alive within a fraction of that.
+  int stallLimitMs = 3000;
   // After reconnecting failed, frames fail at once ("link down") for this long before the
   // next reconnect: a dead link must not cost every frame of the render loop a full back-off.
   // Doubled after each reconnect that failed in a row, up to linkDownRetryMaxMs.
@@ -71,6 +75,7 @@ struct LinkStats {
   uint64_t submitted = 0, delivered = 0, skipped = 0, failed = 0, superseded = 0;
   uint64_t attempts = 0, retries = 0, nacks = 0, timeouts = 0, reconnects = 0;
   uint64_t payloadBytesSent = 0, staleAcks = 0, keepAlives = 0;
+  uint64_t hangs = 0;  // times the device answered nothing within stallLimitMs
 };
 
 struct ModuleLinkInfo {
@@ -151,10 +156,23 @@ class LinkClient {
   using Clock = std::chrono::steady_clock;
 
   bool helloOk(int timeoutMs);
+  // What is left of stallLimitMs (0: the device counts as hung).
+  int stallLeftMs() const;
+  // Frames await their acks, or a request its answer: the device's silence counts.
+  bool expectingAnswers() const;
+  // Sends within what is left of the stall limit (kTimeout: the device took no byte that long).
+  TransportStatus sendWithinStallLimit(uint16_t module, std::span<const iovec> pieces);
+  // A frame's send failed: a device that took no byte hangs (the link goes down; no reconnect
+  // now: a hung device would not answer its Hello either); a dropped link reconnects.
+  void afterFailedSend(TransportStatus status, const std::string& what);
+  void declareHung(const std::string& doing);
+  // The link is down for `what`: every pending frame fails, and the next reconnect waits the
+  // growing pause (linkDownRetryMs).
+  void goDown(const std::string& what);
   // Closes, reopens (bounded attempts with back-off), says hello and resends what was in
   // flight; when it cannot, fails every pending frame with the reason. False if still down.
   bool reconnect(const std::string& why);
-  bool sendFrame(Pending& p);
+  TransportStatus sendFrame(Pending& p);
   // Receives for up to timeoutMs, applies acks, handles deadlines and a lost link.
   TransportStatus pump(int timeoutMs);
   void waitForProgress();
@@ -193,10 +211,12 @@ class LinkClient {
   uint64_t ticket_ = 0;
   uint64_t sessions_ = 0;
   bool reconnecting_ = false;
+  bool awaitingReply_ = false;   // a request waits for its answer (stall limit)
   Clock::time_point downUntil_;  // no reconnect attempts before this
   int quietMs_ = 0;              // the pause after the next failed reconnect
   std::string downReason_;
   Clock::time_point lastHeard_;
+  Clock::duration silence_{};  // waited on the device since it was last heard (stallLimitMs)
 };
 
 }  // namespace parallax::hw

@@ -40,8 +40,10 @@ class LinkTransport {
   virtual void close() = 0;
   virtual bool isOpen() const = 0;
   // Sends whole packets (header + payload pieces) addressed to `module`; all or nothing from
-  // the caller's view: anything short of complete is kDisconnected.
-  virtual TransportStatus send(uint16_t module, std::span<const iovec> pieces) = 0;
+  // the caller's view: anything short of complete is kDisconnected, or kTimeout when the
+  // device took no byte for `timeoutMs` (it stopped reading: hung). Either way the link is
+  // closed (a packet may be cut), and open() starts afresh.
+  virtual TransportStatus send(uint16_t module, std::span<const iovec> pieces, int timeoutMs) = 0;
   // Waits up to timeoutMs for at least one packet; appends what has arrived.
   virtual TransportStatus receive(std::vector<ReceivedPacket>* packets, int timeoutMs) = 0;
   // The decode error behind the last kProtocolError.

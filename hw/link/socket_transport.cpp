@@ -7,6 +7,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <climits>
 #include <cstring>
@@ -27,14 +28,15 @@ void tuneLinkSocket(int fd, int sendTimeoutMs) {
   setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
 }
 
-SocketTransport::SocketTransport(std::string path, int sendTimeoutMs)
-    : path_(std::move(path)), sendTimeoutMs_(sendTimeoutMs), readBuffer_(256 << 10) {}
+SocketTransport::SocketTransport(std::string path)
+    : path_(std::move(path)), readBuffer_(256 << 10) {}
 
-std::unique_ptr<SocketTransport> SocketTransport::adopt(int fd, int sendTimeoutMs) {
-  auto t = std::make_unique<SocketTransport>("<socketpair>", sendTimeoutMs);
+std::unique_ptr<SocketTransport> SocketTransport::adopt(int fd) {
+  auto t = std::make_unique<SocketTransport>("<socketpair>");
   t->fd_ = fd;
   t->adopted_ = true;
-  tuneLinkSocket(fd, sendTimeoutMs);
+  tuneLinkSocket(fd, kConnectTimeoutMs);
+  t->sendTimeoutMs_ = kConnectTimeoutMs;
   return t;
 }
 
@@ -75,7 +77,8 @@ TransportStatus SocketTransport::open(std::string* error) {
     ::close(fd);
     return TransportStatus::kUnavailable;
   }
-  tuneLinkSocket(fd, sendTimeoutMs_);
+  tuneLinkSocket(fd, kConnectTimeoutMs);
+  sendTimeoutMs_ = kConnectTimeoutMs;
   fd_ = fd;
   return TransportStatus::kOk;
 }
@@ -86,8 +89,16 @@ void SocketTransport::close() {
   reader_ = PacketReader();
 }
 
-TransportStatus SocketTransport::send(uint16_t, std::span<const iovec> pieces) {
+TransportStatus SocketTransport::send(uint16_t, std::span<const iovec> pieces, int timeoutMs) {
   if (fd_ < 0) return TransportStatus::kDisconnected;
+  // Each send carries the caller's time limit (LinkClient's, what is left of its stall limit):
+  // set the socket's only when it changes (one syscall).
+  timeoutMs = std::max(timeoutMs, 1);
+  if (timeoutMs != sendTimeoutMs_) {
+    const timeval tv{timeoutMs / 1000, (timeoutMs % 1000) * 1000};
+    setsockopt(fd_, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+    sendTimeoutMs_ = timeoutMs;
+  }
   // writev may stop early (signals, buffer limits): advance through the iovecs until done.
   std::vector<iovec> rest(pieces.begin(), pieces.end());
   size_t first = 0;
@@ -98,8 +109,11 @@ TransportStatus SocketTransport::send(uint16_t, std::span<const iovec> pieces) {
     const ssize_t n = ::sendmsg(fd_, &msg, MSG_NOSIGNAL);
     if (n < 0) {
       if (errno == EINTR) continue;
-      close();  // EAGAIN here is the send timeout: the peer stopped reading
-      return TransportStatus::kDisconnected;
+      // EAGAIN here is the send timeout: the peer took no byte for timeoutMs (it hangs). A
+      // packet may be cut either way: the stream cannot go on.
+      const bool hung = errno == EAGAIN || errno == EWOULDBLOCK;
+      close();
+      return hung ? TransportStatus::kTimeout : TransportStatus::kDisconnected;
     }
     size_t left = static_cast<size_t>(n);
     while (first < rest.size() && left >= rest[first].iov_len) {

@@ -13,24 +13,24 @@ namespace parallax::hw {
 class SocketTransport : public LinkTransport {
  public:
   // Connect to a path...
-  explicit SocketTransport(std::string path, int sendTimeoutMs = 5000);
+  explicit SocketTransport(std::string path);
   // ...or adopt a connected socket (socketpair in tests); open() then fails once it closes.
-  static std::unique_ptr<SocketTransport> adopt(int fd, int sendTimeoutMs = 5000);
+  static std::unique_ptr<SocketTransport> adopt(int fd);
   ~SocketTransport() override;
 
   std::string name() const override { return "simhw:" + path_; }
   TransportStatus open(std::string* error) override;
   void close() override;
   bool isOpen() const override { return fd_ >= 0; }
-  TransportStatus send(uint16_t module, std::span<const iovec> pieces) override;
+  TransportStatus send(uint16_t module, std::span<const iovec> pieces, int timeoutMs) override;
   TransportStatus receive(std::vector<ReceivedPacket>* packets, int timeoutMs) override;
   ProtocolError lastProtocolError() const override { return lastError_; }
   uint16_t lastPeerVersion() const override { return lastPeerVersion_; }
 
  private:
   std::string path_;
-  int sendTimeoutMs_;
   int fd_ = -1;
+  int sendTimeoutMs_ = 0;  // what SO_SNDTIMEO is set to (0: not yet)
   bool adopted_ = false;
   PacketReader reader_;
   ProtocolError lastError_ = ProtocolError::kOk;
@@ -38,7 +38,8 @@ class SocketTransport : public LinkTransport {
   std::vector<uint8_t> readBuffer_;
 };
 
-// Sets the socket buffers large (best effort) and the send timeout.
+// Sets the socket buffers large (best effort) and the send timeout (SO_SNDTIMEO: a send that
+// moves no byte for this long fails with EAGAIN).
 void tuneLinkSocket(int fd, int sendTimeoutMs);
 
 }  // namespace parallax::hw

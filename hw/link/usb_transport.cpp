@@ -184,7 +184,7 @@ void UsbTransport::onInCompletion(Device& device, const UsbCompletion& c,
   }
 }
 
-TransportStatus UsbTransport::send(uint16_t module, std::span<const iovec> pieces) {
+TransportStatus UsbTransport::send(uint16_t module, std::span<const iovec> pieces, int timeoutMs) {
   if (!open_) return TransportStatus::kDisconnected;
   // One copy into memory we own: the transfers outlive this call's view of the caller's data.
   size_t total = 0;
@@ -214,17 +214,18 @@ TransportStatus UsbTransport::send(uint16_t module, std::span<const iovec> piece
     for (Device& d : devices_) {
       if (d.handle == 0) continue;
       std::vector<uint8_t> copy = bytes;
-      if (sendTo(d, copy) != TransportStatus::kOk) result = TransportStatus::kDisconnected;
+      const TransportStatus s = sendTo(d, copy, timeoutMs);
+      if (s != TransportStatus::kOk && result == TransportStatus::kOk) result = s;
     }
     return result;
   }
   if (module >= devices_.size() || devices_[module].handle == 0) {
     return TransportStatus::kDisconnected;
   }
-  return sendTo(devices_[module], bytes);
+  return sendTo(devices_[module], bytes, timeoutMs);
 }
 
-TransportStatus UsbTransport::sendTo(Device& device, std::vector<uint8_t>& bytes) {
+TransportStatus UsbTransport::sendTo(Device& device, std::vector<uint8_t>& bytes, int timeoutMs) {
   struct InFlight {
     uint64_t id;
     size_t offset, size;
@@ -233,6 +234,8 @@ TransportStatus UsbTransport::sendTo(Device& device, std::vector<uint8_t>& bytes
   size_t next = 0;       // first byte not submitted
   size_t confirmed = 0;  // bytes the device has taken, contiguously from the start
   int failuresHere = 0;  // consecutive failures without progress at `confirmed`
+  // The caller's limit: a device that takes no byte for this long hangs (no more resubmits).
+  auto lastProgress = std::chrono::steady_clock::now();
   const auto deadlineFor = [&] {
     return std::chrono::steady_clock::now() +
            std::chrono::milliseconds(2 * options_.transferTimeoutMs + 100);
@@ -296,6 +299,7 @@ TransportStatus UsbTransport::sendTo(Device& device, std::vector<uint8_t>& bytes
       if (c.result == UsbResult::kOk && c.transferred == head.size) {
         confirmed = head.offset + head.size;
         failuresHere = 0;
+        lastProgress = std::chrono::steady_clock::now();
         continue;
       }
       if (c.result == UsbResult::kNoDevice) return gone();
@@ -317,12 +321,20 @@ TransportStatus UsbTransport::sendTo(Device& device, std::vector<uint8_t>& bytes
       }
       const size_t through = std::min(c.transferred, head.size);
       failuresHere = through > 0 ? 0 : failuresHere + 1;
+      if (through > 0) lastProgress = std::chrono::steady_clock::now();
       confirmed = head.offset + through;
       // Everything queued behind the failed transfer follows a gap: let it finish, then
       // resubmit from the first byte the device did not take.
       drain();
       next = confirmed;
       ++stats_.resubmits;
+      if (failuresHere > 0 &&
+          std::chrono::steady_clock::now() - lastProgress >= std::chrono::milliseconds(timeoutMs)) {
+        spdlog::warn("usb: device {}: took no byte for {} ms at byte {}; it hangs", device.serial,
+                     timeoutMs, confirmed);
+        markGone(device);
+        return TransportStatus::kTimeout;
+      }
       if (failuresHere > options_.maxTransferRetries) {
         spdlog::warn("usb: device {}: {} failures in a row at byte {}; resetting it", device.serial,
                      failuresHere, confirmed);

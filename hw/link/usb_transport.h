@@ -52,7 +52,7 @@ class UsbTransport : public LinkTransport {
   TransportStatus open(std::string* error) override;
   void close() override;
   bool isOpen() const override { return open_; }
-  TransportStatus send(uint16_t module, std::span<const iovec> pieces) override;
+  TransportStatus send(uint16_t module, std::span<const iovec> pieces, int timeoutMs) override;
   TransportStatus receive(std::vector<ReceivedPacket>* packets, int timeoutMs) override;
   ProtocolError lastProtocolError() const override { return lastError_; }
   uint16_t lastPeerVersion() const override { return lastPeerVersion_; }
@@ -70,7 +70,8 @@ class UsbTransport : public LinkTransport {
     uint64_t inTransferId = 0;
   };
 
-  TransportStatus sendTo(Device& device, std::vector<uint8_t>& bytes);
+  // timeoutMs: the caller's (send's) limit on a device that takes no byte.
+  TransportStatus sendTo(Device& device, std::vector<uint8_t>& bytes, int timeoutMs);
   void markGone(Device& device);
   void rescan();
   void pumpEvents(int timeoutMs);

@@ -300,7 +300,7 @@ TEST(LinkClient, AReconnectToAHungDeviceStopsAtItsBudgetAndThePausesGrow) {
   InProcessSimhw sim(smallDisplay(1));
   LinkOptions options = fastOptions();
   options.reconnectAttempts = 10;  // 11 Hello waits of 400 ms without the budget
-  options.reconnectBudgetMs = 600;
+  options.stallLimitMs = 600;
   options.linkDownRetryMs = 50;
   options.linkDownRetryMaxMs = 150;
   auto link = connect(sim, options);

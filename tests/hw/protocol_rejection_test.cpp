@@ -132,7 +132,7 @@ TEST(ProtocolRejection, DeviceSurvivesAndServesTheNextConnection) {
   ASSERT_EQ(transport.open(&error), TransportStatus::kOk) << error;
   const std::vector<uint8_t> ping = encodePacket({PacketType::kKeepAlive, 0, 0, 5, 0, 0}, {});
   iovec piece{const_cast<uint8_t*>(ping.data()), ping.size()};
-  ASSERT_EQ(transport.send(0, {&piece, 1}), TransportStatus::kOk);
+  ASSERT_EQ(transport.send(0, {&piece, 1}, 2000), TransportStatus::kOk);
   std::vector<ReceivedPacket> packets;
   ASSERT_EQ(transport.receive(&packets, 2000), TransportStatus::kOk);
   ASSERT_EQ(packets.size(), 1u);

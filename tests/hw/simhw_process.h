@@ -43,6 +43,7 @@ class SimhwProcess {
   int stop() {
     if (pid_ <= 0) return status_;
     kill(pid_, SIGTERM);
+    kill(pid_, SIGCONT);  // a test may have stopped it
     waitpid(pid_, &status_, 0);
     pid_ = 0;
     return status_;
@@ -54,6 +55,7 @@ class SimhwProcess {
     return status_;
   }
   const std::string& path() const { return path_; }
+  pid_t pid() const { return pid_; }
 
  private:
   std::string path_;

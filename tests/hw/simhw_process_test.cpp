@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <random>
 #include <thread>
@@ -100,6 +102,73 @@ TEST(SimhwProcess, CrashIsReportedAndTheLinkRecoversWhenRestarted) {
   const auto after = link->takeOutcomes();
   ASSERT_EQ(after.size(), 1u);
   EXPECT_EQ(after[0].status, FrameStatus::kDelivered) << after[0].reason;
+}
+
+// A simulator that hangs (SIGSTOP) while frames of 1024x768 fill the socket: the link is down
+// within its stall limit (blocked sends, ack waits and reconnects together), turn after turn,
+// instead of a send timeout plus every ack timeout of every resend; when the simulator resumes,
+// frames are delivered again.
+TEST(SimhwProcess, AStoppedSimulatorIsDownWithinTheStallLimitAndBackWhenResumed) {
+  SimhwProcess sim({"--modules", "3", "--resolution", "1024x768"});
+  LinkOptions o;
+  o.stallLimitMs = 1000;
+  o.linkDownRetryMs = 100;
+  o.linkDownRetryMaxMs = 400;
+  auto link = connectWhenUp(sim.path(), o);
+  ASSERT_TRUE(link);
+  const auto big = [](uint32_t seed) {
+    auto f = std::make_shared<Image>();
+    f->width = 1024;
+    f->height = 768;
+    f->pixels.assign(f->byteSize(), static_cast<uint8_t>(seed));
+    return std::shared_ptr<const Image>(f);
+  };
+  // One display frame as the render loop plays it: push, wait briefly, present. Returns how
+  // long the caller was held, in seconds.
+  uint32_t displayFrame = 0;
+  std::vector<FrameOutcome> outcomes;
+  const auto turn = [&] {
+    const auto started = std::chrono::steady_clock::now();
+    ++displayFrame;
+    for (int m = 0; m < 3; ++m) link->submit(m, big(displayFrame * 3 + m), displayFrame);
+    link->awaitDisplayFrame(displayFrame,
+                            std::chrono::steady_clock::now() + std::chrono::milliseconds(100));
+    link->present(displayFrame);
+    for (FrameOutcome& f : link->takeOutcomes()) outcomes.push_back(std::move(f));
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  };
+  turn();
+  link->flush();
+  ASSERT_EQ(::kill(sim.pid(), SIGSTOP), 0);
+  outcomes.clear();
+  double longest = 0;
+  for (int i = 0; i < 12; ++i) longest = std::max(longest, turn());
+  const uint64_t hangs = link->stats().hangs;
+  ::kill(sim.pid(), SIGCONT);
+  // The limit is 1 s (a reconnect's connect may wait 1 s more for a hung listener); before it,
+  // one blocked send alone held the caller 5 s, and each resend 2 s more per ack timeout.
+  EXPECT_LT(longest, 4.0);
+  EXPECT_GE(hangs, 1u);
+  bool namedHung = false;
+  for (const FrameOutcome& f : outcomes) {
+    if (f.status == FrameStatus::kFailed && f.reason.find("it hangs") != std::string::npos)
+      namedHung = true;
+  }
+  EXPECT_TRUE(namedHung) << (outcomes.empty() ? "no outcome" : outcomes.back().reason);
+
+  // Resumed: the link comes back and frames are delivered again.
+  bool delivered = false;
+  for (int i = 0; i < 100 && !delivered; ++i) {
+    outcomes.clear();
+    turn();
+    link->flush();
+    for (FrameOutcome& f : link->takeOutcomes()) outcomes.push_back(std::move(f));
+    delivered = std::any_of(outcomes.begin(), outcomes.end(), [](const FrameOutcome& f) {
+      return f.status == FrameStatus::kDelivered;
+    });
+    if (!delivered) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_TRUE(delivered);
 }
 
 }  // namespace

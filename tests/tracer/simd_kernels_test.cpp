@@ -72,10 +72,14 @@ struct TargetGuard {
   ~TargetGuard() { hwy::SetSupportedTargetsForTest(0); }  // back to what the CPU has
 };
 
+// The kernels' scene, and the Cornell box: no glass, so its shadow rays' light is added by the
+// gather-and-scatter kernel (glass shadows keep the per-ray loop).
+std::vector<Scene> kernelScenes() { return {kernelScene(), makeCornellScene()}; }
+
 // Each target's frames of `display`'s module 1, in the order of `targets`.
-std::vector<Frame> framePerTarget(const DisplayModel& display,
+std::vector<Frame> framePerTarget(const Scene& scene, const DisplayModel& display,
                                   const std::vector<int64_t>& targets) {
-  const PhysicalScene physical(kernelScene(), display.displayableBox);
+  const PhysicalScene physical(scene, display.displayableBox);
   const RayTextures textures = generateRayTextures(display, 1);
   TargetGuard guard;
   std::vector<Frame> frames;
@@ -95,33 +99,44 @@ TEST(SimdKernels, EveryInstructionSetDrawsTheSameFrame) {
   ASSERT_GE(targets.size(), 2u);
   // A flat screen, and a curved one (the primary rays' sag). 150 pixels a row: rows end in a
   // partial vector on every target.
-  for (double curvature : {0.0, 0.8}) {
-    const std::vector<Frame> frames =
-        framePerTarget(makeNominalDisplay(smallDemo(curvature)), targets);
-    for (size_t t = 1; t < frames.size(); ++t) {
-      EXPECT_EQ(differingPixels(frames[t], frames[0]), 0)
-          << hwy::TargetName(targets[t]) << " against " << hwy::TargetName(targets[0])
-          << ", curvature " << curvature;
+  for (const Scene& scene : kernelScenes()) {
+    for (double curvature : {0.0, 0.8}) {
+      const std::vector<Frame> frames =
+          framePerTarget(scene, makeNominalDisplay(smallDemo(curvature)), targets);
+      for (size_t t = 1; t < frames.size(); ++t) {
+        EXPECT_EQ(differingPixels(frames[t], frames[0]), 0)
+            << hwy::TargetName(targets[t]) << " against " << hwy::TargetName(targets[0])
+            << ", curvature " << curvature << ", " << scene.meshes.size() << " meshes";
+      }
     }
   }
 }
 
 // The diffuse shading kernel (diffuse_hit_kernel.h, with the textured packets' lookups after it)
-// draws what the scalar shade() draws, bit for bit, on a flat and a curved screen.
+// and the shadow rays' gather and scatter (shadow_ray_kernel.h) draw what the scalar shade() and
+// per-ray loop draw, bit for bit, on a flat and a curved screen.
 TEST(SimdKernels, PacketShadingDrawsWhatScalarShadingDraws) {
-  for (double curvature : {0.0, 0.8}) {
-    const DisplayModel display = makeNominalDisplay(smallDemo(curvature));
-    const PhysicalScene physical(kernelScene(), display.displayableBox);
-    const RayTextures textures = generateRayTextures(display, 1);
-    RenderOptions scalar;
-    scalar.packetShading = false;
-    RenderCounters packetCounters, scalarCounters;
-    const Frame packets = renderFrame(physical, textures, RenderOptions{}, &packetCounters);
-    const Frame reference = renderFrame(physical, textures, scalar, &scalarCounters);
-    EXPECT_EQ(differingPixels(packets, reference), 0) << "curvature " << curvature;
-    EXPECT_GT(scalarCounters.textureLookups, 300) << "the floor's texture is sampled";
-    EXPECT_EQ(packetCounters.textureLookups, scalarCounters.textureLookups);
-    EXPECT_EQ(packetCounters.shadow, scalarCounters.shadow);
+  for (const Scene& scene : kernelScenes()) {
+    const bool textured = !scene.textures.empty();
+    for (double curvature : {0.0, 0.8}) {
+      const DisplayModel display = makeNominalDisplay(smallDemo(curvature));
+      const PhysicalScene physical(scene, display.displayableBox);
+      EXPECT_EQ(physical.glassShadows(), textured) << "one scene of each kind";
+      const RayTextures textures = generateRayTextures(display, 1);
+      RenderOptions scalar;
+      scalar.packetShading = false;
+      RenderCounters packetCounters, scalarCounters;
+      const Frame packets = renderFrame(physical, textures, RenderOptions{}, &packetCounters);
+      const Frame reference = renderFrame(physical, textures, scalar, &scalarCounters);
+      EXPECT_EQ(differingPixels(packets, reference), 0)
+          << "curvature " << curvature << ", " << scene.meshes.size() << " meshes";
+      if (textured) {
+        EXPECT_GT(scalarCounters.textureLookups, 300) << "the floor is sampled";
+      }
+      EXPECT_GT(scalarCounters.shadow, 5000);
+      EXPECT_EQ(packetCounters.textureLookups, scalarCounters.textureLookups);
+      EXPECT_EQ(packetCounters.shadow, scalarCounters.shadow);
+    }
   }
 }
 

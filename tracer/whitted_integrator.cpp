@@ -141,6 +141,7 @@ class TileRenderer {
   // The frame cache around the first generation's intersection.
   RTCScene primaryScene() const;
   void limitToStaticHits();
+  std::uint8_t cachedStaticLights(size_t ray, int pixel);
   void takeStaticHits(RenderCounters* c);
   void recordStaticHits();
   Rgb textureColor(const Material& m, const HitInfo& h, const Path& path, float t,
@@ -521,6 +522,15 @@ void TileRenderer::pushBranch(const Path& parent, const Rgb& weight, const Eigen
   nextRays_.push(origin, dir);
 }
 
+// With the frame cache, a first-generation diffuse hit's answers for the static lights (its
+// LitSurfaces flag bits): building, known, as the shadow rays about to be traced answer them;
+// else what the cache held for primary ray `ray` (takeStaticHits).
+std::uint8_t TileRenderer::cachedStaticLights(size_t ray, int pixel) {
+  if (!cache_->build) return primaryLights_[ray];
+  cache_->hits[static_cast<size_t>(pixel)].setLights(StaticHit::kLightsKnown);
+  return StaticHit::kLightsKnown;
+}
+
 void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
   Path& path = paths_[i];
   Rgb& out = frame_->pixels[static_cast<size_t>(path.pixel)];
@@ -565,16 +575,8 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
       const Rgb weightedAlbedo = weight.cwiseProduct(albedo);
       out += weightedAlbedo.cwiseProduct(scene_.ambient());
       if (scene_.lights().empty()) return;
-      std::uint8_t staticLights = 0;
-      if (generation == 0 && cache_) {
-        if (cache_->build) {
-          // Its static lights are answered by the shadow rays about to be traced.
-          staticLights = StaticHit::kLightsKnown;
-          cache_->hits[static_cast<size_t>(path.pixel)].setLights(StaticHit::kLightsKnown);
-        } else {
-          staticLights = primaryLights_[i];
-        }
-      }
+      const std::uint8_t staticLights =
+          generation == 0 && cache_ ? cachedStaticLights(i, path.pixel) : 0;
       lit_.push(h.position, h.shadingNormal, h.geometricNormal, weightedAlbedo, path.pixel,
                 staticLights);
       if (m.specular.maxCoeff() > 0.0f) {
@@ -644,14 +646,8 @@ bool TileRenderer::shadeOneMeshPacket(size_t packet, RenderCounters* c) {
     if (m.diffuseTexture < 0) frame_->pixels[static_cast<size_t>(pixel)] += ambient;
     pixels[lane] = pixel;
     if (!cache_) continue;
-    std::uint8_t staticLights = 0;
-    if (cache_->build) {
-      staticLights = StaticHit::kLightsKnown;
-      cache_->hits[static_cast<size_t>(pixel)].setLights(StaticHit::kLightsKnown);
-    } else {
-      staticLights = primaryLights_[i];
-    }
-    flags[lane] |= static_cast<std::int32_t>(staticLights) << LitSurfaces::kStaticLightsShift;
+    flags[lane] |= static_cast<std::int32_t>(cachedStaticLights(i, pixel))
+                   << LitSurfaces::kStaticLightsShift;
   }
   return true;
 }
@@ -721,14 +717,8 @@ bool TileRenderer::shadeDiffusePacket(size_t packet, RenderCounters* c) {
     if (missed && surface != first + lane) lit_.copy(first + lane, surface);
     pixels[surface] = pixel;
     if (cache_) {
-      std::uint8_t staticLights = 0;
-      if (cache_->build) {
-        staticLights = StaticHit::kLightsKnown;
-        cache_->hits[static_cast<size_t>(pixel)].setLights(StaticHit::kLightsKnown);
-      } else {
-        staticLights = primaryLights_[16 * packet + lane];
-      }
-      flags[surface] |= static_cast<std::int32_t>(staticLights) << LitSurfaces::kStaticLightsShift;
+      flags[surface] |= static_cast<std::int32_t>(cachedStaticLights(16 * packet + lane, pixel))
+                        << LitSurfaces::kStaticLightsShift;
     }
     ++surface;
   }

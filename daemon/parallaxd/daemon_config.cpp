@@ -283,6 +283,28 @@ void readCluster(TableReader& r, ClusterConfig* c) {
   r.refuseUnknownKeys();
 }
 
+// The link's timeouts ([link]): each key in its range here, with its line; what spans keys
+// (link_down_retry_max_ms below link_down_retry_ms) is LinkOptions::validate's, named the same.
+void readLink(TableReader& r, hw::LinkOptions* l) {
+  r.readInt("ack_timeout_ms", &l->ackTimeoutMs, 1, 600000);
+  r.readInt("capture_timeout_ms", &l->captureTimeoutMs, 1, 3600000);
+  r.readInt("max_retries", &l->maxRetries, 0, 100);
+  r.readInt("stall_limit_ms", &l->stallLimitMs, 1, 3600000);
+  r.readInt("reconnect_attempts", &l->reconnectAttempts, 0, 100);
+  r.readInt("reconnect_delay_ms", &l->reconnectDelayMs, 0, 60000);
+  r.readInt("link_down_retry_ms", &l->linkDownRetryMs, 0, 3600000);
+  r.readInt("link_down_retry_max_ms", &l->linkDownRetryMaxMs, 0, 3600000);
+  r.refuseUnknownKeys();
+  try {
+    l->validate();
+  } catch (const InputError& e) {
+    // At its line when the file sets the key; a default at fault is named by
+    // DaemonConfig::validate ("link.KEY").
+    const std::string& key = e.location().field;
+    if (const toml::node* n = r.find(key)) r.fail(*n, key, e.reason());
+  }
+}
+
 }  // namespace
 
 void DaemonConfig::validate() const {
@@ -298,6 +320,11 @@ void DaemonConfig::validate() const {
   require(!scene.script.empty(), "scene.script", "must not be empty");
   require(isAddressLiteral(panel.address), "panel.address", "must be an IP address literal");
   require(panel.port >= 0 && panel.port <= 65535, "panel.port", "must be in 0..65535");
+  try {
+    link.validate();
+  } catch (const InputError& e) {
+    throw InputError({"", "link." + e.location().field, 0}, e.reason());
+  }
   require(controlSocketPath().size() < 100, "daemon.socket",
           "a Unix socket path must be shorter than 100 bytes");
   // A preset's size is checked here, before anything of that size exists (a display file's
@@ -350,6 +377,7 @@ DaemonConfig parseDaemonConfig(const std::string& text, const std::string& name)
       {"daemon", [](TableReader& r, DaemonConfig* c) { readDaemon(r, c); }},
       {"panel", [](TableReader& r, DaemonConfig* c) { readPanel(r, &c->panel); }},
       {"cluster", [](TableReader& r, DaemonConfig* c) { readCluster(r, &c->cluster); }},
+      {"link", [](TableReader& r, DaemonConfig* c) { readLink(r, &c->link); }},
   };
   for (const auto& [section, read] : sections) {
     if (const toml::table* t = top.subTable(section)) {
@@ -433,11 +461,13 @@ std::vector<std::string> sectionsNeedingRestart(const DaemonConfig& running,
   if (!(a.hardware == b.hardware)) sections.push_back("hardware");
   if (!(a.calibration == b.calibration)) sections.push_back("calibration");
   if (!(a.panel == b.panel)) sections.push_back("panel");
+  if (!(a.link == b.link)) sections.push_back("link");
   // Whatever is left ([daemon] and any top-level field) is compared as a whole too.
   b.display = a.display;
   b.hardware = a.hardware;
   b.calibration = a.calibration;
   b.panel = a.panel;
+  b.link = a.link;
   if (!(a == b)) sections.push_back("daemon");
   return sections;
 }

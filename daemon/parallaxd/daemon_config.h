@@ -25,6 +25,10 @@
 //   [scene]        script = "cornell" | "scene.lua", fps = 30, frame_cache = true,
 //                  [scene.parameters] name = value
 //   [daemon]       socket = "...", cache_dir = "...", log_level = "info"
+//   [link]         ack_timeout_ms = 2000, max_retries = 3, stall_limit_ms = 3000,
+//                  capture_timeout_ms = 30000, reconnect_attempts = 5, reconnect_delay_ms = 50,
+//                  link_down_retry_ms = 1000, link_down_retry_max_ms = 16000
+//                       (hw/link/link_client.h, LinkOptions; hw/link/PROTOCOL.md)
 //   [cluster]      modules = [[0, 1, 2], [3, 4, 5]]   (per MPI rank, the modules it renders
 //                       and pushes; omitted: contiguous blocks), timeout_ms = 30000
 //                       (module_ownership.h; one rank without mpirun)
@@ -41,6 +45,7 @@
 #include "calibration/display/display_model.h"
 #include "common/input_error.h"
 #include "daemon/parallaxd/control_socket_path.h"
+#include "hw/link/link_client.h"
 
 namespace parallax::daemon {
 
@@ -126,6 +131,7 @@ struct DaemonConfig {
   SceneConfig scene;
   PanelConfig panel;
   ClusterConfig cluster;
+  hw::LinkOptions link;       // the link's timeouts and retries ([link])
   std::string controlSocket;  // empty → defaultControlSocketPath()
   std::string cacheDir;       // empty → defaultCacheDir()
   std::string logLevel = "info";

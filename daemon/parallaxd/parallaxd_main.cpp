@@ -162,6 +162,7 @@ std::optional<DaemonConfig> runPipeline(DaemonConfig config, const std::string& 
   options.ownership = ownership;
   options.config = config;
   options.linkSpec = linkSpec;
+  options.link = config.link;
   options.simulatorCamera = simulatorCamera;
   options.simulatorFolder = simulatorFolder;
   options.simulatorPhotometric = simulator != nullptr && config.hardware.photometricVariation;

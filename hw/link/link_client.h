@@ -53,8 +53,9 @@ struct LinkOptions {
   int linkDownRetryMaxMs = 16000;
   bool skipUnchanged = true;  // content hash: unchanged frames are not re-sent
 
-  // Throws InputError naming the field.
+  // Throws InputError naming the field (the [link] key of parallax.toml).
   void validate() const;
+  bool operator==(const LinkOptions&) const = default;
 };
 
 // kSuperseded: the frame needed a resend, but a newer frame for the same module had been

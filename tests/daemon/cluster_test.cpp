@@ -416,12 +416,13 @@ TEST_F(ClusterTest, ARankWhoseLinkIsDownIsNamedInStatus) {
 }
 
 // Rank 1's simulator hangs (SIGSTOP) on the demo display's full-size modules, whose frames soon
-// fill the link's socket: rank 1's link is declared down within its stall limit (3 s: ack waits,
-// blocked sends and reconnects together), so the display (rank 0's count) stops for about that
-// long, not the 12-15 s a blocked send, its ack timeouts and a reconnect took before; `status`
-// names the rank meanwhile; once the simulator resumes, the link comes back.
+// fill the link's socket: rank 1's link is declared down within its stall limit (here 2 s from
+// [link], the default is 3: ack waits, blocked sends and reconnects together), so the display
+// (rank 0's count) stops for about that long, not the 12-15 s a blocked send, its ack timeouts
+// and a reconnect took before; `status` names the rank meanwhile; once the simulator resumes,
+// the link comes back.
 TEST_F(ClusterTest, AHungSimulatorHoldsTheDisplayBriefly) {
-  auto daemon = start(2, "orbit", "hungsim", 120000);
+  auto daemon = start(2, "orbit", "hungsim", 120000, "", "[link]\nstall_limit_ms = 2000\n");
   waitForFrames(3, *daemon);
   const json before = ask(socket_, {{"request", "status"}});
   ASSERT_TRUE(before["link"]["up"].get<bool>()) << before;
@@ -461,9 +462,11 @@ TEST_F(ClusterTest, AHungSimulatorHoldsTheDisplayBriefly) {
   ASSERT_FALSE(named.is_null()) << "rank 1's link never reported down\n" << daemon->log();
   const std::string down = named["link"]["ranks_down"][0].get<std::string>();
   EXPECT_EQ(down.rfind("rank 1 (modules 8-15): link ", 0), 0u) << down;
+  EXPECT_NE(down.find("answered nothing in 2000 ms"), std::string::npos) << down;
   EXPECT_NE(down.find("it hangs"), std::string::npos) << down;
-  // The stall limit is 3 s; each later reconnect try costs about as much. Generous for a loaded
-  // 2-core machine, and far below the 12-15 s the first stall took before the limit.
+  // A stall limit of 2 s, and each later reconnect try costs about as much (its connect up to
+  // 1 s more). Generous for a loaded 2-core machine, and far below the 12-15 s the first stall
+  // took before the limit.
   EXPECT_LT(longestStill, 8.0) << daemon->log();
   EXPECT_GE(shown, 3) << "rank 0 stopped presenting";
 

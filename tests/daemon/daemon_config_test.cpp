@@ -97,6 +97,11 @@ TEST(DaemonConfig, ErrorsNameTheKeyAndTheLine) {
       {"title = \"x\"\n", "title", 1},
       {"[hardware]\nkind = \"usb\"\nvid = 1\npid = 2\n[hardware.modules]\nA = 0\nB = 1\nC = 0\n",
        "hardware.modules.\"C\"", 8},  // two devices mapped to one module
+      {"[link]\nack_timeout_ms = 0\n", "link.ack_timeout_ms", 2},
+      {"[link]\nstall_limit_ms = \"3 s\"\n", "link.stall_limit_ms", 2},
+      {"[link]\nstall_limt_ms = 3000\n", "link.stall_limt_ms", 2},
+      {"[link]\nlink_down_retry_ms = 5000\nlink_down_retry_max_ms = 2000\n",
+       "link.link_down_retry_max_ms", 3},  // the pauses grow: the most below the first
   };
   for (const Case& c : cases) {
     const InputError e = errorOf(c.text);
@@ -104,6 +109,32 @@ TEST(DaemonConfig, ErrorsNameTheKeyAndTheLine) {
     EXPECT_EQ(e.location().field, c.key) << c.text << " -> " << e.what();
     EXPECT_EQ(e.location().line, c.line) << c.text << " -> " << e.what();
   }
+}
+
+// [link]: the link's timeouts reach LinkOptions; omitted keys keep its defaults.
+TEST(DaemonConfig, LinkTimeoutsAreRead) {
+  const DaemonConfig defaults = parseDaemonConfig("", "parallax.toml");
+  EXPECT_TRUE(defaults.link == hw::LinkOptions{});
+  const DaemonConfig c = parseDaemonConfig(
+      "[link]\nack_timeout_ms = 500\nmax_retries = 1\nstall_limit_ms = 1500\n"
+      "capture_timeout_ms = 60000\nreconnect_attempts = 2\nreconnect_delay_ms = 10\n"
+      "link_down_retry_ms = 200\nlink_down_retry_max_ms = 4000\n",
+      "parallax.toml");
+  EXPECT_EQ(c.link.ackTimeoutMs, 500);
+  EXPECT_EQ(c.link.maxRetries, 1);
+  EXPECT_EQ(c.link.stallLimitMs, 1500);
+  EXPECT_EQ(c.link.captureTimeoutMs, 60000);
+  EXPECT_EQ(c.link.reconnectAttempts, 2);
+  EXPECT_EQ(c.link.reconnectDelayMs, 10);
+  EXPECT_EQ(c.link.linkDownRetryMs, 200);
+  EXPECT_EQ(c.link.linkDownRetryMaxMs, 4000);
+  EXPECT_EQ(c.link.chunkSize, hw::LinkOptions{}.chunkSize);
+  // A change needs a restart (the link is made once).
+  EXPECT_EQ(sectionsNeedingRestart(defaults, c), std::vector<std::string>{"link"});
+  // A default that no longer fits a key the file sets is named too.
+  const InputError e = errorOf("[link]\nlink_down_retry_ms = 20000\n");
+  EXPECT_EQ(e.location().file, "parallax.toml");
+  EXPECT_EQ(e.location().field, "link.link_down_retry_max_ms") << e.what();
 }
 
 TEST(DaemonConfig, ThePanelIsOnAndOnLoopbackUnlessConfigured) {

@@ -86,7 +86,7 @@ nlohmann::json Conductor::takeCalibrationStep(const nlohmann::json& op,
       return {{"ok", true}};
     }
     if (kind == "begin") {
-      pending_.emplace();
+      pending_ = PendingCalibration{};  // (emplace() needs a complete Conductor for clang)
       if (op.at("action") == "install") {
         // The file rank 0 fitted, byte for byte, and checked against its hash.
         DisplayModel model = displayModelFromJson(nlohmann::json::parse(payload));

@@ -1,6 +1,7 @@
 #include "daemon/cli/bench_daemon_client.h"
 
 #include <fmt/format.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -29,9 +30,19 @@ nlohmann::json askOrNull(const std::string& socket, const nlohmann::json& reques
 
 nlohmann::json waitForStats(const std::string& socket,
                             const std::function<bool(const nlohmann::json&)>& done,
-                            const char* what, int timeoutSeconds) {
+                            const char* what, int timeoutSeconds, pid_t daemon) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(timeoutSeconds);
   while (std::chrono::steady_clock::now() < deadline) {
+    // A daemon that died at start-up (a missing parallax-simhw, a bad config) answers nothing:
+    // said at once, not after the whole timeout.
+    int ended = 0;
+    if (daemon > 0 && ::waitpid(daemon, &ended, WNOHANG) == daemon) {
+      throw std::runtime_error(fmt::format(
+          "parallaxd exited ({}) while waiting for {}; its log is on the terminal above",
+          WIFEXITED(ended) ? fmt::format("exit code {}", WEXITSTATUS(ended))
+                           : fmt::format("signal {}", WTERMSIG(ended)),
+          what));
+    }
     nlohmann::json stats = askOrNull(socket, {{"request", "stats"}});
     nlohmann::json status = askOrNull(socket, {{"request", "status"}});
     if (!stats.is_null() && !stats.is_discarded() && !status.is_discarded() && !status.is_null()) {

@@ -167,7 +167,7 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
   try {
     nlohmann::json first = waitForStats(
         socket, [](const nlohmann::json& s) { return s.value("display_frames", 0) >= 2; },
-        "the first frames", 1800);
+        "the first frames", 1800, pid);
     const double startup = std::chrono::duration<double>(Clock::now() - started).count();
     const pid_t simhw = childOf(pid);
     const ProcessUse d0 = processUse(pid), s0 = simhw > 0 ? processUse(simhw) : ProcessUse{};
@@ -181,7 +181,7 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
         [firstCount](const nlohmann::json& s) {
           return s["display_frames"].get<double>() >= firstCount + 2;
         },
-        "two frames in the window", 1800);
+        "two frames in the window", 1800, pid);
     const double dt = std::chrono::duration<double>(Clock::now() - t0).count();
     const ProcessUse d1 = processUse(pid), s1 = simhw > 0 ? processUse(simhw) : ProcessUse{};
     const double frames =
@@ -229,7 +229,7 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
     const nlohmann::json after = waitForStats(
         socket,
         [count0](const nlohmann::json& s) { return s["display_frames"].get<double>() > count0; },
-        "the cornell frame", 600);
+        "the cornell frame", 600, pid);
     std::cout << fmt::format(
         "  cornell.lua (static): render {:.1f} ms, encode {:.1f} ms, push {:.1f} ms, end to end "
         "{:.1f} ms\n",

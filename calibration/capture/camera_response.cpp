@@ -4,6 +4,7 @@
 #include <cmath>
 #include <complex>
 #include <numbers>
+#include <optional>
 #include <vector>
 
 namespace parallax {
@@ -106,6 +107,15 @@ double bestExponent(const PhaseSamples& s, double lo, double hi, size_t part, si
   return std::exp(0.5 * (l + r));
 }
 
+// The exponent over the whole search range [0.2, 5], or nullopt when the search ended at one of
+// its bounds (no minimum inside: nothing measured).
+std::optional<double> measuredExponent(const PhaseSamples& s) {
+  constexpr double kLo = 0.2, kHi = 5.0;
+  const double e = bestExponent(s, kLo, kHi, 0, 1);
+  if (!(std::isfinite(e) && e > kLo * 1.01 && e < kHi / 1.01)) return std::nullopt;
+  return e;
+}
+
 }  // namespace
 
 CameraResponseCheck checkCameraResponse(const CalibrationCaptures& captures,
@@ -147,10 +157,10 @@ CameraResponseCheck checkCameraResponse(const CalibrationCaptures& captures,
   const PhaseSamples samples = gather(false);
   check.pixels = static_cast<int>(samples.pixels());
   if (check.pixels < options.minPixels) return check;
-  const double e = bestExponent(samples, 0.2, 5.0, 0, 1);
-  // At the search's bounds it found no minimum: nothing measured.
-  check.measured = std::isfinite(e) && e > 0.2 * 1.01 && e < 5.0 / 1.01;
+  const std::optional<double> found = measuredExponent(samples);
+  check.measured = found.has_value();
   if (!check.measured) return check;
+  const double e = *found;
   // σ from the spread over disjoint subsets, each searched near the whole set's answer.
   constexpr size_t kParts = 8;
   double sum = 0.0, sumSq = 0.0;
@@ -174,8 +184,7 @@ CameraResponseCheck checkCameraResponse(const CalibrationCaptures& captures,
   if (check.corrected) {
     const PhaseSamples above = gather(true);
     if (static_cast<int>(above.pixels()) >= options.minPixels) {
-      const double ea = bestExponent(above, 0.2, 5.0, 0, 1);
-      if (std::isfinite(ea) && ea > 0.2 * 1.01 && ea < 5.0 / 1.01) check.aboveBlackExponent = ea;
+      check.aboveBlackExponent = measuredExponent(above).value_or(0.0);
     }
   }
   return check;

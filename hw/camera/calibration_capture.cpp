@@ -380,7 +380,8 @@ CalibrationCaptures runSession(PatternScreen* screen, Camera& camera, const Disp
     const auto shownAgain = Clock::now();
     const double lateMs =
         settleMs.empty() ? 0.0 : *std::max_element(settleMs.begin(), settleMs.end());
-    const double giveUpMs = 1000.0 * options.settleTimeoutS + 1.5 * lateMs;
+    const double trustAfterMs = 1.5 * lateMs;  // half as long again
+    const double giveUpMs = 1000.0 * options.settleTimeoutS + trustAfterMs;
     cv::Mat previous;
     for (int attempt = 0;; ++attempt) {
       SyncGeometry againGeometry;
@@ -417,8 +418,8 @@ CalibrationCaptures runSession(PatternScreen* screen, Camera& camera, const Disp
       // Otherwise the first was torn (a module of the group still dark, or one of the group
       // before still lit: the set's other pictures may show it too), or the camera moved: two
       // pictures alike and unlike the first, the later one taken once the camera's longest
-      // delay has passed (half as long again), and the set is taken again.
-      if (!previous.empty() && !whitesDiffer(previous, again) && sinceShownMs >= 1.5 * lateMs) {
+      // delay has passed, and the set is taken again.
+      if (!previous.empty() && !whitesDiffer(previous, again) && sinceShownMs >= trustAfterMs) {
         *torn = *differs;
         return false;
       }

@@ -5,7 +5,7 @@
 // printed, and the fit's CPU time beside its wall time). "fit" is the solves; "diag" the
 // residual statistics, covariance and conditioning that follow them.
 //
-//   calibration_fit_bench [default|demo] [--quick] [--experiment] [--pictures N]
+//   calibration_fit_bench [default|demo] [--quick] [--experiment] [--pictures N [--true-intrinsics]]
 //   calibration_fit_bench --decoder-error SEED [--true-intrinsics]
 // --experiment: only the errors-in-variables comparison (where the correspondences' noise sits:
 // on the camera pixel, as a camera gives it, or on the module pixel; the residual: two-stage
@@ -24,6 +24,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
+#include <map>
 #include <string>
 
 #include "calibration/camera/calibration_geometry.h"
@@ -141,6 +142,9 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
   const size_t stations = obs.stations.size();
   std::vector<double> sum(stations, 0.0), sumSq(stations, 0.0);
   std::vector<int> count(stations, 0), outliers(stations, 0);
+  double sideSum[6] = {};
+  int sideCount[6] = {};
+  std::map<std::pair<int, int>, std::pair<double, int>> lobes;  // (module, station): sum, count
   for (const StripeCentre& st : obs.stripes) {
     Eigen::Vector3d sp;
     if (!screenPoint(st.camera, st.cameraPx, &sp)) continue;
@@ -153,9 +157,38 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
       ++outliers[c];
       continue;
     }
+    {
+      // A module's stripes at one station, averaged: one lobe's centres err together.
+      auto& g = lobes[{st.module, st.camera}];
+      g.first += r;
+      ++g.second;
+    }
+    {
+      // The stripe's error by where it crosses the screen beside its module (x from the
+      // module, 6 bins of 10 cm): a lobe peak pulled outward on both sides reads as depth.
+      const double dx = sp.x() - session.truth.modules[static_cast<size_t>(st.module)].position.x();
+      const int bin = std::clamp(static_cast<int>(std::floor(dx / 0.1)) + 3, 0, 5);
+      sideSum[bin] += r;
+      ++sideCount[bin];
+    }
     sum[c] += r;
     sumSq[c] += r * r;
     ++count[c];
+  }
+  {
+    double sq = 0.0, worst = 0.0;
+    for (const auto& [key, g] : lobes) {
+      const double mean = g.first / g.second;
+      sq += mean * mean;
+      worst = std::max(worst, std::abs(mean));
+    }
+    std::printf("stripes averaged per module and station (%zu lobes): RMS %.3f mm, worst %.3f mm\n",
+                lobes.size(), lobes.empty() ? 0.0 : std::sqrt(sq / lobes.size()), worst);
+  }
+  for (int b = 0; b < 6; ++b) {
+    if (sideCount[b])
+      std::printf("stripes %+.1f..%+.1f m beside their module: %d, mean %+.3f mm\n", (b - 3) * 0.1,
+                  (b - 2) * 0.1, sideCount[b], sideSum[b] / sideCount[b]);
   }
   for (size_t c = 0; c < stations; ++c) {
     std::printf("stripes, station %zu: %d within 1 mm: mean %+.3f mm, RMS %.3f mm; %d beyond\n", c,
@@ -184,6 +217,76 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
   std::printf("correspondences: %d within 0.5 px: mean %+.4f px, RMS %.3f px per axis; %d beyond\n",
               cCount, cCount ? cSum / (2 * cCount) : 0.0,
               cCount ? std::sqrt(cSq / (2 * cCount)) : 0.0, cOut);
+  // The fiducial sightings against their true projections: a bias here places every camera.
+  for (size_t st = 0; st < stations; ++st) {
+    double sx = 0, sy = 0, sr = 0;
+    int n = 0;
+    for (const FiducialSighting& f : obs.fiducialSightings) {
+      if (static_cast<size_t>(f.camera) != st) continue;
+      const Eigen::Vector2d& xy = obs.fiducials[static_cast<size_t>(f.fiducial)];
+      const Eigen::Vector3d p = session.truth.screen.pointAt(xy.x(), xy.y());
+      Eigen::Vector2d px;
+      if (!projectPhysical(ti, session.camera.poses[st], p, &px)) continue;
+      const Eigen::Vector2d d = f.cameraPx - px;
+      const Eigen::Vector2d out = (px - Eigen::Vector2d(ti.cx, ti.cy)).normalized();
+      sx += d.x();
+      sy += d.y();
+      sr += d.dot(out);
+      ++n;
+    }
+    if (n) std::printf("fiducials, station %zu: %d, mean dx %+.3f dy %+.3f, radial %+.3f px\n", st, n, sx / n, sy / n, sr / n);
+  }
+  // Where in the module image the decoder errs: the same errors binned by the module pixel's
+  // distance to the image's nearest edge (in module px).
+  {
+    const double edges[] = {0, 4, 8, 16, 32, 64, 1e9};
+    double su[8] = {}, sv[8] = {}, mu[8] = {}, mv[8] = {};
+    int sn[8] = {}, ou[8] = {}, ov[8] = {};
+    constexpr int kBins = 6;
+    double bu[kBins] = {}, bv[kBins] = {}, bsq[kBins] = {};
+    int bn[kBins] = {}, bout[kBins] = {};
+    for (const Correspondence& c : obs.correspondences) {
+      Eigen::Vector3d sp;
+      const OpticalModule& tm = session.truth.modules[static_cast<size_t>(c.module)];
+      const auto mb = packModule(tm);
+      double uv[2];
+      if (!screenPoint(c.camera, c.cameraPx, &sp) ||
+          !projectIntoModule(mb.data(), tm.width, tm.mirror ? -1.0 : 1.0, sp, uv))
+        continue;
+      const double edge = std::min({c.modulePx.x(), tm.width - c.modulePx.x(), c.modulePx.y(),
+                                    tm.height - c.modulePx.y()});
+      int b = 0;
+      while (b + 1 < kBins && edge >= edges[b + 1]) ++b;
+      const double du = c.modulePx.x() - uv[0], dv = c.modulePx.y() - uv[1];
+      const int st = std::min(c.camera, 7);
+      ou[st] += std::abs(du) > 0.5;
+      ov[st] += std::abs(dv) > 0.5;
+      if (std::hypot(du, dv) > 0.5) {
+        ++bout[b];
+        continue;
+      }
+      mu[st] += du;
+      mv[st] += dv;
+      su[st] += du * du;
+      sv[st] += dv * dv;
+      ++sn[st];
+      bu[b] += du;
+      bv[b] += dv;
+      bsq[b] += du * du + dv * dv;
+      ++bn[b];
+    }
+    for (int b = 0; b < kBins; ++b) {
+      std::printf("  %3.0f-%3.0f px from the edge: %6d, mean du %+.4f dv %+.4f, RMS %.3f; %d beyond\n",
+                  edges[b], std::min(edges[b + 1], 999.0), bn[b], bn[b] ? bu[b] / bn[b] : 0.0,
+                  bn[b] ? bv[b] / bn[b] : 0.0, bn[b] ? std::sqrt(bsq[b] / (2 * bn[b])) : 0.0,
+                  bout[b]);
+    }
+    for (int st = 0; st < 8; ++st) {
+      if (sn[st] == 0) continue;
+      std::printf("  station %d: mean du %+.4f dv %+.4f, RMS du %.3f dv %.3f; beyond 0.5 px in u %d, in v %d\n", st,
+                  mu[st] / sn[st], mv[st] / sn[st], std::sqrt(su[st] / sn[st]), std::sqrt(sv[st] / sn[st]), ou[st], ov[st]);
+    }
+  }
 
   FitOptions fit;
   fit.threads = 2;
@@ -192,6 +295,10 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
   std::printf("fit: k %.5f (true %.5f, σ %.5f); σ correspondences %.3f px, stripes %.3f mm\n",
               result.model.screen.curvature, k, result.curvatureStdDev,
               result.correspondenceSigmaPx, result.stripeSigmaMm);
+  const auto& se = result.sharedErrors;
+  std::printf("rows within a (station, module) group, in σ: u %.2f v %.2f stripes %.2f; their "
+              "common part: u %.2f v %.2f stripes %.2f\n",
+              se[0], se[1], se[2], se[3], se[4], se[5]);
   for (const CameraFit& cf : result.cameras) {
     const CameraPose& t = session.camera.poses[static_cast<size_t>(cf.camera)];
     const Eigen::Vector3d d = (cf.pose.centre - t.centre) * 1e3;
@@ -217,17 +324,18 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
 }
 
 // The picture path on `seeds` seeds of demo (issue 17's benchmark half of the sweep).
-int pictureSweep(int seeds) {
+int pictureSweep(int seeds, bool trueIntrinsics) {
   const DisplayModel nominal = resolveDisplay("demo");
   std::printf(
-      "# picture path sweep: demo, checkerboard intrinsics, 5 stations over 4 m, pixel step 6\n"
+      "# picture path sweep: demo, %s intrinsics, 5 stations over 4 m, pixel step 6\n"
       "| seed | gate | true worst px / mm | predicted 3σ worst px / mm | modules within 3σ | "
-      "true/pred RMS px, mm | σ module px | first refusal |\n|---|---|---|---|---|---|---|---|\n");
+      "true/pred RMS px, mm | σ module px | first refusal |\n|---|---|---|---|---|---|---|---|\n",
+      trueIntrinsics ? "true" : "checkerboard");
   int modules = 0, covered = 0, accepted = 0, violations = 0;
   double tPx = 0, pPx = 0, tMm = 0, pMm = 0;
   for (int i = 0; i < seeds; ++i) {
     const std::uint64_t seed = 3000 + static_cast<std::uint64_t>(i);
-    const PictureSession session = pictureSession(nominal, seed);
+    const PictureSession session = pictureSession(nominal, seed, trueIntrinsics);
     const DisplayModel& truth = session.truth;
     const CalibrationObservations& obs = session.obs;
     FitOptions fit;
@@ -292,9 +400,11 @@ int main(int argc, char** argv) {
     else if (std::strcmp(argv[i], "--decoder-error") == 0 && i + 1 < argc) {
       const auto seed = static_cast<std::uint64_t>(std::atoll(argv[++i]));
       return decoderError(seed, i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0);
-    } else if (std::strcmp(argv[i], "--pictures") == 0 && i + 1 < argc)
-      return pictureSweep(std::max(1, std::atoi(argv[++i])));
-    else
+    } else if (std::strcmp(argv[i], "--pictures") == 0 && i + 1 < argc) {
+      const int seeds = std::max(1, std::atoi(argv[++i]));
+      return pictureSweep(seeds,
+                          i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0);
+    } else
       preset = argv[i];
   }
   NominalDisplayOptions nominalOptions;

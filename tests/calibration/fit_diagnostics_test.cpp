@@ -65,6 +65,51 @@ TEST(FitDiagnostics, SchurMarginalsMatchTheFullInverse) {
   EXPECT_NEAR(d.sharedStdDev[0], std::sqrt(full(4, 4)), 1e-10);
 }
 
+TEST(FitDiagnostics, RowsSharingACommonErrorInformAsTheirCorrelatedCovarianceSays) {
+  // The same two modules; rows 0-3 (module 0) share a common error: their covariance is
+  // w I + b 11ᵀ. Row weights 1/w and the common part taken out give the generalized least
+  // squares information Jᵀ Σ⁻¹ J exactly, and its σ are larger than the independent rows'.
+  Eigen::MatrixXd j(8, 5);
+  j << 1, 0.3, 0, 0, 0.5,  //
+      0.2, 1, 0, 0, 0.1,   //
+      0.7, -0.4, 0, 0, 1,  //
+      1, 1, 0, 0, 0,       //
+      0, 0, 1, 0.1, -0.3,  //
+      0, 0, 0.4, 1, 0.8,   //
+      0, 0, -1, 0.5, 0.2,  //
+      0, 0, 0.3, 0.3, 1;
+  std::vector<int> rows{0}, cols;
+  std::vector<double> values;
+  for (int r = 0; r < 8; ++r) {
+    for (int c = 0; c < 5; ++c) {
+      if (j(r, c) != 0.0) {
+        cols.push_back(c);
+        values.push_back(j(r, c));
+      }
+    }
+    rows.push_back(static_cast<int>(cols.size()));
+  }
+  const double w = 1.5, b = 0.8;
+  const int n = 4;
+  const std::vector<double> weights{1 / w, 1 / w, 1 / w, 1 / w, 1, 1, 1, 1};
+  InformationBlocks info = informationFromJacobian(8, 5, rows, cols, values, 2, 2, 1, &weights);
+  const Eigen::VectorXd sum = j.topRows(n).colwise().sum().transpose();
+  subtractCommonPart(sum.head(2), sum.tail(1), 0, b / (w * (w + n * b)), &info);
+  const Diagnostics d = diagnose(info, {});
+
+  Eigen::MatrixXd covariance = Eigen::MatrixXd::Identity(8, 8);
+  covariance.topLeftCorner(n, n) =
+      w * Eigen::MatrixXd::Identity(n, n) + b * Eigen::MatrixXd::Ones(n, n);
+  const Eigen::MatrixXd full = (j.transpose() * covariance.inverse() * j).inverse();
+  const Eigen::MatrixXd independent = (j.transpose() * j).inverse();
+  for (int p = 0; p < 2; ++p) {
+    EXPECT_NEAR(d.moduleStdDev[0][p], std::sqrt(full(p, p)), 1e-10);
+    EXPECT_NEAR(d.moduleStdDev[1][p], std::sqrt(full(2 + p, 2 + p)), 1e-10);
+    EXPECT_GT(d.moduleStdDev[0][p], 1.05 * std::sqrt(independent(p, p)));
+  }
+  EXPECT_NEAR(d.sharedStdDev[0], std::sqrt(full(4, 4)), 1e-10);
+}
+
 TEST(FitDiagnostics, AnUnseenParameterIsUndetermined) {
   Eigen::MatrixXd h = Eigen::MatrixXd::Identity(3, 3);
   h(2, 2) = 0.0;

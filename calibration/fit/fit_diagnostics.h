@@ -88,24 +88,6 @@ void subtractCommonPart(const Eigen::VectorXd& moduleSum, const Eigen::VectorXd&
 
 Diagnostics diagnose(const InformationBlocks& info, const ConditioningOptions& options);
 
-// The score of one cluster of residuals, Σ Jᵀr over its σ-normalised rows, split as the fit's
-// structure: at most one module's block (module, −1 for none) and the shared block.
-struct ClusterScore {
-  int module = -1;
-  Eigen::VectorXd modulePart;
-  Eigen::VectorXd sharedPart;
-};
-
-// Widens the covariances of `d` (from diagnose: the model's, the rows independent with the σ
-// that scales them) by what the residuals themselves say, clustered: the sandwich
-// Σ_sw = H⁻¹ (Σ_c s_c s_cᵀ) H⁻¹ holds when clusters of rows err together in ways the model does
-// not know (one station's decoding of a module off as a whole). With few clusters per module
-// Σ_sw is rank deficient, so it only scales: each module's block (and the shared block) by
-// f = max(1, tr(Σ⁻¹ Σ_sw) / n), whose expectation is 1 when the model is right (B's is H);
-// cross-covariances by √(f_module f_shared), keeping the correlations.
-void widenToClusterRobust(const InformationBlocks& info, const std::vector<ClusterScore>& scores,
-                          const ConditioningOptions& options, Diagnostics* d);
-
 // Conditioning of one symmetric positive semi-definite block (exposed for tests).
 BlockConditioning conditioningOf(const Eigen::MatrixXd& block, const ConditioningOptions& options);
 

@@ -119,47 +119,6 @@ InformationBlocks sharedErrorInformation(const FitProblem& built, const ceres::C
   return info;
 }
 
-// Σ Jᵀr over the decoded rows of each (station, module), and over every other block alone, in
-// the Jacobian's column layout [modules | shared].
-std::vector<ClusterScore> stationModuleScores(const FitProblem& built,
-                                              const ceres::CRSMatrix& jacobian,
-                                              const std::vector<double>& residuals,
-                                              int moduleCount, int sharedSize) {
-  std::vector<ClusterScore> scores;
-  std::unordered_map<std::int64_t, size_t> index;
-  const int sharedStart = moduleCount * kModuleTangentSize;
-  size_t row = 0;
-  for (size_t b = 0; b < built.residualBlocks.size(); ++b) {
-    const auto rows = static_cast<size_t>(
-        built.problem->GetCostFunctionForResidualBlock(built.residualBlocks[b])->num_residuals());
-    // Both kinds of a (station, module) together; other blocks each alone (negative keys).
-    const std::int64_t key = built.groupOf[b] >= 0 ? built.groupOf[b] / 2
-                                                   : -1 - static_cast<std::int64_t>(b);
-    const auto [it, fresh] = index.try_emplace(key, scores.size());
-    if (fresh) {
-      ClusterScore c;
-      c.modulePart = Eigen::VectorXd::Zero(kModuleTangentSize);
-      c.sharedPart = Eigen::VectorXd::Zero(sharedSize);
-      scores.push_back(std::move(c));
-    }
-    ClusterScore& score = scores[it->second];
-    for (size_t r = row; r < row + rows; ++r) {
-      for (int k = jacobian.rows[r]; k < jacobian.rows[r + 1]; ++k) {
-        const int col = jacobian.cols[static_cast<size_t>(k)];
-        const double v = jacobian.values[static_cast<size_t>(k)] * residuals[r];
-        if (col >= sharedStart) {
-          score.sharedPart[col - sharedStart] += v;
-        } else {
-          score.module = col / kModuleTangentSize;
-          score.modulePart[col % kModuleTangentSize] += v;
-        }
-      }
-    }
-    row += rows;
-  }
-  return scores;
-}
-
 }  // namespace
 
 void diagnoseUncertainty(const FitInputs& in, FitState& state, const NoiseLevels& sigmas,
@@ -193,13 +152,7 @@ void diagnoseUncertainty(const FitInputs& in, FitState& state, const NoiseLevels
   }
   const InformationBlocks info = sharedErrorInformation(
       built, jacobian, residuals, static_cast<int>(moduleOf.size()), sharedSize, result);
-  Diagnostics d = diagnose(info, options.conditioning);
-  // What the residuals themselves say, station by station: a station's decoding of a module
-  // that is off as a whole moves the module more than independent errors could.
-  widenToClusterRobust(info,
-                       stationModuleScores(built, jacobian, residuals,
-                                           static_cast<int>(moduleOf.size()), sharedSize),
-                       options.conditioning, &d);
+  const Diagnostics d = diagnose(info, options.conditioning);
 
   // ---- modules ----
   for (size_t j = 0; j < moduleOf.size(); ++j) {

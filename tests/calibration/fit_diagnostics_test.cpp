@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/LU>
-#include <random>
 
 namespace parallax {
 namespace {
@@ -109,70 +108,6 @@ TEST(FitDiagnostics, RowsSharingACommonErrorInformAsTheirCorrelatedCovarianceSay
     EXPECT_GT(d.moduleStdDev[0][p], 1.05 * std::sqrt(independent(p, p)));
   }
   EXPECT_NEAR(d.sharedStdDev[0], std::sqrt(full(4, 4)), 1e-10);
-}
-
-// Two modules of 3 parameters, 2 shared; each module seen by 5 stations of 40 alike rows. Returns the
-// module σ after widenToClusterRobust over the model's, for residuals that are independent
-// unit noise, plus `common` × a per (station, module) offset.
-std::vector<double> widenedOverModel(double common) {
-  std::mt19937 rng(17);
-  std::normal_distribution<double> normal;
-  constexpr int kModules = 2, kModuleSize = 3, kShared = 2, kStations = 5, kRows = 40;
-  const int cols = kModules * kModuleSize + kShared;
-  std::vector<int> rows{0}, columns;
-  std::vector<double> values, residuals;
-  std::vector<ClusterScore> scores;
-  for (int m = 0; m < kModules; ++m) {
-    for (int s = 0; s < kStations; ++s) {
-      ClusterScore score;
-      score.module = m;
-      score.modulePart = Eigen::VectorXd::Zero(kModuleSize);
-      score.sharedPart = Eigen::VectorXd::Zero(kShared);
-      const double offset = common * normal(rng);
-      // A station sees a module's pixels from one side: its rows' derivatives are alike.
-      Eigen::Vector3d alike(normal(rng), normal(rng), normal(rng));
-      for (int r = 0; r < kRows; ++r) {
-        const double residual = normal(rng) + offset;
-        for (int c = 0; c < kModuleSize; ++c) {
-          const double v = alike[c] + 0.5 * normal(rng);
-          columns.push_back(m * kModuleSize + c);
-          values.push_back(v);
-          score.modulePart[c] += v * residual;
-        }
-        for (int c = 0; c < kShared; ++c) {
-          const double v = 0.5 * normal(rng);
-          columns.push_back(kModules * kModuleSize + c);
-          values.push_back(v);
-          score.sharedPart[c] += v * residual;
-        }
-        rows.push_back(static_cast<int>(columns.size()));
-      }
-      scores.push_back(score);
-    }
-  }
-  const int numRows = static_cast<int>(rows.size()) - 1;
-  const InformationBlocks info = informationFromJacobian(numRows, cols, rows, columns, values,
-                                                         kModules, kModuleSize, kShared);
-  const Diagnostics model = diagnose(info, {});
-  Diagnostics widened = model;
-  widenToClusterRobust(info, scores, {}, &widened);
-  std::vector<double> ratio;
-  for (int m = 0; m < kModules; ++m) {
-    for (int p = 0; p < kModuleSize; ++p)
-      ratio.push_back(widened.moduleStdDev[m][p] / model.moduleStdDev[m][p]);
-  }
-  return ratio;
-}
-
-TEST(FitDiagnostics, ErrorsAStationSharesAcrossAModuleWidenItsSigma) {
-  // Independent rows: the model's σ stand (the widening's expectation is 1, never below).
-  for (double r : widenedOverModel(0.0)) {
-    EXPECT_GE(r, 1.0);
-    EXPECT_LT(r, 1.6);
-  }
-  // A common offset per (station, module) of the rows' own size: 40 rows then know no more
-  // than about one, and the σ say so.
-  for (double r : widenedOverModel(1.0)) EXPECT_GT(r, 2.0);
 }
 
 TEST(FitDiagnostics, AnUnseenParameterIsUndetermined) {

@@ -195,28 +195,6 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
                 count[c], count[c] ? sum[c] / count[c] : 0.0,
                 count[c] ? std::sqrt(sumSq[c] / count[c]) : 0.0, outliers[c]);
   }
-  double cSum = 0.0, cSq = 0.0;
-  int cCount = 0, cOut = 0;
-  for (const Correspondence& c : obs.correspondences) {
-    Eigen::Vector3d sp;
-    const OpticalModule& tm = session.truth.modules[static_cast<size_t>(c.module)];
-    const auto mb = packModule(tm);
-    double uv[2];
-    if (!screenPoint(c.camera, c.cameraPx, &sp) ||
-        !projectIntoModule(mb.data(), tm.width, tm.mirror ? -1.0 : 1.0, sp, uv))
-      continue;
-    const double du = c.modulePx.x() - uv[0], dv = c.modulePx.y() - uv[1];
-    if (std::hypot(du, dv) > 0.5) {
-      ++cOut;
-      continue;
-    }
-    cSum += du + dv;
-    cSq += du * du + dv * dv;
-    ++cCount;
-  }
-  std::printf("correspondences: %d within 0.5 px: mean %+.4f px, RMS %.3f px per axis; %d beyond\n",
-              cCount, cCount ? cSum / (2 * cCount) : 0.0,
-              cCount ? std::sqrt(cSq / (2 * cCount)) : 0.0, cOut);
   // The fiducial sightings against their true projections: a bias here places every camera.
   for (size_t st = 0; st < stations; ++st) {
     double sx = 0, sy = 0, sr = 0;
@@ -236,8 +214,8 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
     }
     if (n) std::printf("fiducials, station %zu: %d, mean dx %+.3f dy %+.3f, radial %+.3f px\n", st, n, sx / n, sy / n, sr / n);
   }
-  // Where in the module image the decoder errs: the same errors binned by the module pixel's
-  // distance to the image's nearest edge (in module px).
+  // The correspondences against the module pixel the truth gives for their camera pixel: all,
+  // by the module pixel's distance to its image's nearest edge (module px), and by station.
   {
     const double edges[] = {0, 4, 8, 16, 32, 64, 1e9};
     double su[8] = {}, sv[8] = {}, mu[8] = {}, mv[8] = {};
@@ -245,6 +223,8 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
     constexpr int kBins = 6;
     double bu[kBins] = {}, bv[kBins] = {}, bsq[kBins] = {};
     int bn[kBins] = {}, bout[kBins] = {};
+    double cSum = 0.0, cSq = 0.0;
+    int cCount = 0, cOut = 0;
     for (const Correspondence& c : obs.correspondences) {
       Eigen::Vector3d sp;
       const OpticalModule& tm = session.truth.modules[static_cast<size_t>(c.module)];
@@ -258,6 +238,13 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
       int b = 0;
       while (b + 1 < kBins && edge >= edges[b + 1]) ++b;
       const double du = c.modulePx.x() - uv[0], dv = c.modulePx.y() - uv[1];
+      if (std::hypot(du, dv) <= 0.5) {
+        cSum += du + dv;
+        cSq += du * du + dv * dv;
+        ++cCount;
+      } else {
+        ++cOut;
+      }
       const int st = std::min(c.camera, 7);
       ou[st] += std::abs(du) > 0.5;
       ov[st] += std::abs(dv) > 0.5;
@@ -275,6 +262,10 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
       bsq[b] += du * du + dv * dv;
       ++bn[b];
     }
+    std::printf(
+        "correspondences: %d within 0.5 px: mean %+.4f px, RMS %.3f px per axis; %d beyond\n",
+        cCount, cCount ? cSum / (2 * cCount) : 0.0, cCount ? std::sqrt(cSq / (2 * cCount)) : 0.0,
+        cOut);
     for (int b = 0; b < kBins; ++b) {
       std::printf("  %3.0f-%3.0f px from the edge: %6d, mean du %+.4f dv %+.4f, RMS %.3f; %d beyond\n",
                   edges[b], std::min(edges[b + 1], 999.0), bn[b], bn[b] ? bu[b] / bn[b] : 0.0,

@@ -286,10 +286,6 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
   std::printf("fit: k %.5f (true %.5f, σ %.5f); σ correspondences %.3f px, stripes %.3f mm\n",
               result.model.screen.curvature, k, result.curvatureStdDev,
               result.correspondenceSigmaPx, result.stripeSigmaMm);
-  const auto& se = result.sharedErrors;
-  std::printf("rows within a (station, module) group, in σ: u %.2f v %.2f stripes %.2f; their "
-              "common part: u %.2f v %.2f stripes %.2f\n",
-              se[0], se[1], se[2], se[3], se[4], se[5]);
   for (const CameraFit& cf : result.cameras) {
     const CameraPose& t = session.camera.poses[static_cast<size_t>(cf.camera)];
     const Eigen::Vector3d d = (cf.pose.centre - t.centre) * 1e3;

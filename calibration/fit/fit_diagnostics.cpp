@@ -72,8 +72,7 @@ const char* conditioningName(Conditioning c) {
 InformationBlocks informationFromJacobian(int numRows, int numCols, const std::vector<int>& rows,
                                           const std::vector<int>& cols,
                                           const std::vector<double>& values, int moduleCount,
-                                          int moduleSize, int sharedSize,
-                                          const std::vector<double>* rowWeights) {
+                                          int moduleSize, int sharedSize) {
   PARALLAX_CHECK_OP(numCols, ==, moduleCount * moduleSize + sharedSize);
   PARALLAX_CHECK_OP(static_cast<int>(rows.size()), ==, numRows + 1);
   InformationBlocks info;
@@ -103,28 +102,18 @@ InformationBlocks informationFromJacobian(int numRows, int numCols, const std::v
         moduleEntries.push_back({c - m * moduleSize, v});
       }
     }
-    const double w = rowWeights ? (*rowWeights)[static_cast<size_t>(r)] : 1.0;
     for (const auto& [i, vi] : sharedEntries) {
-      for (const auto& [j, vj] : sharedEntries) info.sharedShared(i, j) += w * vi * vj;
+      for (const auto& [j, vj] : sharedEntries) info.sharedShared(i, j) += vi * vj;
     }
     if (module < 0) continue;
     Eigen::MatrixXd& hmm = info.moduleModule[static_cast<size_t>(module)];
     Eigen::MatrixXd& hms = info.moduleShared[static_cast<size_t>(module)];
     for (const auto& [i, vi] : moduleEntries) {
-      for (const auto& [j, vj] : moduleEntries) hmm(i, j) += w * vi * vj;
-      for (const auto& [j, vj] : sharedEntries) hms(i, j) += w * vi * vj;
+      for (const auto& [j, vj] : moduleEntries) hmm(i, j) += vi * vj;
+      for (const auto& [j, vj] : sharedEntries) hms(i, j) += vi * vj;
     }
   }
   return info;
-}
-
-void subtractCommonPart(const Eigen::VectorXd& moduleSum, const Eigen::VectorXd& sharedSum,
-                        int module, double coefficient, InformationBlocks* info) {
-  info->sharedShared.noalias() -= coefficient * sharedSum * sharedSum.transpose();
-  if (module < 0) return;
-  const auto m = static_cast<size_t>(module);
-  info->moduleModule[m].noalias() -= coefficient * moduleSum * moduleSum.transpose();
-  info->moduleShared[m].noalias() -= coefficient * moduleSum * sharedSum.transpose();
 }
 
 BlockConditioning conditioningOf(const Eigen::MatrixXd& block, const ConditioningOptions& options) {

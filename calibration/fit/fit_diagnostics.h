@@ -70,21 +70,10 @@ struct Diagnostics {
 
 // Builds the blocks from a row-major sparse Jacobian (Ceres' CRSMatrix fields) whose columns
 // are [module 0 (moduleSize) | module 1 | ... | shared (sharedSize)].
-// rowWeights, when given, scales each row's outer product (one per row).
 InformationBlocks informationFromJacobian(int numRows, int numCols, const std::vector<int>& rows,
                                           const std::vector<int>& cols,
                                           const std::vector<double>& values, int moduleCount,
-                                          int moduleSize, int sharedSize,
-                                          const std::vector<double>* rowWeights = nullptr);
-
-// Takes out of `info` what a group of rows does not know because their errors share a common
-// part: rows of covariance w I + b 11ᵀ (σ units) inform J̃ᵀ(wI + b11ᵀ)⁻¹J̃
-//   = (1/w) [J̃ᵀJ̃ − b / (w + n b) (J̃ᵀ1)(J̃ᵀ1)ᵀ];
-// the first term is the rows' own (weighted 1/w by informationFromJacobian), this subtracts
-// the second: `coefficient` × s sᵀ with s the sum of the group's rows. Each group touches at
-// most one module (`module`, −1 for none).
-void subtractCommonPart(const Eigen::VectorXd& moduleSum, const Eigen::VectorXd& sharedSum,
-                        int module, double coefficient, InformationBlocks* info);
+                                          int moduleSize, int sharedSize);
 
 Diagnostics diagnose(const InformationBlocks& info, const ConditioningOptions& options);
 

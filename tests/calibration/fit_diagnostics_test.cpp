@@ -78,33 +78,6 @@ TEST(FitDiagnostics, SchurMarginalsMatchTheFullInverse) {
   EXPECT_NEAR(d.sharedStdDev[0], std::sqrt(full(4, 4)), 1e-10);
 }
 
-TEST(FitDiagnostics, RowsSharingACommonErrorInformAsTheirCorrelatedCovarianceSays) {
-  // The same two modules; rows 0-3 (module 0) share a common error: their covariance is
-  // w I + b 11ᵀ. Row weights 1/w and the common part taken out give the generalized least
-  // squares information Jᵀ Σ⁻¹ J exactly, and its σ are larger than the independent rows'.
-  const Eigen::MatrixXd j = twoModules();
-  const SparseRows sparse(j);
-  const double w = 1.5, b = 0.8;
-  const int n = 4;
-  const std::vector<double> weights{1 / w, 1 / w, 1 / w, 1 / w, 1, 1, 1, 1};
-  InformationBlocks info = informationFromJacobian(8, 5, sparse.rows, sparse.cols, sparse.values, 2, 2, 1, &weights);
-  const Eigen::VectorXd sum = j.topRows(n).colwise().sum().transpose();
-  subtractCommonPart(sum.head(2), sum.tail(1), 0, b / (w * (w + n * b)), &info);
-  const Diagnostics d = diagnose(info, {});
-
-  Eigen::MatrixXd covariance = Eigen::MatrixXd::Identity(8, 8);
-  covariance.topLeftCorner(n, n) =
-      w * Eigen::MatrixXd::Identity(n, n) + b * Eigen::MatrixXd::Ones(n, n);
-  const Eigen::MatrixXd full = (j.transpose() * covariance.inverse() * j).inverse();
-  const Eigen::MatrixXd independent = (j.transpose() * j).inverse();
-  for (int p = 0; p < 2; ++p) {
-    EXPECT_NEAR(d.moduleStdDev[0][p], std::sqrt(full(p, p)), 1e-10);
-    EXPECT_NEAR(d.moduleStdDev[1][p], std::sqrt(full(2 + p, 2 + p)), 1e-10);
-    EXPECT_GT(d.moduleStdDev[0][p], 1.05 * std::sqrt(independent(p, p)));
-  }
-  EXPECT_NEAR(d.sharedStdDev[0], std::sqrt(full(4, 4)), 1e-10);
-}
-
 TEST(FitDiagnostics, AnUnseenParameterIsUndetermined) {
   Eigen::MatrixXd h = Eigen::MatrixXd::Identity(3, 3);
   h(2, 2) = 0.0;

@@ -195,6 +195,8 @@ class Conductor {
   // and answer; every rank runs the same code on the same inputs, for its own modules.
   bool clustered() const { return cluster_->size() > 1; }
   void follow();
+  // Rank 0: `calibrate` across the ranks, as if asked (`[calibration] auto` at start).
+  void calibrateCluster();
   void tellOthers(const nlohmann::json& step);
   // Rank 0: every rank's reply to a request, merged: a rank that refused is named in the error.
   nlohmann::json agreeOnReply(nlohmann::json reply);
@@ -354,6 +356,9 @@ class Conductor {
   std::atomic<bool> cancel_{false};  // set by `cancel` and `shutdown`: the calibration stops
   const std::atomic<bool>* stop_ = nullptr;  // run()'s flag (signals): stops every stage too
   bool startingUp_ = true;
+  // Rank 0 of a cluster without a calibration, configured to calibrate at start: it does once
+  // every rank follows it (calibrateCluster()).
+  bool calibrateClusterAtStart_ = false;
 
   mutable std::mutex publishedMutex_;
   nlohmann::json publishedStatus_, publishedStats_;

@@ -78,7 +78,27 @@ struct ShadowBatch {
 struct CachedHit {
   unsigned mesh = RTC_INVALID_GEOMETRY_ID;  // none: the ray meets no static geometry
   unsigned prim = 0;
+  // The ray passes every dynamic object's bounds before its static hit: not traced (its lane is
+  // parked), and its distance to the hit is `t`.
+  bool past = false;
+  float t = 0.0f;
 };
+
+// Whether the segment from `origin` along the unit `dir` for t in [0, tfar] may meet one of the
+// spheres (PhysicalScene::dynamicSpheres): false only where it certainly passes them all. The
+// allowances are the shadow-ray kernel's (MayMeetSphere).
+bool mayMeetSpheres(const std::vector<Eigen::Vector4f>& spheres, const Eigen::Vector3f& origin,
+                    const Eigen::Vector3f& dir, float tfar) {
+  for (const Eigen::Vector4f& sphere : spheres) {
+    const Eigen::Vector3f w = sphere.head<3>() - origin;
+    const float along = w.dot(dir), square = w.dot(w), radius = sphere.w();
+    const bool passesBeside = square - along * along > radius * radius + 1e-5f * square;
+    const bool behind = along + radius < 0.0f;
+    const bool beyond = along - radius > tfar * (1.0f + 1e-5f);
+    if (!(passesBeside || behind || beyond)) return true;
+  }
+  return false;
+}
 
 // A worker thread's ray arrays, kept from frame to frame (thread_local below): after the first
 // frame a tile allocates nothing.
@@ -91,6 +111,8 @@ struct TileBuffers {
   // rays from static hits toward static lights that no static surface blocks go to a second
   // batch, traced against the dynamic instances only.
   ShadowBatch shadows, dynamicShadows;
+  // And the rays of that batch that pass every dynamic object's bounds: not traced.
+  StagedRays unblocked;
   // The frame cache, per primary ray: its static hit, and that hit's static-light answers.
   std::vector<CachedHit> cachedHits;
   std::vector<std::uint8_t> primaryLights;
@@ -118,6 +140,7 @@ class TileRenderer {
         lit_(buffers->lit),
         shadows_(buffers->shadows),
         dynamicShadows_(buffers->dynamicShadows),
+        unblocked_(buffers->unblocked),
         cachedHits_(buffers->cachedHits),
         primaryLights_(buffers->primaryLights),
         primaryStaged_(buffers->primary),
@@ -169,6 +192,7 @@ class TileRenderer {
   LitSurfaces& lit_;  // this generation's diffuse hits
   ShadowBatch& shadows_;
   ShadowBatch& dynamicShadows_;
+  StagedRays& unblocked_;
   std::vector<CachedHit>& cachedHits_;
   std::vector<std::uint8_t>& primaryLights_;
   StagedRays& primaryStaged_;
@@ -335,6 +359,7 @@ void TileRenderer::makeShadowRays(const PhysicalLight& light, int lightIndex, in
                                      : 0;
   shadows_.staged.reserve(n);
   dynamicShadows_.staged.reserve(cachedBit ? n : 0);
+  unblocked_.reserve(cachedBit ? n : 0);
   ShadowRayJob job;
   job.surfaces = &lit_;
   job.light = &light;
@@ -343,7 +368,15 @@ void TileRenderer::makeShadowRays(const PhysicalLight& light, int lightIndex, in
   job.cachedBit = cachedBit;
   job.rays = &shadows_.staged;
   job.dynamic = &dynamicShadows_.staged;
+  job.unblocked = &unblocked_;
+  job.spheres = scene_.dynamicSpheres().data();
+  job.sphereCount = scene_.dynamicSpheres().size();
   c->cache.shadowAnswered += parallax::makeShadowRays(job);
+  if (unblocked_.size() > 0) {
+    // One ray a pixel toward this light, as in the batches: added now or after them, the same.
+    addLight(unblocked_, frame_->pixels.data());
+    c->cache.shadowPassedDynamic += static_cast<long>(unblocked_.size());
+  }
   shadows_.load(glassShadows_);
   dynamicShadows_.load(glassShadows_);
 }
@@ -430,16 +463,32 @@ void TileRenderer::limitToStaticHits() {
     // The hit point as hitInfoOf computes it; its distance along the (unit) ray.
     const Eigen::Vector3f p = (1.0f - hit.u - hit.v) * mesh.positions[tri[0]] +
                               hit.u * mesh.positions[tri[1]] + hit.v * mesh.positions[tri[2]];
-    rays_.setTfar(i, (p - rays_.origin(i)).dot(rays_.direction(i)));
-    cachedHits_[i] = {static_cast<unsigned>(meshIndex), prim};
+    const Eigen::Vector3f origin = rays_.origin(i), direction = rays_.direction(i);
+    const float t = (p - origin).dot(direction);
+    CachedHit& cached = cachedHits_[i];
+    cached = {static_cast<unsigned>(meshIndex), prim, false, t};
+    if (!mayMeetSpheres(scene_.dynamicSpheres(), origin, direction, t)) {
+      // Nothing dynamic lies in front of the static hit: the lane is parked (tnear > tfar, as
+      // the stream traversal parks unused lanes), and a packet of such lanes costs Embree next
+      // to nothing.
+      cached.past = true;
+      rays_.park(i);
+    } else {
+      rays_.setTfar(i, t);
+    }
   }
 }
 
 // After it: where the dynamic scene found nothing nearer, the static hit is the ray's hit.
 void TileRenderer::takeStaticHits(RenderCounters* c) {
   primaryLights_.assign(rays_.size(), 0);
+  long passed = 0;
   for (size_t i = 0; i < rays_.size(); ++i) {
     const CachedHit& cached = cachedHits_[i];
+    if (cached.past) {
+      rays_.unpark(i, cached.t);
+      ++passed;
+    }
     if (cached.mesh == RTC_INVALID_GEOMETRY_ID || rays_.geomID(i) != RTC_INVALID_GEOMETRY_ID)
       continue;
     const StaticHit& hit = cache_->hits[static_cast<size_t>(paths_[i].pixel)];
@@ -447,7 +496,8 @@ void TileRenderer::takeStaticHits(RenderCounters* c) {
     primaryLights_[i] = hit.lights();
     ++c->cache.pixelsReused;
   }
-  c->cache.primaryDynamicOnly += static_cast<long>(rays_.size());
+  c->cache.primaryDynamicOnly += static_cast<long>(rays_.size()) - passed;
+  c->cache.primaryPassedDynamic += passed;
 }
 
 // Building: the first generation was traced against the static scene; keep its hits.
@@ -823,13 +873,14 @@ std::vector<std::string> RenderCounters::lines() const {
       fmt::format("  glass surfaces shadow rays passed through {} (the glass filter's calls)",
                   glassShadowHits),
   };
-  if (cache.primaryDynamicOnly > 0) {
+  if (cache.pixelsReused + cache.primaryDynamicOnly > 0) {
     out.push_back(fmt::format(
         "  frame cache: {} primary hits reused ({} primary rays traced against the dynamic "
-        "objects only); shadow rays: {} answered without tracing, {} traced against the dynamic "
-        "objects only",
-        cache.pixelsReused, cache.primaryDynamicOnly, cache.shadowAnswered,
-        cache.shadowDynamicOnly));
+        "objects only, {} passing every dynamic object's bounds: not traced); shadow rays: {} "
+        "answered without tracing, {} passing every dynamic object's bounds (not traced), {} "
+        "traced against the dynamic objects only",
+        cache.pixelsReused, cache.primaryDynamicOnly, cache.primaryPassedDynamic,
+        cache.shadowAnswered, cache.shadowPassedDynamic, cache.shadowDynamicOnly));
   }
   return out;
 }

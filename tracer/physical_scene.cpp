@@ -4,7 +4,6 @@
 #include <spdlog/spdlog.h>
 
 #include <Eigen/Geometry>
-
 #include <chrono>
 #include <cmath>
 #include <limits>

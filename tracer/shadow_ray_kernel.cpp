@@ -245,9 +245,7 @@ void AddUnblockedLight(const StagedRays& staged, const RTCRay16* packets, Rgb* p
   AddLightOf<false>(staged, packets, pixels);
 }
 
-void AddLight(const StagedRays& staged, Rgb* pixels) {
-  AddLightOf<true>(staged, nullptr, pixels);
-}
+void AddLight(const StagedRays& staged, Rgb* pixels) { AddLightOf<true>(staged, nullptr, pixels); }
 
 }  // namespace HWY_NAMESPACE
 }  // namespace parallax

@@ -30,9 +30,9 @@ struct ShadowRayJob {
   float worldPerPhysical = 1.0f;
   bool build = false;  // filling the frame cache: every ray the light's direction allows
   std::uint8_t cachedBit = 0;
-  StagedRays* rays = nullptr;     // reserved for surfaces->size() rays
-  StagedRays* dynamic = nullptr;  // likewise, when cachedBit != 0
-  StagedRays* unblocked = nullptr;  // likewise (pixels and kR, kG, kB only)
+  StagedRays* rays = nullptr;                // reserved for surfaces->size() rays
+  StagedRays* dynamic = nullptr;             // likewise, when cachedBit != 0
+  StagedRays* unblocked = nullptr;           // likewise (pixels and kR, kG, kB only)
   const Eigen::Vector4f* spheres = nullptr;  // centre and radius, sphereCount of them
   std::size_t sphereCount = 0;
 };

@@ -31,7 +31,8 @@ void EncodeSrgbChannels(const float* in, size_t n, const SrgbTable& table, std::
     const auto index = hn::ConvertTo(di, half);
     const auto k = hn::GatherIndex(di, table.code, index);
     const V step = hn::GatherIndex(d, table.step, index);
-    return hn::DemoteTo(d8, hn::Sub(k, hn::VecFromMask(di, hn::RebindMask(di, hn::Ge(zero, step)))));
+    return hn::DemoteTo(d8,
+                        hn::Sub(k, hn::VecFromMask(di, hn::RebindMask(di, hn::Ge(zero, step)))));
   }();
 
   for (size_t i = 0; i < n; i += lanes) {

@@ -67,8 +67,7 @@ class RayTextures {
   // then every row is [0, width).
   void indexMask();
   std::pair<int, int> unmaskedColumns(int row) const {
-    return unmasked_.empty() ? std::pair<int, int>{0, width_}
-                             : unmasked_[static_cast<size_t>(row)];
+    return unmasked_.empty() ? std::pair<int, int>{0, width_} : unmasked_[static_cast<size_t>(row)];
   }
 
  private:

@@ -111,6 +111,25 @@ function setUpModules(count) {
   refreshThumbnails();
 }
 
+// A parameter's `set`s go one at a time and the slider's latest value goes last: requests sent
+// together (ten arrow-key presses) may reach the daemon in any order and leave the scene on an
+// older value than the slider shows.
+function parameterSender(name, slider) {
+  let busy = false, again = false;
+  return async () => {
+    if (busy) { again = true; return; }
+    busy = true;
+    try {
+      do {
+        again = false;
+        await act('set ' + name, {request: 'set', name: name, value: Number(slider.value)});
+      } while (again);
+    } finally {
+      busy = false;
+    }
+  };
+}
+
 function setUpParameters(scene) {
   const ranges = scene ? scene.parameter_ranges || {} : {};
   const key = scene ? scene.name + ':' + Object.keys(ranges).join(',') : '';
@@ -135,8 +154,7 @@ function setUpParameters(scene) {
       label.htmlFor = slider.id;
       slider.addEventListener('input', () => { value.textContent = Number(slider.value).toFixed(3); });
       // One `set` when the slider is let go (or moved by the keyboard), not one per pixel.
-      slider.addEventListener('change', () =>
-        act('set ' + name, {request: 'set', name: name, value: Number(slider.value)}));
+      slider.addEventListener('change', parameterSender(name, slider));
       div.append(label, slider);
       box.append(div);
     }

@@ -36,9 +36,11 @@ std::vector<std::string> FrameCacheStats::lines() const {
                   "and {} dynamic objects, {} static lights cached",
                   static_cast<double>(bytes) / (1024.0 * 1024.0), pixels, bytesPerPixel(),
                   staticInstances, dynamicInstances, cachedLights),
-      fmt::format("  frame cache saved: {} primary hits reused, {} shadow rays not traced, {} "
-                  "traced against the dynamic objects only",
-                  saved.pixelsReused, saved.shadowAnswered, saved.shadowDynamicOnly),
+      fmt::format("  frame cache saved: {} primary hits reused, {} shadow rays not traced (a "
+                  "static surface blocks them), {} not traced (they pass every moving object's "
+                  "bounds), {} traced against the moving objects only",
+                  saved.pixelsReused, saved.shadowAnswered, saved.shadowPassedDynamic,
+                  saved.shadowDynamicOnly),
   };
   out.push_back(fmt::format(
       "  frame cache payoff: {} ({} frames re-traced in full to measure it; {:.1f} MiB freed in "

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <Eigen/Geometry>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -189,6 +190,7 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox,
   }
   rtcCommitScene(scene_);
   if (dynamicScene_) rtcCommitScene(dynamicScene_);
+  if (split()) boundDynamicMeshes();
   throwIfEmbreeFailed("the scene build");
   if (counters_.trianglesBuilt == 0) {
     boundsMin_ = boundsMax_ = Eigen::Vector3f::Zero();
@@ -205,6 +207,31 @@ PhysicalScene::~PhysicalScene() {
   if (dynamicScene_) rtcReleaseScene(dynamicScene_);
   if (staticScene_) rtcReleaseScene(staticScene_);
   for (RTCGeometry g : geometries_) rtcReleaseGeometry(g);
+}
+
+void PhysicalScene::boundDynamicMeshes() {
+  std::vector<Eigen::AlignedBox3f> boxes;
+  for (size_t g = 0; g < meshes_.size(); ++g) {
+    if (!dynamicInstances_[static_cast<size_t>(meshInstances_[g])]) continue;
+    Eigen::AlignedBox3f box;
+    for (const auto& t : meshes_[g].triangles)
+      for (std::uint32_t index : t) box.extend(meshes_[g].positions[index]);
+    if (!box.isEmpty()) boxes.push_back(box);
+  }
+  if (boxes.size() > kMaxDynamicSpheres) {
+    for (size_t i = 1; i < boxes.size(); ++i) boxes[0].extend(boxes[i]);
+    boxes.resize(1);
+  }
+  // The margin covers the rounding of the tests that use the spheres (a distance squared and a
+  // projection, a few ulps of the scene's size), and Embree's of its own triangle test.
+  const float margin = 1e-4f * (boundsMax_ - boundsMin_).norm() + 1e-6f;
+  dynamicSpheres_.clear();
+  for (const Eigen::AlignedBox3f& box : boxes) {
+    const Eigen::Vector3f centre = box.center();
+    const float radius = 0.5f * box.diagonal().norm();
+    dynamicSpheres_.emplace_back(centre.x(), centre.y(), centre.z(),
+                                 radius * (1.0f + 1e-4f) + margin);
+  }
 }
 
 void PhysicalScene::buildStaticScene() {

@@ -80,6 +80,12 @@ class PhysicalScene {
   // Builds staticHandle() (once; not thread-safe: before any tracing of this scene).
   void buildStaticScene();
   bool split() const { return !dynamicInstances_.empty(); }
+  // The dynamic instances' bounds as spheres (centre x, y, z, radius; physical), a little wider
+  // than the meshes, which no ray can meet without crossing: a ray that passes them all needs no
+  // trip through dynamicHandle(). One per dynamic mesh, or one around them all when there are
+  // more than kMaxDynamicSpheres. Empty unless split.
+  static constexpr size_t kMaxDynamicSpheres = 8;
+  const std::vector<Eigen::Vector4f>& dynamicSpheres() const { return dynamicSpheres_; }
   // Per Scene instance: whether the split counted it dynamic.
   bool dynamicInstance(int instance) const {
     return split() && dynamicInstances_[static_cast<size_t>(instance)];
@@ -126,6 +132,8 @@ class PhysicalScene {
   RTCScene staticScene_ = nullptr;
   std::vector<RTCGeometry> geometries_;  // retained while a partial scene may still attach them
   std::vector<bool> dynamicInstances_;
+  std::vector<Eigen::Vector4f> dynamicSpheres_;
+  void boundDynamicMeshes();
   std::vector<int> instanceMeshes_;
   std::vector<int> meshInstances_;  // per mesh: its Scene instance
   WorldToPhysical physicalFromWorld_;

@@ -65,6 +65,12 @@ PrimaryRayCounts MakePrimaryRays(const PrimaryRayRow& row, StagedRays* staged) {
     }
     const auto valid = hn::FirstN(d, here);
     const auto masked = hn::IsNaN(originX);
+    if (here == lanes && hn::AllTrue(d, masked)) {
+      // Pixels no ray leaves (half of a module's, in runs along its rows): black, no arithmetic.
+      counts.masked += static_cast<long>(lanes);
+      hn::StoreInterleaved3(zero, zero, zero, d, out + 3 * j);
+      continue;
+    }
 
     // o and s − o; a flat screen has no sag.
     const V toX = hn::Sub(screenX, originX), toY = hn::Sub(screenY, observerY);

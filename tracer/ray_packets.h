@@ -67,6 +67,16 @@ class RayHitPackets {
   // The frame cache: a ray traced only as far as its cached hit, and that hit written in when
   // nothing nearer was found.
   void setTfar(size_t i, float tfar) { packets_[i / 16].ray.tfar[i % 16] = tfar; }
+  // A lane left out of the next trace (tnear > tfar: Embree skips it), then given back its
+  // tnear of 0 and `tfar`.
+  void park(size_t i) {
+    packets_[i / 16].ray.tnear[i % 16] = 1.0f;
+    packets_[i / 16].ray.tfar[i % 16] = 0.0f;
+  }
+  void unpark(size_t i, float tfar) {
+    packets_[i / 16].ray.tnear[i % 16] = 0.0f;
+    packets_[i / 16].ray.tfar[i % 16] = tfar;
+  }
   void setHit(size_t i, unsigned geomID, unsigned primID, float u, float v) {
     RTCHit16& h = packets_[i / 16].hit;
     h.geomID[i % 16] = geomID;

@@ -22,6 +22,27 @@ namespace parallax {
 namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
+// Lanes whose ray (from a along the unit l, for t in [0, tfar]) may meet `sphere`: false only
+// where it certainly passes it. The squared distance of the centre from the ray's line, |w|² −
+// (w · l)², loses a few ulps of |w|² to cancellation and to |l| being 1 only to a few ulps: the
+// allowance of 1e-5 |w|² covers both. NaN compares false: may meet.
+template <class D, class V = hn::Vec<D>>
+HWY_INLINE auto MayMeetSphere(D d, V ax, V ay, V az, V lx, V ly, V lz, V tfar,
+                              const Eigen::Vector4f& sphere) {
+  const V wx = hn::Sub(hn::Set(d, sphere.x()), ax);
+  const V wy = hn::Sub(hn::Set(d, sphere.y()), ay);
+  const V wz = hn::Sub(hn::Set(d, sphere.z()), az);
+  const V along = Dot3(wx, wy, wz, lx, ly, lz);
+  const V square = Dot3(wx, wy, wz, wx, wy, wz);
+  const V radius = hn::Set(d, sphere.w());
+  const V off = hn::Sub(square, hn::Mul(along, along));
+  const auto passesBeside =
+      hn::Gt(off, hn::Add(hn::Mul(radius, radius), hn::Mul(hn::Set(d, 1e-5f), square)));
+  const auto behind = hn::Lt(hn::Add(along, radius), hn::Zero(d));
+  const auto beyond = hn::Gt(hn::Sub(along, radius), hn::Mul(tfar, hn::Set(d, 1.0f + 1e-5f)));
+  return hn::Not(hn::Or(passesBeside, hn::Or(behind, beyond)));
+}
+
 template <bool kPoint>
 long MakeShadowRaysFor(const ShadowRayJob& job) {
   const hn::ScalableTag<float> d;
@@ -55,11 +76,15 @@ long MakeShadowRaysFor(const ShadowRayJob& job) {
       out.field(StagedRays::kTfar), out.field(StagedRays::kR),  out.field(StagedRays::kG),
       out.field(StagedRays::kB)};
   float* dynField[StagedRays::kFields] = {};
+  float* freeField[3] = {};
   if (job.cachedBit) {
     for (int f = 0; f < StagedRays::kFields; ++f)
       dynField[f] = job.dynamic->field(static_cast<StagedRays::Field>(f));
+    freeField[0] = job.unblocked->field(StagedRays::kR);
+    freeField[1] = job.unblocked->field(StagedRays::kG);
+    freeField[2] = job.unblocked->field(StagedRays::kB);
   }
-  size_t kept = 0, keptDynamic = 0;
+  size_t kept = 0, keptDynamic = 0, keptFree = 0;
   long answered = 0;
 
   for (size_t j = 0; j < n; j += lanes) {
@@ -138,11 +163,26 @@ long MakeShadowRaysFor(const ShadowRayJob& job) {
       answered += static_cast<long>(hn::CountTrue(d, hn::AndNot(clear, hn::And(reaches, known))));
       keep = hn::AndNot(known, reaches);
       if (!hn::AllFalse(d, toDynamic)) {
-        for (int f = 0; f < StagedRays::kFields; ++f)
-          CompressAppend(d, values[f], toDynamic, dynField[f] + keptDynamic);
-        CompressAppend(d, pixel, toDynamic,
-                       reinterpret_cast<float*>(job.dynamic->pixels()) + keptDynamic);
-        keptDynamic += hn::CountTrue(d, toDynamic);
+        // Only rays that may meet a dynamic object's sphere go to Embree.
+        auto meets = hn::Lt(zero, zero);
+        for (size_t k = 0; k < job.sphereCount; ++k)
+          meets = hn::Or(meets, MayMeetSphere(d, ax, ay, az, lx, ly, lz, tfar, job.spheres[k]));
+        const auto traced = hn::And(toDynamic, meets);
+        const auto free = hn::AndNot(meets, toDynamic);
+        if (!hn::AllFalse(d, traced)) {
+          for (int f = 0; f < StagedRays::kFields; ++f)
+            CompressAppend(d, values[f], traced, dynField[f] + keptDynamic);
+          CompressAppend(d, pixel, traced,
+                         reinterpret_cast<float*>(job.dynamic->pixels()) + keptDynamic);
+          keptDynamic += hn::CountTrue(d, traced);
+        }
+        if (!hn::AllFalse(d, free)) {
+          for (int c = 0; c < 3; ++c)
+            CompressAppend(d, values[StagedRays::kR + c], free, freeField[c] + keptFree);
+          CompressAppend(d, pixel, free,
+                         reinterpret_cast<float*>(job.unblocked->pixels()) + keptFree);
+          keptFree += hn::CountTrue(d, free);
+        }
       }
     }
     if (hn::AllFalse(d, keep)) continue;
@@ -152,7 +192,10 @@ long MakeShadowRaysFor(const ShadowRayJob& job) {
     kept += hn::CountTrue(d, keep);
   }
   out.setSize(kept);
-  if (job.cachedBit) job.dynamic->setSize(keptDynamic);
+  if (job.cachedBit) {
+    job.dynamic->setSize(keptDynamic);
+    job.unblocked->setSize(keptFree);
+  }
   return answered;
 }
 
@@ -161,7 +204,9 @@ long MakeShadowRays(const ShadowRayJob& job) {
                                               : MakeShadowRaysFor<false>(job);
 }
 
-void AddUnblockedLight(const StagedRays& staged, const RTCRay16* packets, Rgb* pixels) {
+// AddUnblockedLight, or with kAll every ray unblocked (packets unused).
+template <bool kAll>
+void AddLightOf(const StagedRays& staged, const RTCRay16* packets, Rgb* pixels) {
   const hn::ScalableTag<float> d;
   const hn::RebindToSigned<decltype(d)> di;
   const size_t lanes = hn::Lanes(d);
@@ -178,8 +223,9 @@ void AddUnblockedLight(const StagedRays& staged, const RTCRay16* packets, Rgb* p
     const auto three = hn::Set(di, 3);
     for (; j + lanes <= n; j += lanes) {
       // Embree sets tfar to −inf on a blocked ray (OcclusionPackets::occluded).
-      const auto clear = hn::Ge(hn::LoadU(d, packets[j / 16].tfar + j % 16), zero);
-      if (hn::AllFalse(d, clear)) continue;
+      const auto clear =
+          kAll ? hn::Eq(zero, zero) : hn::Ge(hn::LoadU(d, packets[j / 16].tfar + j % 16), zero);
+      if (!kAll && hn::AllFalse(d, clear)) continue;
       const auto index = hn::Mul(hn::LoadU(di, pixel + j), three);
       for (int c = 0; c < 3; ++c) {
         const auto before = hn::GatherIndex(d, colours + c, index);
@@ -190,10 +236,16 @@ void AddUnblockedLight(const StagedRays& staged, const RTCRay16* packets, Rgb* p
     }
   }
   for (; j < n; ++j) {
-    if (packets[j / 16].tfar[j % 16] >= 0.0f)
+    if (kAll || packets[j / 16].tfar[j % 16] >= 0.0f)
       pixels[pixel[j]] += Rgb(contribution[0][j], contribution[1][j], contribution[2][j]);
   }
 }
+
+void AddUnblockedLight(const StagedRays& staged, const RTCRay16* packets, Rgb* pixels) {
+  AddLightOf<false>(staged, packets, pixels);
+}
+
+void AddLight(const StagedRays& staged, Rgb* pixels) { AddLightOf<true>(staged, nullptr, pixels); }
 
 }  // namespace HWY_NAMESPACE
 }  // namespace parallax
@@ -204,11 +256,16 @@ namespace parallax {
 
 HWY_EXPORT(MakeShadowRays);
 HWY_EXPORT(AddUnblockedLight);
+HWY_EXPORT(AddLight);
 
 long makeShadowRays(const ShadowRayJob& job) { return HWY_DYNAMIC_DISPATCH(MakeShadowRays)(job); }
 
 void addUnblockedLight(const StagedRays& staged, const RTCRay16* packets, Rgb* pixels) {
   HWY_DYNAMIC_DISPATCH(AddUnblockedLight)(staged, packets, pixels);
+}
+
+void addLight(const StagedRays& staged, Rgb* pixels) {
+  HWY_DYNAMIC_DISPATCH(AddLight)(staged, pixels);
 }
 
 }  // namespace parallax

@@ -9,7 +9,9 @@
 // cache, adds something). With the frame cache (`cachedBit`: this static light's bit, 0 when
 // the cache does not answer for it), a surface whose static answers are known gets no ray when
 // a static surface blocks the light (counted in `answered`), and a ray against the dynamic
-// objects only (`dynamic`) when none does.
+// objects only (`dynamic`) when none does, unless that ray passes every dynamic object's
+// bounding sphere (PhysicalScene::dynamicSpheres): then nothing can block it and its light goes
+// to `unblocked`, for addLight, without a trip through Embree.
 
 #include <embree3/rtcore.h>
 
@@ -28,8 +30,11 @@ struct ShadowRayJob {
   float worldPerPhysical = 1.0f;
   bool build = false;  // filling the frame cache: every ray the light's direction allows
   std::uint8_t cachedBit = 0;
-  StagedRays* rays = nullptr;     // reserved for surfaces->size() rays
-  StagedRays* dynamic = nullptr;  // likewise, when cachedBit != 0
+  StagedRays* rays = nullptr;                // reserved for surfaces->size() rays
+  StagedRays* dynamic = nullptr;             // likewise, when cachedBit != 0
+  StagedRays* unblocked = nullptr;           // likewise (pixels and kR, kG, kB only)
+  const Eigen::Vector4f* spheres = nullptr;  // centre and radius, sphereCount of them
+  std::size_t sphereCount = 0;
 };
 
 // Returns the rays the frame cache answered (no ray made).
@@ -41,5 +46,7 @@ long makeShadowRays(const ShadowRayJob& job);
 // generation's rays toward one light: one a pixel), so a vector's lanes never write the same
 // pixel; each colour gets exactly the scalar `+=`, so the frame is bit-identical.
 void addUnblockedLight(const StagedRays& staged, const RTCRay16* packets, Rgb* pixels);
+// The same for rays nothing blocks (ShadowRayJob::unblocked): every one adds its light.
+void addLight(const StagedRays& staged, Rgb* pixels);
 
 }  // namespace parallax

@@ -25,6 +25,15 @@ void EncodeSrgbChannels(const float* in, size_t n, const SrgbTable& table, std::
   const size_t lanes = hn::Lanes(d);
   const V zero = hn::Zero(d), one = hn::Set(d, 1.0f), half = hn::Set(d, 0.5f);
   const V steps = hn::Set(d, static_cast<float>(table.steps));
+  // The code of 0, as the loop below finds it: a vector of zeros (black, where a module's rays
+  // are masked: half its pixels, in runs) is stored without the gathers.
+  const auto black = [&] {
+    const auto index = hn::ConvertTo(di, half);
+    const auto k = hn::GatherIndex(di, table.code, index);
+    const V step = hn::GatherIndex(d, table.step, index);
+    return hn::DemoteTo(d8,
+                        hn::Sub(k, hn::VecFromMask(di, hn::RebindMask(di, hn::Ge(zero, step)))));
+  }();
 
   for (size_t i = 0; i < n; i += lanes) {
     const size_t here = n - i < lanes ? n - i : lanes;
@@ -35,6 +44,10 @@ void EncodeSrgbChannels(const float* in, size_t n, const SrgbTable& table, std::
       HWY_ALIGN float tail[kMaxLanes] = {};
       std::memcpy(tail, in + i, here * sizeof(float));
       x = hn::Load(d, tail);
+    }
+    if (here == lanes && hn::AllTrue(d, hn::Eq(x, zero))) {
+      hn::StoreU(black, d8, out + i);
+      continue;
     }
     // maxps(x, 0) then minps(·, 1): NaN and −inf to 0, +inf to 1, as srgb8FromLinear does.
     V c = hn::IfThenElse(hn::Gt(x, zero), x, zero);

@@ -58,14 +58,18 @@ struct StaticVisibilityView {
 
 // What the cache did in a frame (summed over modules).
 struct FrameCacheCounters {
-  long pixelsReused = 0;        // primary hits taken from the cache (no static traversal)
-  long primaryDynamicOnly = 0;  // primary rays traced against the dynamic instances only
-  long shadowAnswered = 0;      // shadow rays not traced: a static surface blocks them
-  long shadowDynamicOnly = 0;   // shadow rays traced against the dynamic instances only
+  long pixelsReused = 0;          // primary hits taken from the cache (no static traversal)
+  long primaryDynamicOnly = 0;    // primary rays traced against the dynamic instances only
+  long primaryPassedDynamic = 0;  // of those, not traced: they pass every dynamic bound
+  long shadowAnswered = 0;        // shadow rays not traced: a static surface blocks them
+  long shadowPassedDynamic = 0;   // shadow rays not traced: they pass every dynamic bound
+  long shadowDynamicOnly = 0;     // shadow rays traced against the dynamic instances only
   FrameCacheCounters& operator+=(const FrameCacheCounters& o) {
     pixelsReused += o.pixelsReused;
     primaryDynamicOnly += o.primaryDynamicOnly;
+    primaryPassedDynamic += o.primaryPassedDynamic;
     shadowAnswered += o.shadowAnswered;
+    shadowPassedDynamic += o.shadowPassedDynamic;
     shadowDynamicOnly += o.shadowDynamicOnly;
     return *this;
   }

@@ -78,7 +78,27 @@ struct ShadowBatch {
 struct CachedHit {
   unsigned mesh = RTC_INVALID_GEOMETRY_ID;  // none: the ray meets no static geometry
   unsigned prim = 0;
+  // The ray passes every dynamic object's bounds before its static hit: not traced (its lane is
+  // parked), and its distance to the hit is `t`.
+  bool past = false;
+  float t = 0.0f;
 };
+
+// Whether the segment from `origin` along the unit `dir` for t in [0, tfar] may meet one of the
+// spheres (PhysicalScene::dynamicSpheres): false only where it certainly passes them all. The
+// allowances are the shadow-ray kernel's (MayMeetSphere).
+bool mayMeetSpheres(const std::vector<Eigen::Vector4f>& spheres, const Eigen::Vector3f& origin,
+                    const Eigen::Vector3f& dir, float tfar) {
+  for (const Eigen::Vector4f& sphere : spheres) {
+    const Eigen::Vector3f w = sphere.head<3>() - origin;
+    const float along = w.dot(dir), square = w.dot(w), radius = sphere.w();
+    const bool passesBeside = square - along * along > radius * radius + 1e-5f * square;
+    const bool behind = along + radius < 0.0f;
+    const bool beyond = along - radius > tfar * (1.0f + 1e-5f);
+    if (!(passesBeside || behind || beyond)) return true;
+  }
+  return false;
+}
 
 // A worker thread's ray arrays, kept from frame to frame (thread_local below): after the first
 // frame a tile allocates nothing.
@@ -91,6 +111,8 @@ struct TileBuffers {
   // rays from static hits toward static lights that no static surface blocks go to a second
   // batch, traced against the dynamic instances only.
   ShadowBatch shadows, dynamicShadows;
+  // And the rays of that batch that pass every dynamic object's bounds: not traced.
+  StagedRays unblocked;
   // The frame cache, per primary ray: its static hit, and that hit's static-light answers.
   std::vector<CachedHit> cachedHits;
   std::vector<std::uint8_t> primaryLights;
@@ -118,6 +140,7 @@ class TileRenderer {
         lit_(buffers->lit),
         shadows_(buffers->shadows),
         dynamicShadows_(buffers->dynamicShadows),
+        unblocked_(buffers->unblocked),
         cachedHits_(buffers->cachedHits),
         primaryLights_(buffers->primaryLights),
         primaryStaged_(buffers->primary),
@@ -169,6 +192,7 @@ class TileRenderer {
   LitSurfaces& lit_;  // this generation's diffuse hits
   ShadowBatch& shadows_;
   ShadowBatch& dynamicShadows_;
+  StagedRays& unblocked_;
   std::vector<CachedHit>& cachedHits_;
   std::vector<std::uint8_t>& primaryLights_;
   StagedRays& primaryStaged_;
@@ -217,11 +241,20 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
   // A tile's rows are short runs far apart in the ray texture and the frame (12 B a pixel, a
   // row of 1024 pixels 12 KB): too short for the hardware prefetcher, so every row started
   // with cache misses (a quarter of this loop's time in the profile). Ask for all of them first.
+  // Only the columns where a row has unmasked pixels are read (RayTextures::unmaskedColumns):
+  // the rest of the row is black, as the kernel would write it, without reading its rays.
   constexpr size_t kLine = 64;
-  const size_t columns = static_cast<size_t>(x1 - x0);
+  const auto liveColumns = [&](int row) {
+    const auto [first, last] = textures_.unmaskedColumns(row);
+    const int begin = std::clamp(first, x0, x1);
+    return std::pair<int, int>{begin, std::clamp(last, begin, x1)};
+  };
   for (int row = y0; row < y1; ++row) {
-    const auto* rays = reinterpret_cast<const char*>(&textures_.at(x0, row));
-    const auto* pixels = reinterpret_cast<const char*>(&frame_->at(x0, row));
+    const auto [begin, end] = liveColumns(row);
+    const size_t columns = static_cast<size_t>(end - begin);
+    if (columns == 0) continue;
+    const auto* rays = reinterpret_cast<const char*>(&textures_.at(begin, row));
+    const auto* pixels = reinterpret_cast<const char*>(&frame_->at(begin, row));
     for (size_t b = 0; b < columns * sizeof(CompactRay) + kLine - 1; b += kLine)
       __builtin_prefetch(rays + b, 0);
     for (size_t b = 0; b < columns * sizeof(Rgb) + kLine - 1; b += kLine)
@@ -235,16 +268,22 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
   StagedRays& staged = primaryStaged_;
   staged.reserve(capacity);
   PrimaryRayRow job;
-  job.count = x1 - x0;
   job.frame = textures_.frame();
   job.boundsMin = scene_.boundsMin();
   job.boundsMax = scene_.boundsMax();
   job.boxMargin = boxMargin_;
   job.background = scene_.background();
   for (int row = y0; row < y1; ++row) {
-    job.rays = &textures_.at(x0, row);
-    job.out = &frame_->at(x0, row);
-    job.firstPixel = row * textures_.width() + x0;
+    const auto [begin, end] = liveColumns(row);
+    Rgb* line = &frame_->at(0, row);
+    std::fill(line + x0, line + begin, Rgb::Zero());
+    std::fill(line + end, line + x1, Rgb::Zero());
+    c->masked += (begin - x0) + (x1 - end);
+    if (begin == end) continue;
+    job.count = end - begin;
+    job.rays = &textures_.at(begin, row);
+    job.out = line + begin;
+    job.firstPixel = row * textures_.width() + begin;
     const PrimaryRayCounts counts = makePrimaryRays(job, &staged);
     c->masked += counts.masked;
     c->missedBounds += counts.missedBounds;
@@ -335,6 +374,7 @@ void TileRenderer::makeShadowRays(const PhysicalLight& light, int lightIndex, in
                                      : 0;
   shadows_.staged.reserve(n);
   dynamicShadows_.staged.reserve(cachedBit ? n : 0);
+  unblocked_.reserve(cachedBit ? n : 0);
   ShadowRayJob job;
   job.surfaces = &lit_;
   job.light = &light;
@@ -343,7 +383,15 @@ void TileRenderer::makeShadowRays(const PhysicalLight& light, int lightIndex, in
   job.cachedBit = cachedBit;
   job.rays = &shadows_.staged;
   job.dynamic = &dynamicShadows_.staged;
+  job.unblocked = &unblocked_;
+  job.spheres = scene_.dynamicSpheres().data();
+  job.sphereCount = scene_.dynamicSpheres().size();
   c->cache.shadowAnswered += parallax::makeShadowRays(job);
+  if (unblocked_.size() > 0) {
+    // One ray a pixel toward this light, as in the batches: added now or after them, the same.
+    addLight(unblocked_, frame_->pixels.data());
+    c->cache.shadowPassedDynamic += static_cast<long>(unblocked_.size());
+  }
   shadows_.load(glassShadows_);
   dynamicShadows_.load(glassShadows_);
 }
@@ -430,16 +478,32 @@ void TileRenderer::limitToStaticHits() {
     // The hit point as hitInfoOf computes it; its distance along the (unit) ray.
     const Eigen::Vector3f p = (1.0f - hit.u - hit.v) * mesh.positions[tri[0]] +
                               hit.u * mesh.positions[tri[1]] + hit.v * mesh.positions[tri[2]];
-    rays_.setTfar(i, (p - rays_.origin(i)).dot(rays_.direction(i)));
-    cachedHits_[i] = {static_cast<unsigned>(meshIndex), prim};
+    const Eigen::Vector3f origin = rays_.origin(i), direction = rays_.direction(i);
+    const float t = (p - origin).dot(direction);
+    CachedHit& cached = cachedHits_[i];
+    cached = {static_cast<unsigned>(meshIndex), prim, false, t};
+    if (!mayMeetSpheres(scene_.dynamicSpheres(), origin, direction, t)) {
+      // Nothing dynamic lies in front of the static hit: the lane is parked (tnear > tfar, as
+      // the stream traversal parks unused lanes), and a packet of such lanes costs Embree next
+      // to nothing.
+      cached.past = true;
+      rays_.park(i);
+    } else {
+      rays_.setTfar(i, t);
+    }
   }
 }
 
 // After it: where the dynamic scene found nothing nearer, the static hit is the ray's hit.
 void TileRenderer::takeStaticHits(RenderCounters* c) {
   primaryLights_.assign(rays_.size(), 0);
+  long passed = 0;
   for (size_t i = 0; i < rays_.size(); ++i) {
     const CachedHit& cached = cachedHits_[i];
+    if (cached.past) {
+      rays_.unpark(i, cached.t);
+      ++passed;
+    }
     if (cached.mesh == RTC_INVALID_GEOMETRY_ID || rays_.geomID(i) != RTC_INVALID_GEOMETRY_ID)
       continue;
     const StaticHit& hit = cache_->hits[static_cast<size_t>(paths_[i].pixel)];
@@ -447,7 +511,8 @@ void TileRenderer::takeStaticHits(RenderCounters* c) {
     primaryLights_[i] = hit.lights();
     ++c->cache.pixelsReused;
   }
-  c->cache.primaryDynamicOnly += static_cast<long>(rays_.size());
+  c->cache.primaryDynamicOnly += static_cast<long>(rays_.size()) - passed;
+  c->cache.primaryPassedDynamic += passed;
 }
 
 // Building: the first generation was traced against the static scene; keep its hits.
@@ -823,13 +888,14 @@ std::vector<std::string> RenderCounters::lines() const {
       fmt::format("  glass surfaces shadow rays passed through {} (the glass filter's calls)",
                   glassShadowHits),
   };
-  if (cache.primaryDynamicOnly > 0) {
+  if (cache.pixelsReused + cache.primaryDynamicOnly > 0) {
     out.push_back(fmt::format(
         "  frame cache: {} primary hits reused ({} primary rays traced against the dynamic "
-        "objects only); shadow rays: {} answered without tracing, {} traced against the dynamic "
-        "objects only",
-        cache.pixelsReused, cache.primaryDynamicOnly, cache.shadowAnswered,
-        cache.shadowDynamicOnly));
+        "objects only, {} passing every dynamic object's bounds: not traced); shadow rays: {} "
+        "answered without tracing, {} passing every dynamic object's bounds (not traced), {} "
+        "traced against the dynamic objects only",
+        cache.pixelsReused, cache.primaryDynamicOnly, cache.primaryPassedDynamic,
+        cache.shadowAnswered, cache.shadowPassedDynamic, cache.shadowDynamicOnly));
   }
   return out;
 }

@@ -22,6 +22,16 @@ long RayTextures::validCount() const {
   return count;
 }
 
+void RayTextures::indexMask() {
+  unmasked_.assign(static_cast<size_t>(height_), {0, 0});
+  for (int row = 0; row < height_; ++row) {
+    int first = 0, last = width_;
+    while (first < last && at(first, row).masked()) ++first;
+    while (last > first && at(last - 1, row).masked()) --last;
+    unmasked_[static_cast<size_t>(row)] = {first, last};
+  }
+}
+
 RayFrame rayFrameOf(const DisplayModel& model) {
   return RayFrame{static_cast<float>(model.observer.y), static_cast<float>(model.observer.z),
                   static_cast<float>(model.screen.curvature)};
@@ -56,6 +66,7 @@ RayTextures generateRayTextures(const DisplayModel& model, int moduleIndex) {
   const OpticalModule& m = model.modules.at(static_cast<size_t>(moduleIndex));
   RayTextures textures(m.width, m.height, rayFrameOf(model));
   generateRayTexturesInto(model, moduleIndex, textures.rays());
+  textures.indexMask();
   return textures;
 }
 

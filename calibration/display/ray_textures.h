@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "calibration/display/display_model.h"
@@ -52,15 +53,29 @@ class RayTextures {
     return rays_[static_cast<size_t>(row) * static_cast<size_t>(width_) +
                  static_cast<size_t>(column)];
   }
-  std::span<CompactRay> rays() { return rays_; }
+  // Writable rays: whatever indexMask() learnt is forgotten (the caller may change any of them).
+  std::span<CompactRay> rays() {
+    unmasked_.clear();
+    return rays_;
+  }
   std::span<const CompactRay> rays() const { return rays_; }
   long validCount() const;
+
+  // Per row, the columns [first, last) outside of which every pixel is masked, for a tracer
+  // that skips them without reading their rays (a module's masked pixels, a third to a half of
+  // them, lie in runs at the rows' ends). Learnt by indexMask() once the rays are written; until
+  // then every row is [0, width).
+  void indexMask();
+  std::pair<int, int> unmaskedColumns(int row) const {
+    return unmasked_.empty() ? std::pair<int, int>{0, width_} : unmasked_[static_cast<size_t>(row)];
+  }
 
  private:
   int width_ = 0;
   int height_ = 0;
   RayFrame frame_;
   std::vector<CompactRay> rays_;
+  std::vector<std::pair<int, int>> unmasked_;  // per row, or empty: not indexed
 };
 
 RayFrame rayFrameOf(const DisplayModel& model);

@@ -1,8 +1,9 @@
-// parallax bench cluster [--ranks 1,2,3] [--seconds 15] [--scene orbit] [--fps 30]
+// parallax bench cluster [--ranks 1,2,3] [--seconds 15] [--scene orbit] [--fps 30] [--sync-only]
 // parallaxd as a cluster (issue 23), measured as it runs (cluster_job.h): jobs of 1, 2, 3 ranks
 // on the demo display, per display frame: broadcast, each rank's render and push, agree,
 // present, report, and the swap lock's skew. Then the sync overhead alone: the same exchanges on a
-// display of one 16x12 module a rank, where rendering and pushing cost nothing. Last, from the
+// display of one 16x12 module a rank, where rendering and pushing cost next to nothing (for each
+// rank count of 2 and more). Last, from the
 // measured CPU time a module frame and the sync overhead, a table of predicted display frame rates
 // for `default` (72 modules of 1024x768) on 1-72 nodes of 2, 16 and 64 cores, with its assumptions.
 // On one machine the ranks share its cores: correctness and overhead, not speed. Figures only;
@@ -29,6 +30,7 @@ struct BenchClusterArgs {
   double seconds = 15.0;
   std::string scene = "orbit";
   double fps = 30.0;
+  bool syncOnly = false;  // only the sync-only jobs (no demo jobs, no model)
 };
 
 // The demo display the runs play.
@@ -61,6 +63,14 @@ void printRun(const ClusterJobFigures& f) {
       "{:.1f} ms a module frame\n",
       f.ranks, f.modules, f.fps, f.frames, f.broadcast, fmt::join(render, ", "),
       fmt::join(push, ", "), f.agree, f.present, f.report, f.cpuMsPerModuleFrame);
+  std::vector<std::string> work;
+  for (double ms : f.workPerRank) work.push_back(fmt::format("{:.2f}", ms));
+  if (f.ranks > 1)
+    std::cout << fmt::format(
+        "    rank 0's waits (broadcast + agree + present + report) {:.3f} ms; each rank's own work "
+        "(scene, render, push) [{}] ms; the cluster's overhead (the turn less the slowest rank's "
+        "work) {:.3f} ms\n",
+        f.waits(), fmt::join(work, ", "), f.overhead);
   std::cout << fmt::format(
       "    swap lock: skew between the first and the last module's switch over {} presents: "
       "median {} ms, p95 {} ms, max {} ms\n",
@@ -83,25 +93,32 @@ void runBenchCluster(const BenchClusterArgs& args) {
       "speed), load average at start: {}\n",
       std::thread::hardware_concurrency(), loadAverage());
 
-  std::cout << fmt::format("demo display ({} modules of 512x384), {} at {} fps:\n", kDemoModules,
-                           args.scene, args.fps);
   std::vector<ClusterJobFigures> runs;
-  for (int n : rankCounts) {
-    runs.push_back(runClusterJob(jobOptions(args, n)));
-    printRun(runs.back());
+  if (!args.syncOnly) {
+    std::cout << fmt::format("demo display ({} modules of 512x384), {} at {} fps:\n", kDemoModules,
+                             args.scene, args.fps);
+    for (int n : rankCounts) {
+      runs.push_back(runClusterJob(jobOptions(args, n)));
+      printRun(runs.back());
+    }
   }
 
-  // The sync overhead alone: one tiny module a rank, nothing to render or push.
-  const int most = *std::max_element(rankCounts.begin(), rankCounts.end());
-  const ClusterJobOptions syncJob = syncOnlyJob(most, args.seconds, args.scene);
-  std::cout << fmt::format("sync overhead alone ({} ranks, one 16x12 module each, {} at {} fps):\n",
-                           most, args.scene, syncJob.fps);
-  const ClusterJobFigures sync = runClusterJob(syncJob);
-  printRun(sync);
-  std::cout << fmt::format(
-      "  sync a display frame (broadcast + agree + present + report): {:.3f} ms (target <= 1 ms "
-      "on one machine)\n",
-      sync.sync());
+  // The sync overhead alone: one tiny module a rank, next to nothing to render or push; for
+  // each rank count of 2 and more.
+  ClusterJobFigures sync;
+  for (int n : rankCounts) {
+    if (n < 2 && rankCounts.size() > 1) continue;
+    const ClusterJobOptions syncJob = syncOnlyJob(n, args.seconds);
+    std::cout << fmt::format(
+        "sync overhead alone ({} ranks, one 16x12 module each, one moving ball at {} fps):\n", n,
+        syncJob.fps);
+    sync = runClusterJob(syncJob);
+    printRun(sync);
+    std::cout << fmt::format(
+        "  sync a display frame with {} ranks: {:.3f} ms (target <= 1 ms on one machine)\n", n,
+        sync.sync());
+  }
+  if (args.syncOnly) return;
 
   const ClusterModel model = ClusterModel::from(runs, sync, kDemoPixels);
   std::cout << fmt::format(
@@ -130,6 +147,8 @@ void addBenchClusterSubcommand(CLI::App* bench) {
   command->add_option("--seconds", args->seconds, "how long each job plays");
   command->add_option("--scene", args->scene, "the animated script: a library name or a .lua");
   command->add_option("--fps", args->fps, "target frame rate");
+  command->add_flag("--sync-only", args->syncOnly,
+                    "only the sync overhead jobs (one 16x12 module a rank), for each rank count");
   command->callback([args] { runBenchCluster(*args); });
 }
 

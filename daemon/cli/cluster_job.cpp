@@ -77,7 +77,11 @@ ClusterJobFigures runClusterJob(const ClusterJobOptions& args) {
   fs::remove_all(work);
   fs::create_directories(work);
   const std::string socket = (work / "ctl.sock").string();
-  const std::string script = sceneForConfig(args.scene);
+  std::string script = sceneForConfig(args.scene);
+  if (!args.sceneSource.empty()) {
+    script = (work / "scene.lua").string();
+    std::ofstream(script) << args.sceneSource;
+  }
   const std::string cache = benchCacheDir(work.string());
   {
     std::ofstream config(work / "parallax.toml");
@@ -143,6 +147,9 @@ ClusterJobFigures runClusterJob(const ClusterJobOptions& args) {
     f.broadcast = syncWindowMs(status0, status1, "tell");
     f.agree = syncWindowMs(status0, status1, "agree");
     f.report = syncWindowMs(status0, status1, "report");
+    f.overhead = status1.contains("cluster") && status1["cluster"]["sync_ms"].contains("overhead")
+                     ? syncWindowMs(status0, status1, "overhead")
+                     : std::numeric_limits<double>::quiet_NaN();
     f.present = windowMeanMs(stats0["timings"]["present"], stats1["timings"]["present"]);
     double cpuMs = 0.0;
     if (status1.contains("cluster")) {
@@ -153,6 +160,8 @@ ClusterJobFigures runClusterJob(const ClusterJobOptions& args) {
             windowMeanMs(r0[r]["timings"]["render"], r1[r]["timings"]["render"]));
         const double push = windowMeanMs(r0[r]["timings"]["push"], r1[r]["timings"]["push"]);
         f.pushPerRank.push_back(push);
+        if (r1[r].contains("timings") && r1[r]["timings"].contains("work"))
+          f.workPerRank.push_back(windowMeanMs(r0[r]["timings"]["work"], r1[r]["timings"]["work"]));
         f.pushMsPerModule =
             std::max(f.pushMsPerModule, push / static_cast<double>(r1[r]["modules"].size()));
         cpuMs += r1[r]["cpu_ms"].get<double>() - r0[r]["cpu_ms"].get<double>();
@@ -181,13 +190,20 @@ ClusterJobFigures runClusterJob(const ClusterJobOptions& args) {
   return f;
 }
 
-ClusterJobOptions syncOnlyJob(int ranks, double seconds, const std::string& scene) {
+ClusterJobOptions syncOnlyJob(int ranks, double seconds) {
   ClusterJobOptions job;
   job.ranks = ranks;
   job.modules = ranks;
   job.displayKeys = fmt::format("modules = {}\nresolution = [16, 12]\n", ranks);
   job.seconds = seconds;
-  job.scene = scene;
+  job.scene = "ball";
+  job.sceneSource =
+      "px.name(\"ball\")\n"
+      "local white = px.diffuse{name = \"white\", color = {0.8, 0.8, 0.8}}\n"
+      "local ball = px.sphere{radius = 0.1, slices = 6, stacks = 3, material = white, "
+      "name = \"ball\"}\n"
+      "px.world_box{min = {-1, -1, -1}, max = {1, 1, 1}}\n"
+      "function update(t, dt) px.set_transform(ball, px.translate(0.5 * math.cos(t), 0, 0)) end\n";
   job.fps = 240.0;
   return job;
 }

@@ -8,6 +8,7 @@
 // `default` on N nodes of C cores. Shared by `parallax bench cluster` and the report's cluster
 // section. On one machine the ranks share its cores: correctness and overhead, not speed.
 
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -19,12 +20,14 @@ struct ClusterJobOptions {
   int modules = 16;         // the display's modules with those keys
   double seconds = 15.0;    // the measured window
   std::string scene = "orbit";
+  std::string sceneSource;  // when set: the job plays this Lua text, not `scene`
   double fps = 30.0;
 };
 
-// The exchanges alone: `ranks` ranks of one 16x12 module each at 240 fps, where rendering and
-// pushing cost nothing.
-ClusterJobOptions syncOnlyJob(int ranks, double seconds, const std::string& scene);
+// The exchanges alone: `ranks` ranks of one 16x12 module each at 240 fps, playing one small
+// moving ball, where building the scene, rendering and pushing cost ~0.1 ms a rank (a scene
+// like orbit costs each rank ~1 ms of CPU a frame to build, which 3 ranks on 2 cores wait on).
+ClusterJobOptions syncOnlyJob(int ranks, double seconds);
 
 // What one job measured, per display frame (ms) unless said otherwise.
 struct ClusterJobFigures {
@@ -32,11 +35,19 @@ struct ClusterJobFigures {
   int modules = 0;
   double fps = 0.0, frames = 0.0;
   double broadcast = 0.0, agree = 0.0, present = 0.0, report = 0.0;
+  // What the cluster adds to a display frame: rank 0's turn less the slowest rank's own work
+  // (render and push). NaN from a parallaxd that does not measure it.
+  double overhead = 0.0;
+  std::vector<double> workPerRank;  // each rank's own part of a frame (scene, render, push)
   std::vector<double> renderPerRank, pushPerRank;
   double cpuMsPerModuleFrame = 0.0;  // every rank's parallaxd CPU time / module frames
   double pushMsPerModule = 0.0;      // the slowest rank's push / its modules
   std::vector<double> skewsMs;       // per Present: the last module's switch - the first's
-  double sync() const { return broadcast + agree + present + report; }
+  // Rank 0's waits on the exchanges (tell, agree, present, report): the slowest rank's extra
+  // render and push time included.
+  double waits() const { return broadcast + agree + present + report; }
+  // The sync overhead a display frame: `overhead` where measured, else the waits.
+  double sync() const { return std::isnan(overhead) ? waits() : overhead; }
 };
 
 // Runs one job to its end (shutdown); throws when mpirun cannot start or the daemon fails (its

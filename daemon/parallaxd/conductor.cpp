@@ -54,6 +54,7 @@ void Conductor::run(const std::atomic<bool>& stop) {
       follow();
     } else {
       if (options_.onReady) options_.onReady();
+      if (calibrateClusterAtStart_) calibrateCluster();
       while (!stopAsked()) {
         if (options_.onHeartbeat) options_.onHeartbeat();
         drainJobs(Clock::now() + timeToNextTurn());
@@ -117,10 +118,13 @@ void Conductor::startUp() {
   bool haveTextures = false;
   if (!haveCalibration && options_.config.calibration.autoCalibrate && link_ && !clustered())
     haveTextures = calibrate(std::nullopt).done();
-  if (!haveCalibration && clustered() && cluster_->isConductor())
-    spdlog::warn(
-        "no installed calibration: a cluster plays the nominal display (calibrate with "
-        "one rank, then start the cluster)");
+  // A cluster calibrates as `calibrate` does, once every rank follows rank 0 (run()): until
+  // then every rank makes the nominal display's textures.
+  calibrateClusterAtStart_ = !haveCalibration && options_.config.calibration.autoCalibrate &&
+                             link_ && clustered() && cluster_->isConductor();
+  if (!haveCalibration && clustered() && cluster_->isConductor() && !calibrateClusterAtStart_)
+    spdlog::warn("no installed calibration: the cluster plays the nominal display{}",
+                 link_ ? "" : " (no link on rank 0 to calibrate through)");
   // A stop (signal or `shutdown`) during a stage ends start-up there: nothing more is built.
   if (stopAsked()) return;
   if (!haveTextures) haveTextures = regenerate(calibration_).done();

@@ -172,7 +172,8 @@ class Conductor {
   // render): every rank plays the same turn.
   // Returns the ms the ranks' reports took.
   double playTurn(const nlohmann::json& plan);
-  void renderAndPush();
+  // `workStarted`: when this rank began the turn (its share of the frame's time, work_).
+  void renderAndPush(Clock::time_point workStarted);
   // Sends this rank's frames: for display frame `displayFrame` (held by the modules until it is
   // presented; waits for their acknowledgements until the deadline), or with 0 shown at once
   // (restoring a reconnected link's modules).
@@ -194,6 +195,8 @@ class Conductor {
   // and answer; every rank runs the same code on the same inputs, for its own modules.
   bool clustered() const { return cluster_->size() > 1; }
   void follow();
+  // Rank 0: `calibrate` across the ranks, as if asked (`[calibration] auto` at start).
+  void calibrateCluster();
   void tellOthers(const nlohmann::json& step);
   // Rank 0: every rank's reply to a request, merged: a rank that refused is named in the error.
   nlohmann::json agreeOnReply(nlohmann::json reply);
@@ -280,8 +283,14 @@ class Conductor {
   std::vector<int> owned_;
   std::vector<nlohmann::json> rankReports_;  // rank 0: the last report of every rank
   // The cluster's exchanges, per display frame: rank 0 telling the turn, the verdict on the
-  // frame (waits for the slowest rank's render too), the reports (waits for the slowest push).
+  // frame (waits for the slowest rank's render too), the reports (after every rank's Present).
   StageTiming tellTiming_, agreeTiming_, reportTiming_;
+  // Per display frame, what the cluster adds to it: rank 0's turn (from telling it to the last
+  // report) less the slowest rank's own work (work_ of every rank's report). The exchanges and
+  // the waits to be scheduled alone, whatever the scene costs to render.
+  StageTiming overheadTiming_;
+  // This rank's own part of a display frame: building the scene, rendering, pushing.
+  StageTiming work_;
   // Tell + report on turns without a frame (every rank idle): the messaging alone.
   StageTiming idleSyncTiming_;
   std::string clusterFailure_;
@@ -347,6 +356,9 @@ class Conductor {
   std::atomic<bool> cancel_{false};  // set by `cancel` and `shutdown`: the calibration stops
   const std::atomic<bool>* stop_ = nullptr;  // run()'s flag (signals): stops every stage too
   bool startingUp_ = true;
+  // Rank 0 of a cluster without a calibration, configured to calibrate at start: it does once
+  // every rank follows it (calibrateCluster()).
+  bool calibrateClusterAtStart_ = false;
 
   mutable std::mutex publishedMutex_;
   nlohmann::json publishedStatus_, publishedStats_;

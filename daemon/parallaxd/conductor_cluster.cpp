@@ -102,11 +102,13 @@ nlohmann::json Conductor::rankReport() const {
           {"module_frames_failed", stats_.moduleFramesFailed},
           {"render_ms", stats_.render.lastMs},
           {"push_ms", stats_.push.lastMs},
+          {"work_ms", work_.lastMs},
           {"cpu_ms", processCpuMs()},
           {"timings",
            {{"render", stats_.render.toJson()},
             {"push", stats_.push.toJson()},
-            {"present", stats_.present.toJson()}}}};
+            {"present", stats_.present.toJson()},
+            {"work", work_.toJson()}}}};
 }
 
 void Conductor::gatherRankReports(int timeoutMs) {
@@ -198,6 +200,7 @@ nlohmann::json Conductor::clusterJson() const {
            {{"tell", tellTiming_.toJson()},
             {"agree", agreeTiming_.toJson()},
             {"report", reportTiming_.toJson()},
+            {"overhead", overheadTiming_.toJson()},
             {"idle_turn", idleSyncTiming_.toJson()}}}};
 }
 

@@ -43,6 +43,27 @@ std::vector<nlohmann::json> Conductor::calibrationStep(const nlohmann::json& op,
   return answers;
 }
 
+void Conductor::calibrateCluster() {
+  spdlog::info("cluster: no installed calibration: calibrating across the ranks");
+  const nlohmann::json request = {{"request", "calibrate"}};
+  tellOthers({{"step", "request"}, {"request", request}});
+  nlohmann::json reply;
+  try {
+    reply = answerCalibrate(parseRequestArgs(*findControlRequest("calibrate"), request,
+                                             static_cast<int>(nominal_.modules.size())));
+  } catch (const RanksSilent&) {
+    throw;
+  } catch (const std::exception& e) {
+    reply = {{"ok", false}, {"error", e.what()}};
+  }
+  reply = agreeOnReply(std::move(reply));
+  // A failure is in `status` already (the calibrating stage); the nominal display plays on.
+  if (!reply.value("ok", false))
+    spdlog::error("cluster: calibrating at start failed: {}",
+                  reply.value("error", std::string("refused")));
+  publish();
+}
+
 nlohmann::json Conductor::followCalibration() {
   while (true) {
     std::string message;

@@ -63,9 +63,18 @@ void Conductor::turn() {
   if (plan.contains("render") && clustered()) tellTiming_.add(tellMs);
   const double reportMs = playTurn(plan);
   if (!plan.contains("render") && clustered()) idleSyncTiming_.add(tellMs + reportMs);
+  if (plan.contains("render") && clustered()) {
+    double slowestWork = 0.0;
+    for (const nlohmann::json& r : rankReports_)
+      slowestWork = std::max(slowestWork, r.value("work_ms", 0.0));
+    const double turnMs = std::chrono::duration<double, std::milli>(Clock::now() - told).count();
+    overheadTiming_.add(std::max(0.0, turnMs - slowestWork));
+  }
 }
 
 double Conductor::playTurn(const nlohmann::json& plan) {
+  // A rank's work on a frame starts here: the other ranks time the animation here too.
+  const auto workStarted = Clock::now();
   if (!link_ && Clock::now() - lastLinkTry_ > std::chrono::seconds(2)) connectLink(0);
   if (!cluster_->isConductor() && script_) {
     // Rank 0 has reloaded and timed its copy of the script already.
@@ -76,12 +85,16 @@ double Conductor::playTurn(const nlohmann::json& plan) {
       if (!script_->setTime(sceneTime_)) sceneError_ = script_->lastError();
     }
   }
-  if (plan.contains("render")) renderAndPush();
+  if (plan.contains("render")) renderAndPush(workStarted);
   keepLinkAlive();
   if (needsPush_ && link_ && !currentImages_.empty()) {
     ++stats_.resendsAfterReconnect;
     push(currentImages_, 0);  // this rank's modules only, shown at once: the frame already played
   }
+  // The reports also hold rank 0 until every rank has sent its Present: were rank 0 to start
+  // the next frame's render at once, on cores the ranks share it would take them from the
+  // ranks still to send theirs (the swap lock's skew p95 went from 2-3 to 10-16 ms on demo,
+  // 3 ranks, when the reports came with the Present's agreement instead).
   const auto reported = Clock::now();
   gatherRankReports(options_.config.cluster.timeoutMs);
   const double reportMs =
@@ -90,7 +103,7 @@ double Conductor::playTurn(const nlohmann::json& plan) {
   return reportMs;
 }
 
-void Conductor::renderAndPush() {
+void Conductor::renderAndPush(Clock::time_point workStarted) {
   const auto started = Clock::now();
   DisplayFrame frame;
   std::string failure;
@@ -108,6 +121,8 @@ void Conductor::renderAndPush() {
         scene, calibration_.displayableBox,
         useCache ? &frameCache_.dynamicInstances(scene) : nullptr, lastScene_.get());
     PhysicalScene& physical = *built;
+    const double buildMs =
+        std::chrono::duration<double, std::milli>(Clock::now() - started).count();
     const auto prepareStart = Clock::now();
     const bool cached =
         useCache && frameCache_.prepare(physical, textures_, texturesVersion_, options_.render);
@@ -125,17 +140,19 @@ void Conductor::renderAndPush() {
     } else {
       lastScene_.reset();
     }
-    // A build of the cache is part of the frame that needed it.
-    frame.renderMs += prepareMs;
+    // Building the scene (its BVH) and the cache are part of the frame that needed them.
+    frame.renderMs += buildMs + prepareMs;
   } catch (const std::exception& e) {
     failure = e.what();
   }
   // Nothing of a failed frame reaches the modules: they keep the last complete one. In a
   // cluster that holds for the display: no rank pushes unless every rank rendered its part.
-  const auto agreeing = Clock::now();
+  const auto rendered = Clock::now();
+  const double renderPartMs =
+      std::chrono::duration<double, std::milli>(rendered - workStarted).count();
   const bool everyRankRendered = cluster_->all(failure.empty(), options_.config.cluster.timeoutMs);
   if (clustered())
-    agreeTiming_.add(std::chrono::duration<double, std::milli>(Clock::now() - agreeing).count());
+    agreeTiming_.add(std::chrono::duration<double, std::milli>(Clock::now() - rendered).count());
   if (failure.empty() && !everyRankRendered) failure = "another rank's part of the frame failed";
   if (script_) renderedSceneVersion_ = script_->version();
   if (!failure.empty()) {
@@ -151,6 +168,8 @@ void Conductor::renderAndPush() {
   currentImages_ = std::move(frame.images);
   renderedTexturesVersion_ = texturesVersion_;
   pushAndPresent(currentImages_);
+  // This rank's own part of the frame: its render and its push (not the waits for the others).
+  work_.add(renderPartMs + (link_ ? stats_.push.lastMs : 0.0));
   if (link_)
     stats_.latency.add(std::chrono::duration<double, std::milli>(Clock::now() - started).count());
 }

@@ -108,6 +108,7 @@ nlohmann::json Conductor::statsJson() const {
                       {"pixels_reused", cache.saved.pixelsReused},
                       {"shadow_rays_not_traced", cache.saved.shadowAnswered},
                       {"shadow_rays_dynamic_only", cache.saved.shadowDynamicOnly},
+                      {"shadow_rays_past_dynamic_bounds", cache.saved.shadowPassedDynamic},
                       {"lines", cache.lines()}};
   if (link_) {
     const hw::LinkStats& l = link_->stats();

@@ -136,6 +136,7 @@ std::vector<RayTextures> RayTextureCache::texturesFor(
         }
       }
     }
+    textures.indexMask();
     all.push_back(std::move(textures));
     if (progress) progress(done + 1, total);
   }

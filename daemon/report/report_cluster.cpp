@@ -54,7 +54,7 @@ void writeClusterSection(Report& report) {
       runs.push_back(cli::runClusterJob(job));
       progress.advance();
     }
-    syncOnly = cli::runClusterJob(cli::syncOnlyJob(rankCounts.back(), seconds, kScene));
+    syncOnly = cli::runClusterJob(cli::syncOnlyJob(rankCounts.back(), seconds));
     progress.advance();
   } catch (const std::exception& e) {
     progress.finish();

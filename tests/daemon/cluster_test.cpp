@@ -65,8 +65,9 @@ class ClusterTest : public ::testing::Test {
     socket_ = (folder / "run" / "parallax.sock").string();
     std::ofstream(folder / "parallax.toml")
         << "[display]\npreset = \"demo\"\n"
-        << display << "[calibration]\nauto = false\n"
-        << calibration << "[scene]\nscript = \"" << scene << "\"\nfps = 10\n"
+        << display << "[calibration]\n"
+        << (calibration.find("auto =") == std::string::npos ? "auto = false\n" : "") << calibration
+        << "[scene]\nscript = \"" << scene << "\"\nfps = 10\n"
         << "[daemon]\nsocket = \"" << socket_ << "\"\ncache_dir = \"" << (root_ / "cache").string()
         << "\"\n"
         << "[panel]\nenabled = false\n"
@@ -270,16 +271,30 @@ TEST_F(ClusterTest, CalibrateAndRollBackAcrossRanks) {
     shutdown(*daemon);
   }
 
-  // Two ranks, each with its own file (as two nodes would have).
+  // Two ranks, each with its own file (as two nodes would have), none installed yet: with
+  // `auto = true` the cluster calibrates itself at start, across the ranks.
   const fs::path rank0File = root_ / "two" / "cal-0.json", rank1File = root_ / "two" / "cal-1.json";
-  auto daemon = start(2, "cornell", "two", 120000, "", "",
-                      "file = \"" + (root_ / "two" / "cal-{rank}.json").string() + "\"\n");
-  waitForFrames(1, *daemon);
-  int shown = framesShown();
-  json r = request({{"request", "calibrate"}});
-  ASSERT_TRUE(r.is_object() && r.value("ok", false)) << r << daemon->log();
-  const std::string installed = r["hash"];
+  auto daemon =
+      start(2, "cornell", "two", 120000, "", "",
+            "auto = true\nfile = \"" + (root_ / "two" / "cal-{rank}.json").string() + "\"\n");
+  json status;
+  for (int i = 0; i < 12000 && !fs::exists(rank1File); ++i)
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  ASSERT_TRUE(fs::exists(rank1File)) << "the cluster did not calibrate at start\n" << daemon->log();
+  for (int i = 0; i < 1200; ++i) {
+    status = ask(socket_, {{"request", "status"}});
+    if (status.is_object() && status["calibration"]["source"].get<std::string>().find(
+                                  rank0File.string()) != std::string::npos)
+      break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_NE(status["calibration"]["source"].get<std::string>().find(rank0File.string()),
+            std::string::npos)
+      << status;
+  const std::string installed = status["calibration"]["hash"];
   expectEveryRankOn(installed);
+  // The cluster calibrates before its first turn: its first frame is the calibrated one.
+  int shown = 0;
   const std::string installedBytes = readFile(rank0File);
   EXPECT_EQ(readFile(rank1File), installedBytes) << "each rank installs the bytes rank 0 fitted";
   // The same fit as one rank's: the same pictures, up to the solver's order of summation.
@@ -287,7 +302,7 @@ TEST_F(ClusterTest, CalibrateAndRollBackAcrossRanks) {
   const std::vector<std::string> calibrated = framesAfter(shown, "calibrated", *daemon);
 
   // Module 9 (rank 1's) calibrated again: every rank on a new one, the first as .previous.
-  r = request({{"request", "calibrate"}, {"module", 9}});
+  json r = request({{"request", "calibrate"}, {"module", 9}});
   ASSERT_TRUE(r.is_object() && r.value("ok", false)) << r << daemon->log();
   const std::string recalibrated = r["hash"];
   EXPECT_NE(recalibrated, installed);

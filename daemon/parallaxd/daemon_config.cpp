@@ -292,6 +292,7 @@ void readLink(TableReader& r, hw::LinkOptions* l) {
   r.readInt("stall_limit_ms", &l->stallLimitMs, 1, 3600000);
   r.readInt("reconnect_attempts", &l->reconnectAttempts, 0, 100);
   r.readInt("reconnect_delay_ms", &l->reconnectDelayMs, 0, 60000);
+  r.readInt("connect_timeout_ms", &l->connectTimeoutMs, 1, 600000);
   r.readInt("link_down_retry_ms", &l->linkDownRetryMs, 0, 3600000);
   r.readInt("link_down_retry_max_ms", &l->linkDownRetryMaxMs, 0, 3600000);
   r.refuseUnknownKeys();

@@ -27,6 +27,8 @@ void LinkOptions::validate() const {
   require(reconnectAttempts >= 0 && reconnectAttempts <= 100, "reconnect_attempts",
           "must be in 0..100");
   require(reconnectDelayMs >= 0, "reconnect_delay_ms", "must not be negative");
+  require(connectTimeoutMs >= 1 && connectTimeoutMs <= 600000, "connect_timeout_ms",
+          "must be in 1..600000");
   require(stallLimitMs >= 1 && stallLimitMs <= 3600000, "stall_limit_ms", "must be in 1..3600000");
   require(linkDownRetryMs >= 0, "link_down_retry_ms", "must not be negative");
   require(linkDownRetryMaxMs >= linkDownRetryMs && linkDownRetryMaxMs <= 3600000,
@@ -52,6 +54,7 @@ std::string_view frameStatusName(FrameStatus status) {
 LinkClient::LinkClient(std::unique_ptr<LinkTransport> transport, LinkOptions options)
     : transport_(std::move(transport)), options_(options) {
   options_.validate();
+  transport_->setConnectTimeoutMs(options_.connectTimeoutMs);
   std::string error;
   if (!transport_->isOpen() && transport_->open(&error) != TransportStatus::kOk) {
     throw std::runtime_error(error);

@@ -38,6 +38,9 @@ struct LinkOptions {
   int keepAliveMs = 1000;  // idle time after which the link is probed before sending
   int reconnectAttempts = 5;
   int reconnectDelayMs = 50;  // doubled after each failed attempt
+  // How long opening the transport waits for a device that does not take the connection (a
+  // hung simulator stops accepting); a remote or slow peer may need more than a local one.
+  int connectTimeoutMs = 1000;
   // The most the caller's thread (the render loop; in a cluster every rank waits for it) spends
   // blocked on a device that gives no sign of life: ack waits, resends, sends the device does
   // not take a byte of, and reconnects (attempts, pauses, Hello waits) together, counted from

@@ -39,6 +39,9 @@ class LinkTransport {
   virtual TransportStatus open(std::string* error) = 0;
   virtual void close() = 0;
   virtual bool isOpen() const = 0;
+  // How long open() waits for a peer that does not take the connection; a transport that
+  // cannot wait there ignores it.
+  virtual void setConnectTimeoutMs(int) {}
   // Sends whole packets (header + payload pieces) addressed to `module`; all or nothing from
   // the caller's view: anything short of complete is kDisconnected, or kTimeout when the
   // device took no byte for `timeoutMs` (it stopped reading: hung). Either way the link is

@@ -13,10 +13,6 @@
 #include <cstring>
 
 namespace parallax::hw {
-namespace {
-constexpr int kConnectTimeoutMs = 1000;
-}  // namespace
-
 void tuneLinkSocket(int fd, int sendTimeoutMs) {
   // 4 MiB each way holds a whole 1024x768 RGB8 frame; the kernel may clamp it to
   // net.core.wmem_max, which only costs throughput.
@@ -35,8 +31,8 @@ std::unique_ptr<SocketTransport> SocketTransport::adopt(int fd) {
   auto t = std::make_unique<SocketTransport>("<socketpair>");
   t->fd_ = fd;
   t->adopted_ = true;
-  tuneLinkSocket(fd, kConnectTimeoutMs);
-  t->sendTimeoutMs_ = kConnectTimeoutMs;
+  tuneLinkSocket(fd, t->connectTimeoutMs_);
+  t->sendTimeoutMs_ = t->connectTimeoutMs_;
   return t;
 }
 
@@ -64,21 +60,21 @@ TransportStatus SocketTransport::open(std::string* error) {
   // A simulator that hangs (stopped, or stuck) stops accepting: once its listen backlog is full
   // a blocking connect() would wait forever. Linux bounds a Unix socket's connect() by the send
   // timeout, so connect with a short one (a local peer answers at once or is hung).
-  timeval connectTimeout{kConnectTimeoutMs / 1000, (kConnectTimeoutMs % 1000) * 1000};
+  timeval connectTimeout{connectTimeoutMs_ / 1000, (connectTimeoutMs_ % 1000) * 1000};
   setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &connectTimeout, sizeof connectTimeout);
   if (::connect(fd, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
     const bool hung = errno == EAGAIN || errno == EWOULDBLOCK;
     *error = hung ? fmt::format(
                         "parallax-simhw at {} does not accept connections within {} ms "
                         "(it hangs)",
-                        path_, kConnectTimeoutMs)
+                        path_, connectTimeoutMs_)
                   : fmt::format("cannot connect to parallax-simhw at {}: {}", path_,
                                 std::strerror(errno));
     ::close(fd);
     return TransportStatus::kUnavailable;
   }
-  tuneLinkSocket(fd, kConnectTimeoutMs);
-  sendTimeoutMs_ = kConnectTimeoutMs;
+  tuneLinkSocket(fd, connectTimeoutMs_);
+  sendTimeoutMs_ = connectTimeoutMs_;
   fd_ = fd;
   return TransportStatus::kOk;
 }

@@ -26,9 +26,11 @@ class SocketTransport : public LinkTransport {
   TransportStatus receive(std::vector<ReceivedPacket>* packets, int timeoutMs) override;
   ProtocolError lastProtocolError() const override { return lastError_; }
   uint16_t lastPeerVersion() const override { return lastPeerVersion_; }
+  void setConnectTimeoutMs(int ms) override { connectTimeoutMs_ = ms; }
 
  private:
   std::string path_;
+  int connectTimeoutMs_ = 1000;
   int fd_ = -1;
   int sendTimeoutMs_ = 0;  // what SO_SNDTIMEO is set to (0: not yet)
   bool adopted_ = false;

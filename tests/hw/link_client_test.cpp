@@ -9,11 +9,13 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <map>
 #include <random>
 #include <thread>
+#include <vector>
 
 #include "common/input_error.h"
 #include "hw/link/socket_transport.h"
@@ -347,6 +349,48 @@ TEST(LinkClient, CameraCaptureReturnsTheRawPattern) {
   EXPECT_EQ(seen.width, kWidth);
   EXPECT_EQ(seen.pixels, pattern->pixels);
   EXPECT_TRUE(link->capture(1).empty());  // module 1 shows nothing yet
+}
+
+// A peer that does not take the connection (a hung simulator whose listen queue is full) is
+// given up on after [link] connect_timeout_ms, not a fixed second, and the error says how long.
+TEST(LinkClient, ConnectTimeoutBoundsTheWaitForAPeerThatDoesNotAccept) {
+  const std::string path =
+      (std::filesystem::temp_directory_path() / ("parallax-hung-" + std::to_string(::getpid())))
+          .string();
+  ::unlink(path.c_str());
+  const int listener = ::socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::strncpy(addr.sun_path, path.c_str(), sizeof addr.sun_path - 1);
+  ASSERT_EQ(::bind(listener, reinterpret_cast<const sockaddr*>(&addr), sizeof addr), 0);
+  ASSERT_EQ(::listen(listener, 0), 0);
+  // Fill the queue: it never accepts, so the next blocking connect() waits.
+  std::vector<int> queued;
+  for (int i = 0; i < 8; ++i) {
+    const int c = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK, 0);
+    if (::connect(c, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0) {
+      ::close(c);
+      break;
+    }
+    queued.push_back(c);
+  }
+  ASSERT_FALSE(queued.empty());
+  LinkOptions options;
+  options.connectTimeoutMs = 200;
+  const auto started = std::chrono::steady_clock::now();
+  std::string error;
+  try {
+    LinkClient link(createLinkTransport("simhw:" + path), options);
+  } catch (const std::runtime_error& e) {
+    error = e.what();
+  }
+  const double waitedMs =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
+  EXPECT_NE(error.find("does not accept connections within 200 ms"), std::string::npos) << error;
+  EXPECT_LT(waitedMs, 900.0);
+  for (int c : queued) ::close(c);
+  ::close(listener);
+  ::unlink(path.c_str());
 }
 
 }  // namespace

@@ -5,8 +5,8 @@
 // printed, and the fit's CPU time beside its wall time). "fit" is the solves; "diag" the
 // residual statistics, covariance and conditioning that follow them.
 //
-//   calibration_fit_bench [default|demo] [--quick] [--experiment] [--pictures N [--true-intrinsics]]
-//   calibration_fit_bench --decoder-error SEED [--true-intrinsics]
+//   calibration_fit_bench [default|demo] [--quick] [--experiment] [--pictures N
+//   [--true-intrinsics]] calibration_fit_bench --decoder-error SEED [--true-intrinsics]
 // --experiment: only the errors-in-variables comparison (where the correspondences' noise sits:
 // on the camera pixel, as a camera gives it, or on the module pixel; the residual: two-stage
 // camera px, FitOptions' default, or module px only), at two sampling densities.
@@ -212,7 +212,9 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
       sr += d.dot(out);
       ++n;
     }
-    if (n) std::printf("fiducials, station %zu: %d, mean dx %+.3f dy %+.3f, radial %+.3f px\n", st, n, sx / n, sy / n, sr / n);
+    if (n)
+      std::printf("fiducials, station %zu: %d, mean dx %+.3f dy %+.3f, radial %+.3f px\n", st, n,
+                  sx / n, sy / n, sr / n);
   }
   // The correspondences against the module pixel the truth gives for their camera pixel: all,
   // by the module pixel's distance to its image's nearest edge (module px), and by station.
@@ -233,8 +235,8 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
       if (!screenPoint(c.camera, c.cameraPx, &sp) ||
           !projectIntoModule(mb.data(), tm.width, tm.mirror ? -1.0 : 1.0, sp, uv))
         continue;
-      const double edge = std::min({c.modulePx.x(), tm.width - c.modulePx.x(), c.modulePx.y(),
-                                    tm.height - c.modulePx.y()});
+      const double edge = std::min(
+          {c.modulePx.x(), tm.width - c.modulePx.x(), c.modulePx.y(), tm.height - c.modulePx.y()});
       int b = 0;
       while (b + 1 < kBins && edge >= edges[b + 1]) ++b;
       const double du = c.modulePx.x() - uv[0], dv = c.modulePx.y() - uv[1];
@@ -267,15 +269,18 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
         cCount, cCount ? cSum / (2 * cCount) : 0.0, cCount ? std::sqrt(cSq / (2 * cCount)) : 0.0,
         cOut);
     for (int b = 0; b < kBins; ++b) {
-      std::printf("  %3.0f-%3.0f px from the edge: %6d, mean du %+.4f dv %+.4f, RMS %.3f; %d beyond\n",
-                  edges[b], std::min(edges[b + 1], 999.0), bn[b], bn[b] ? bu[b] / bn[b] : 0.0,
-                  bn[b] ? bv[b] / bn[b] : 0.0, bn[b] ? std::sqrt(bsq[b] / (2 * bn[b])) : 0.0,
-                  bout[b]);
+      std::printf(
+          "  %3.0f-%3.0f px from the edge: %6d, mean du %+.4f dv %+.4f, RMS %.3f; %d beyond\n",
+          edges[b], std::min(edges[b + 1], 999.0), bn[b], bn[b] ? bu[b] / bn[b] : 0.0,
+          bn[b] ? bv[b] / bn[b] : 0.0, bn[b] ? std::sqrt(bsq[b] / (2 * bn[b])) : 0.0, bout[b]);
     }
     for (int st = 0; st < 8; ++st) {
       if (sn[st] == 0) continue;
-      std::printf("  station %d: mean du %+.4f dv %+.4f, RMS du %.3f dv %.3f; beyond 0.5 px in u %d, in v %d\n", st,
-                  mu[st] / sn[st], mv[st] / sn[st], std::sqrt(su[st] / sn[st]), std::sqrt(sv[st] / sn[st]), ou[st], ov[st]);
+      std::printf(
+          "  station %d: mean du %+.4f dv %+.4f, RMS du %.3f dv %.3f; beyond 0.5 px in u %d, in v "
+          "%d\n",
+          st, mu[st] / sn[st], mv[st] / sn[st], std::sqrt(su[st] / sn[st]),
+          std::sqrt(sv[st] / sn[st]), ou[st], ov[st]);
     }
   }
 

@@ -67,7 +67,8 @@ TEST(FitDiagnostics, SchurMarginalsMatchTheFullInverse) {
   // equal the square roots of the diagonal of the full (JᵀJ)⁻¹.
   const Eigen::MatrixXd j = twoModules();
   const SparseRows sparse(j);
-  const InformationBlocks info = informationFromJacobian(8, 5, sparse.rows, sparse.cols, sparse.values, 2, 2, 1);
+  const InformationBlocks info =
+      informationFromJacobian(8, 5, sparse.rows, sparse.cols, sparse.values, 2, 2, 1);
   const Diagnostics d = diagnose(info, {});
   const Eigen::MatrixXd h = j.transpose() * j;
   const Eigen::MatrixXd full = h.inverse();

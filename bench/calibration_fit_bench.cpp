@@ -5,8 +5,9 @@
 // printed, and the fit's CPU time beside its wall time). "fit" is the solves; "diag" the
 // residual statistics, covariance and conditioning that follow them.
 //
-//   calibration_fit_bench [default|demo] [--quick] [--experiment] [--pictures N
-//   [--true-intrinsics]] calibration_fit_bench --decoder-error SEED [--true-intrinsics]
+//   calibration_fit_bench [default|demo] [--quick] [--experiment]
+//   calibration_fit_bench --pictures N [--true-intrinsics]
+//   calibration_fit_bench --decoder-error SEED [--true-intrinsics]
 // --experiment: only the errors-in-variables comparison (where the correspondences' noise sits:
 // on the camera pixel, as a camera gives it, or on the module pixel; the residual: two-stage
 // camera px, FitOptions' default, or module px only), at two sampling densities.
@@ -220,8 +221,8 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
   // by the module pixel's distance to its image's nearest edge (module px), and by station.
   {
     const double edges[] = {0, 4, 8, 16, 32, 64, 1e9};
-    double su[8] = {}, sv[8] = {}, mu[8] = {}, mv[8] = {};
-    int sn[8] = {}, ou[8] = {}, ov[8] = {};
+    std::vector<double> su(stations), sv(stations), mu(stations), mv(stations);
+    std::vector<int> sn(stations), ou(stations), ov(stations);
     constexpr int kBins = 6;
     double bu[kBins] = {}, bv[kBins] = {}, bsq[kBins] = {};
     int bn[kBins] = {}, bout[kBins] = {};
@@ -240,20 +241,17 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
       int b = 0;
       while (b + 1 < kBins && edge >= edges[b + 1]) ++b;
       const double du = c.modulePx.x() - uv[0], dv = c.modulePx.y() - uv[1];
-      if (std::hypot(du, dv) <= 0.5) {
-        cSum += du + dv;
-        cSq += du * du + dv * dv;
-        ++cCount;
-      } else {
-        ++cOut;
-      }
-      const int st = std::min(c.camera, 7);
+      const auto st = static_cast<size_t>(c.camera);
       ou[st] += std::abs(du) > 0.5;
       ov[st] += std::abs(dv) > 0.5;
       if (std::hypot(du, dv) > 0.5) {
+        ++cOut;
         ++bout[b];
         continue;
       }
+      cSum += du + dv;
+      cSq += du * du + dv * dv;
+      ++cCount;
       mu[st] += du;
       mv[st] += dv;
       su[st] += du * du;
@@ -274,10 +272,10 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
           edges[b], std::min(edges[b + 1], 999.0), bn[b], bn[b] ? bu[b] / bn[b] : 0.0,
           bn[b] ? bv[b] / bn[b] : 0.0, bn[b] ? std::sqrt(bsq[b] / (2 * bn[b])) : 0.0, bout[b]);
     }
-    for (int st = 0; st < 8; ++st) {
+    for (size_t st = 0; st < stations; ++st) {
       if (sn[st] == 0) continue;
       std::printf(
-          "  station %d: mean du %+.4f dv %+.4f, RMS du %.3f dv %.3f; beyond 0.5 px in u %d, in v "
+          "  station %zu: mean du %+.4f dv %+.4f, RMS du %.3f dv %.3f; beyond 0.5 px in u %d, in v "
           "%d\n",
           st, mu[st] / sn[st], mv[st] / sn[st], std::sqrt(su[st] / sn[st]),
           std::sqrt(sv[st] / sn[st]), ou[st], ov[st]);

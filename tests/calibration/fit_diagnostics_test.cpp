@@ -7,37 +7,6 @@
 namespace parallax {
 namespace {
 
-// Two modules of 2 parameters (rows 0-3 and 4-7) and 1 shared parameter.
-Eigen::MatrixXd twoModules() {
-  Eigen::MatrixXd j(8, 5);
-  j << 1, 0.3, 0, 0, 0.5,  //
-      0.2, 1, 0, 0, 0.1,   //
-      0.7, -0.4, 0, 0, 1,  //
-      1, 1, 0, 0, 0,       //
-      0, 0, 1, 0.1, -0.3,  //
-      0, 0, 0.4, 1, 0.8,   //
-      0, 0, -1, 0.5, 0.2,  //
-      0, 0, 0.3, 0.3, 1;
-  return j;
-}
-
-// A dense Jacobian as Ceres' CRSMatrix fields.
-struct SparseRows {
-  explicit SparseRows(const Eigen::MatrixXd& j) {
-    for (Eigen::Index r = 0; r < j.rows(); ++r) {
-      for (Eigen::Index c = 0; c < j.cols(); ++c) {
-        if (j(r, c) != 0.0) {
-          cols.push_back(static_cast<int>(c));
-          values.push_back(j(r, c));
-        }
-      }
-      rows.push_back(static_cast<int>(cols.size()));
-    }
-  }
-  std::vector<int> rows{0}, cols;
-  std::vector<double> values;
-};
-
 TEST(FitDiagnostics, NamesTheParametersThatCannotBeSeparated) {
   // Columns 1 and 2 of the Jacobian are identical up to scale (think focal length and
   // distance): the information block is singular along (0, 2, −1)/√5 in scaled terms.
@@ -65,10 +34,27 @@ TEST(FitDiagnostics, UnitsDoNotMatter) {
 TEST(FitDiagnostics, SchurMarginalsMatchTheFullInverse) {
   // Two modules of 2 parameters and 1 shared parameter: the std devs from the Schur route
   // equal the square roots of the diagonal of the full (JᵀJ)⁻¹.
-  const Eigen::MatrixXd j = twoModules();
-  const SparseRows sparse(j);
-  const InformationBlocks info =
-      informationFromJacobian(8, 5, sparse.rows, sparse.cols, sparse.values, 2, 2, 1);
+  Eigen::MatrixXd j(8, 5);
+  j << 1, 0.3, 0, 0, 0.5,  //
+      0.2, 1, 0, 0, 0.1,   //
+      0.7, -0.4, 0, 0, 1,  //
+      1, 1, 0, 0, 0,       //
+      0, 0, 1, 0.1, -0.3,  //
+      0, 0, 0.4, 1, 0.8,   //
+      0, 0, -1, 0.5, 0.2,  //
+      0, 0, 0.3, 0.3, 1;
+  std::vector<int> rows{0}, cols;
+  std::vector<double> values;
+  for (int r = 0; r < 8; ++r) {
+    for (int c = 0; c < 5; ++c) {
+      if (j(r, c) != 0.0) {
+        cols.push_back(c);
+        values.push_back(j(r, c));
+      }
+    }
+    rows.push_back(static_cast<int>(cols.size()));
+  }
+  const InformationBlocks info = informationFromJacobian(8, 5, rows, cols, values, 2, 2, 1);
   const Diagnostics d = diagnose(info, {});
   const Eigen::MatrixXd h = j.transpose() * j;
   const Eigen::MatrixXd full = h.inverse();

@@ -93,6 +93,9 @@ CalibrationSettings settingsOf(const CalibrationConfig& config, bool simulatorPh
   if (config.pixelStep) settings.pixelStep = *config.pixelStep;
   settings.allowAutoExposure = config.allowAutoExposure;
   settings.stationCommand = config.stationCommand;
+  settings.gate.worstPx = config.maxErrorPx;
+  settings.gate.worstObserverMm = config.maxObserverMm;
+  settings.gate.allowPartial = config.allowPartial;
   return settings;
 }
 

@@ -199,6 +199,10 @@ void readCalibration(TableReader& r, CalibrationConfig* c) {
   r.readBool("allow_auto_exposure", &c->allowAutoExposure);
   r.readString("station_command", &c->stationCommand);
   r.readBool("auto", &c->autoCalibrate);
+  // Above a module's own size, or a metre on the observer line, a limit no longer gates.
+  r.readNumber("max_error_px", &c->maxErrorPx, 0.01, 100.0);
+  r.readNumber("max_observer_mm", &c->maxObserverMm, 0.1, 1000.0);
+  r.readBool("allow_partial", &c->allowPartial);
   r.readString("photometric", &c->photometric);
   if (const toml::node* n = r.find("photometric");
       n && c->photometric != "auto" && c->photometric != "on" && c->photometric != "off") {
@@ -440,6 +444,9 @@ void copyInPlaceFields(const DaemonConfig& from, DaemonConfig* to) {
   to->calibration.stationCommand = from.calibration.stationCommand;
   to->calibration.autoCalibrate = from.calibration.autoCalibrate;
   to->calibration.photometric = from.calibration.photometric;
+  to->calibration.maxErrorPx = from.calibration.maxErrorPx;
+  to->calibration.maxObserverMm = from.calibration.maxObserverMm;
+  to->calibration.allowPartial = from.calibration.allowPartial;
   to->logLevel = from.logLevel;
 }
 

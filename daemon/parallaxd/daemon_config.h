@@ -21,6 +21,8 @@
 //                  station_command = "move-rig {station}"   (a camera not behind the link)
 //                  photometric = "auto" | "on" | "off"  (calibrate the modules' colours too;
 //                       auto: when our own simulator has photometric variation)
+//                  max_error_px = 3.0, max_observer_mm = 15.0, allow_partial = false
+//                       (the quality gate: calibration/fit/calibration_gate.h)
 //                  (camera = "x.json", the old form, is read as camera_metadata)
 //   [scene]        script = "cornell" | "scene.lua", fps = 30, frame_cache = true,
 //                  [scene.parameters] name = value
@@ -43,6 +45,7 @@
 #include <vector>
 
 #include "calibration/display/display_model.h"
+#include "calibration/fit/calibration_gate.h"
 #include "common/input_error.h"
 #include "daemon/parallaxd/control_socket_path.h"
 #include "hw/link/link_client.h"
@@ -89,6 +92,11 @@ struct CalibrationConfig {
   // "on": `calibrate` also calibrates the modules' colours (photometric), "off": geometry only,
   // "auto": on when the display is our own simulator with photometric variation.
   std::string photometric = "auto";
+  // The quality gate (GateLimits): every module's predicted worst ray error within these, or the
+  // calibration is refused; allow_partial installs the modules that pass and names the others.
+  double maxErrorPx = GateLimits{}.worstPx;
+  double maxObserverMm = GateLimits{}.worstObserverMm;
+  bool allowPartial = false;
   bool operator==(const CalibrationConfig&) const = default;
 };
 

@@ -1,6 +1,7 @@
 // parallax.toml: what a user writes is read as meant, and every mistake is refused with the
 // file, the key and the line at fault.
 
+#include "daemon/parallaxd/calibration_pipeline.h"
 #include "daemon/parallaxd/daemon_config.h"
 
 #include <gtest/gtest.h>
@@ -314,6 +315,32 @@ TEST(DaemonConfig, CalibrationCameraByNameAndItsSettings) {
   }
   // The camera and its settings apply at the next calibration, without a restart.
   EXPECT_TRUE(sectionsNeedingRestart(defaults, c).empty());
+}
+
+// The quality gate's limits and allow_partial (issue 17): the pipeline's settings carry them,
+// they apply at the next calibration, and a limit that cannot gate is refused with its line.
+TEST(DaemonConfig, CalibrationGateLimits) {
+  const DaemonConfig defaults = parseDaemonConfig("", "p.toml");
+  const CalibrationSettings byDefault = settingsOf(defaults.calibration, false);
+  EXPECT_EQ(byDefault.gate.worstPx, GateLimits{}.worstPx);
+  EXPECT_EQ(byDefault.gate.worstObserverMm, GateLimits{}.worstObserverMm);
+  EXPECT_FALSE(byDefault.gate.allowPartial);
+  const DaemonConfig c = parseDaemonConfig(
+      "[calibration]\nmax_error_px = 1.5\nmax_observer_mm = 40\nallow_partial = true\n", "p.toml");
+  const CalibrationSettings set = settingsOf(c.calibration, false);
+  EXPECT_EQ(set.gate.worstPx, 1.5);
+  EXPECT_EQ(set.gate.worstObserverMm, 40.0);
+  EXPECT_TRUE(set.gate.allowPartial);
+  EXPECT_TRUE(sectionsNeedingRestart(defaults, c).empty());
+  for (const auto& [bad, field] :
+       {std::pair{"[calibration]\n\nmax_error_px = 0\n", "calibration.max_error_px"},
+        {"[calibration]\n\nmax_observer_mm = -3\n", "calibration.max_observer_mm"},
+        {"[calibration]\n\nmax_observer_mm = \"15\"\n", "calibration.max_observer_mm"},
+        {"[calibration]\n\nallow_partial = 1\n", "calibration.allow_partial"}}) {
+    const InputError e = errorOf(bad);
+    EXPECT_EQ(e.location().field, field) << e.what();
+    EXPECT_EQ(e.location().line, 3) << e.what();
+  }
 }
 
 // Issue 21: the photometric calibration's switch (in place, like the camera) and the simulated

@@ -109,41 +109,60 @@ std::vector<std::optional<double>> stripePeaksInRow(const std::vector<StripeRowS
   std::vector<std::optional<double>> peaks(modules);
   std::vector<double> x, angle, contrast;
   std::vector<bool> clipped;
+  // Module m's pixels with the fitted neighbours' lobes taken out.
+  const auto ownSamples = [&](size_t m) {
+    x.clear();
+    angle.clear();
+    contrast.clear();
+    clipped.clear();
+    for (size_t i : owned[m]) {
+      double own = row[i].contrast;
+      for (size_t other = 0; other < modules; ++other) {
+        if (other != m && lobes[other]) own -= lobes[other]->at(row[i].angles[other]);
+      }
+      x.push_back(row[i].x);
+      angle.push_back(row[i].angles[m]);
+      contrast.push_back(own);
+      clipped.push_back(row[i].clipped);
+    }
+  };
+  const auto fitOwn = [&](size_t m) {
+    const bool frontIsValley = !owned[m].empty() && bordersNeighbour(row, owned[m].front(), -1);
+    const bool backIsValley = !owned[m].empty() && bordersNeighbour(row, owned[m].back(), +1);
+    return fitLobe(angle, contrast, clipped, frontIsValley, backIsValley, options);
+  };
   for (int round = 0; round <= options.rounds; ++round) {
     for (size_t m = 0; m < modules; ++m) {
-      x.clear();
-      angle.clear();
-      contrast.clear();
-      clipped.clear();
-      for (size_t i : owned[m]) {
-        double own = row[i].contrast;
-        for (size_t other = 0; other < modules; ++other) {
-          if (other != m && lobes[other]) own -= lobes[other]->at(row[i].angles[other]);
-        }
-        x.push_back(row[i].x);
-        angle.push_back(row[i].angles[m]);
-        contrast.push_back(own);
-        clipped.push_back(row[i].clipped);
-      }
-      const bool frontIsValley = !owned[m].empty() && bordersNeighbour(row, owned[m].front(), -1);
-      const bool backIsValley = !owned[m].empty() && bordersNeighbour(row, owned[m].back(), +1);
+      ownSamples(m);
       // In place (Gauss–Seidel): the next module already sees this one's refined lobe.
-      lobes[m] = fitLobe(angle, contrast, clipped, frontIsValley, backIsValley, options);
+      lobes[m] = fitOwn(m);
       if (round == options.rounds && lobes[m]) peaks[m] = cameraXAtAngle(x, angle, lobes[m]->mean);
     }
   }
-  // A stripe whose run touches a neighbour's whose lobe could not be fitted (cut by its image's
-  // edge) still carries that neighbour's light on its flank, which nothing subtracted: its peak
-  // is pulled toward the neighbour (about a camera pixel, 4 mm on the screen, at demo's oblique
-  // stations). Its centre is not known, so none is given.
+  // A neighbour whose lobe could not be fitted (its peak cut by its image's or the screen's
+  // edge, or never on this row) still lights this stripe's flank where its angle is small, and
+  // nothing subtracted it: the peak is pulled toward it. With wide lobes it need not even own a
+  // pixel of the row (a 4-module display's 42° lobes from an end station: 5 mm on the observer
+  // line). Its light is predicted as a lobe of this one's width and amplitude centred where its
+  // angle is zero, taken out, and the stripe refitted: if that moves the peak by more than
+  // maxNeighbourBias, the centre is not known, so none is given.
   for (size_t m = 0; m < modules; ++m) {
-    if (!peaks[m] || owned[m].empty()) continue;
-    for (const auto& [end, side] : {std::pair{owned[m].front(), -1}, {owned[m].back(), +1}}) {
-      if (!bordersNeighbour(row, end, side)) continue;
-      const int other = row[static_cast<size_t>(static_cast<std::ptrdiff_t>(end) + side)].owner;
-      if (other >= 0 && static_cast<size_t>(other) < modules && !lobes[static_cast<size_t>(other)])
-        peaks[m].reset();
+    if (!peaks[m]) continue;
+    ownSamples(m);
+    bool contaminated = false;
+    for (size_t other = 0; other < modules; ++other) {
+      if (other == m || lobes[other]) continue;
+      const Lobe guess{lobes[m]->amplitude, 0.0, lobes[m]->width};
+      for (size_t k = 0; k < owned[m].size(); ++k) {
+        const double light = guess.at(row[owned[m][k]].angles[other]);
+        contaminated = contaminated || light > 0.0;
+        contrast[k] -= light;
+      }
     }
+    if (!contaminated) continue;
+    const std::optional<Lobe> cleaned = fitOwn(m);
+    if (!cleaned || !(std::abs(cleaned->mean - lobes[m]->mean) <= options.maxNeighbourBias))
+      peaks[m].reset();
   }
   if (widths) {
     widths->assign(modules, std::numeric_limits<double>::quiet_NaN());

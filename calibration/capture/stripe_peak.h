@@ -40,6 +40,9 @@ struct StripePeakOptions {
   double cutFraction = 0.5;  // a stripe whose first or last pixel is this bright was cut off
   int minFitSamples = 4;
   int rounds = 6;  // neighbour-subtraction rounds after the first fit (Gauss–Seidel)
+  // Largest pull (rad) a neighbour whose lobe could not be fitted may be predicted to put on a
+  // peak (stripe_peak.cpp): 5e-5 rad is 0.1 mm at 2 m, a third of a good stripe's noise.
+  double maxNeighbourBias = 5e-5;
 };
 
 // Per group module: the camera x of its lobe's peak in this row, or nothing when its stripe was

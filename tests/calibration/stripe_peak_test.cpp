@@ -152,6 +152,31 @@ TEST(StripePeak, AStripeBesideACutNeighbourGivesNoCentre) {
   EXPECT_NEAR(*both[1], 134.0, 0.2);
 }
 
+// With wide lobes (a few modules behind a wide screen: 42° FWHM) a neighbour whose peak is off
+// the row need not own a single pixel of it and still light this stripe's flank: nothing can
+// subtract it, so the stripe gives no centre (from a 4-module display's end stations its peak
+// was 5 mm off on the observer line). The same stripe with the neighbour far away gives its
+// centre.
+TEST(StripePeak, AStripeLitByANeighbourOffTheRowGivesNoCentre) {
+  SyntheticRow wide;
+  wide.sigma = 0.3;
+  wide.bend = 0.0;
+  const auto fromScreenEdge = [](std::vector<StripeRowSample> row) {
+    std::erase_if(row, [](const StripeRowSample& s) { return s.x < 100.0; });
+    return row;
+  };
+  wide.peakX = {164.0, 30.0};  // the neighbour peaks 70 px before the row starts
+  const auto row = fromScreenEdge(wide.samples());
+  ASSERT_FALSE(row.empty());
+  ASSERT_TRUE(std::all_of(row.begin(), row.end(), [](const auto& s) { return s.owner == 0; }));
+  EXPECT_FALSE(stripePeaksInRow(row, 2)[0].has_value());
+
+  wide.peakX = {164.0, -400.0};
+  const auto alone = stripePeaksInRow(fromScreenEdge(wide.samples()), 2);
+  ASSERT_TRUE(alone[0].has_value());
+  EXPECT_NEAR(*alone[0], 164.0, 0.2);
+}
+
 TEST(StripePeak, FlatNoisyOrEmptyRowsGiveNoCentreAndNoNan) {
   std::vector<StripeRowSample> flat;
   for (int x = 0; x < 50; ++x) flat.push_back({x + 0.5, 0.5, 0, {0.001 * (x - 25)}});

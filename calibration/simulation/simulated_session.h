@@ -16,7 +16,7 @@ namespace parallax {
 
 struct SimulatedSessionOptions {
   StructuredLightOptions patterns;
-  int groupStride = 3;  // every n-th module shows its patterns at once (moduleGroups)
+  int groupStride = 3;  // every n-th module (or more: groupStrideFor) shows its patterns at once
   // The modules' own response: a pattern value v is shown as v^moduleGamma (projectors driven
   // without linearization; 1: linear, as the patterns assume).
   double moduleGamma = 1.0;

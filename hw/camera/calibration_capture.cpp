@@ -196,12 +196,16 @@ CalibrationCaptures runSession(PatternScreen* screen, Camera& camera, const Disp
   if (stations.empty()) {
     for (int s = 0; s < static_cast<int>(metadata.stations.size()); ++s) stations.push_back(s);
   }
-  const auto groups = moduleGroups(modules, options.groupStride);
+  std::vector<Eigen::Vector3d> tapeCentres;
+  for (const CameraStation& station : metadata.stations) tapeCentres.push_back(station.tapeCentre);
+  CalibrationCaptureOptions planned = options;
+  planned.groupStride = groupStrideFor(nominal, tapeCentres, options.groupStride);
+  const auto groups = moduleGroups(modules, planned.groupStride);
   const int total = static_cast<int>(stations.size() * groups.size() *
                                      (columnPatterns.size() + rowPatterns.size()));
   int done = 0;
 
-  camera.beginSession(sessionKey(nominal, metadata, options, stations));
+  camera.beginSession(sessionKey(nominal, metadata, planned, stations));
   const CameraLockResult lock = camera.lock(options.cameraSettings);
   if (!lock.ok && !options.allowUnlockedCamera) {
     throw std::runtime_error(fmt::format(

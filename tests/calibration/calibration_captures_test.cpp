@@ -166,5 +166,32 @@ TEST(CalibrationCaptures, ModuleGroupsCoverEveryModuleOnce) {
   EXPECT_EQ(moduleGroups(2, 5).size(), 2u);  // never an empty group
 }
 
+// Stations along the observer line at z, `span` apart end to end (what the tape gives).
+std::vector<Eigen::Vector3d> stationsAcross(const DisplayModel& display, double span, int count) {
+  std::vector<Eigen::Vector3d> out;
+  for (int i = 0; i < count; ++i)
+    out.push_back(display.observer.pointAt(span * (i / (count - 1.0) - 0.5)));
+  return out;
+}
+
+// The groups keep every stripe clear of its partners' lobes from every station: the presets'
+// many modules keep every third apart; a 4-module display's wide lobes put modules 0 and 3
+// within a few σ of each other from the end stations, so each shows its patterns alone.
+TEST(CalibrationCaptures, GroupStrideKeepsAGroupsStripesApartFromEveryStation) {
+  for (const std::string preset : {"demo", "default"}) {
+    NominalDisplayOptions o;
+    o.preset = preset;
+    const DisplayModel display = makeNominalDisplay(o);
+    EXPECT_EQ(groupStrideFor(display, stationsAcross(display, 3.2, 5)), 3) << preset;
+  }
+  NominalDisplayOptions few;
+  few.preset = "demo";
+  few.modules = 4;
+  const DisplayModel four = makeNominalDisplay(few);
+  EXPECT_EQ(groupStrideFor(four, stationsAcross(four, 2.0, 5)), 4);
+  EXPECT_EQ(groupStrideFor(four, {}), 3);  // no station: nothing to keep apart
+  EXPECT_EQ(groupStrideFor(four, stationsAcross(four, 2.0, 5), 9), 4);  // at most one a group
+}
+
 }  // namespace
 }  // namespace parallax

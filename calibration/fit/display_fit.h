@@ -134,6 +134,10 @@ struct FitResult {
   double stripeSigmaMm = 0.0;             // re-estimated (robust) noise of the stripe centres
   std::vector<double> stripeResidualsMm;  // every stripe centre of an observed module, signed
   double fiducialRmsPx = 0.0;
+  // The decoded rows' spread within a (station, module) group and of the groups' common parts,
+  // in units of their σ: correspondences u, v, stripes within; then the same between
+  // (fit_uncertainty.cpp). A common part widens the σ of what those rows determine.
+  std::array<double, 6> sharedErrors{};
   // Set when the transfer cannot be decided and the choice matters (transfer_selection.h).
   bool transferMismatch = false;
   // Set when camera.json gives no response, the pictures bend, and the decoder cannot tell

@@ -72,7 +72,8 @@ const char* conditioningName(Conditioning c) {
 InformationBlocks informationFromJacobian(int numRows, int numCols, const std::vector<int>& rows,
                                           const std::vector<int>& cols,
                                           const std::vector<double>& values, int moduleCount,
-                                          int moduleSize, int sharedSize) {
+                                          int moduleSize, int sharedSize,
+                                          const std::vector<double>* rowWeights) {
   PARALLAX_CHECK_OP(numCols, ==, moduleCount * moduleSize + sharedSize);
   PARALLAX_CHECK_OP(static_cast<int>(rows.size()), ==, numRows + 1);
   InformationBlocks info;
@@ -102,18 +103,28 @@ InformationBlocks informationFromJacobian(int numRows, int numCols, const std::v
         moduleEntries.push_back({c - m * moduleSize, v});
       }
     }
+    const double w = rowWeights ? (*rowWeights)[static_cast<size_t>(r)] : 1.0;
     for (const auto& [i, vi] : sharedEntries) {
-      for (const auto& [j, vj] : sharedEntries) info.sharedShared(i, j) += vi * vj;
+      for (const auto& [j, vj] : sharedEntries) info.sharedShared(i, j) += w * vi * vj;
     }
     if (module < 0) continue;
     Eigen::MatrixXd& hmm = info.moduleModule[static_cast<size_t>(module)];
     Eigen::MatrixXd& hms = info.moduleShared[static_cast<size_t>(module)];
     for (const auto& [i, vi] : moduleEntries) {
-      for (const auto& [j, vj] : moduleEntries) hmm(i, j) += vi * vj;
-      for (const auto& [j, vj] : sharedEntries) hms(i, j) += vi * vj;
+      for (const auto& [j, vj] : moduleEntries) hmm(i, j) += w * vi * vj;
+      for (const auto& [j, vj] : sharedEntries) hms(i, j) += w * vi * vj;
     }
   }
   return info;
+}
+
+void subtractCommonPart(const Eigen::VectorXd& moduleSum, const Eigen::VectorXd& sharedSum,
+                        int module, double coefficient, InformationBlocks* info) {
+  info->sharedShared.noalias() -= coefficient * sharedSum * sharedSum.transpose();
+  if (module < 0) return;
+  const auto m = static_cast<size_t>(module);
+  info->moduleModule[m].noalias() -= coefficient * moduleSum * moduleSum.transpose();
+  info->moduleShared[m].noalias() -= coefficient * moduleSum * sharedSum.transpose();
 }
 
 BlockConditioning conditioningOf(const Eigen::MatrixXd& block, const ConditioningOptions& options) {
@@ -193,6 +204,72 @@ Diagnostics diagnose(const InformationBlocks& info, const ConditioningOptions& o
     out.moduleSharedCovariance.push_back(-coupling * sharedCov);
   }
   return out;
+}
+
+namespace {
+
+// max(1, tr(a⁻¹ b) / n) for a positive definite a; 1 otherwise.
+double widening(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
+  const Eigen::LLT<Eigen::MatrixXd> llt(a);
+  if (a.rows() == 0 || llt.info() != Eigen::Success || !b.allFinite()) return 1.0;
+  return std::max(1.0, llt.solve(b).trace() / static_cast<double>(a.rows()));
+}
+
+}  // namespace
+
+void widenToClusterRobust(const InformationBlocks& info, const std::vector<ClusterScore>& scores,
+                          const ConditioningOptions& options, Diagnostics* d) {
+  const size_t moduleCount = info.moduleModule.size();
+  const Eigen::Index sharedSize = info.sharedShared.rows();
+  if (scores.size() < 2) return;
+  // H⁻¹ s by the Schur complement, for a score touching module m and the shared block:
+  //   a = H_mm⁻¹ s_m,  x_s = Σ_ss (s_s − H_msᵀ a),  x_i = δ_im a − G_i x_s, G_i = H_ii⁻¹ H_is.
+  // Summed over the clusters, with X = Σ x_s x_sᵀ, P_m = Σ_{c in m} a aᵀ, Q_m = Σ_{c in m} a x_sᵀ:
+  //   Σ_sw,ii = P_i − Q_i G_iᵀ − G_i Q_iᵀ + G_i X G_iᵀ,  Σ_sw,ss = X.
+  std::vector<Eigen::MatrixXd> inverses(moduleCount), couplings(moduleCount);
+  std::vector<Eigen::MatrixXd> p(moduleCount), q(moduleCount);
+  for (size_t m = 0; m < moduleCount; ++m) {
+    inverses[m] = pseudoInverse(info.moduleModule[m], options.rankDeficientBelow, nullptr);
+    couplings[m] = inverses[m] * info.moduleShared[m];
+    const Eigen::Index n = info.moduleModule[m].rows();
+    p[m] = Eigen::MatrixXd::Zero(n, n);
+    q[m] = Eigen::MatrixXd::Zero(n, sharedSize);
+  }
+  Eigen::MatrixXd x = Eigen::MatrixXd::Zero(sharedSize, sharedSize);
+  const double correction = static_cast<double>(scores.size()) / (scores.size() - 1.0);
+  for (const ClusterScore& c : scores) {
+    Eigen::VectorXd shared = c.sharedPart;
+    Eigen::VectorXd a;
+    const auto m = static_cast<size_t>(c.module);
+    if (c.module >= 0) {
+      a = inverses[m] * c.modulePart;
+      shared -= info.moduleShared[m].transpose() * a;
+    }
+    const Eigen::VectorXd xs = d->sharedCovariance * shared;
+    x.noalias() += correction * xs * xs.transpose();
+    if (c.module >= 0) {
+      p[m].noalias() += correction * a * a.transpose();
+      q[m].noalias() += correction * a * xs.transpose();
+    }
+  }
+  const auto widenStdDev = [](const Eigen::MatrixXd& cov, Eigen::VectorXd* sd) {
+    for (Eigen::Index j = 0; j < sd->size(); ++j) {
+      if (std::isfinite((*sd)[j])) (*sd)[j] = std::sqrt(std::max(0.0, cov(j, j)));
+    }
+  };
+  const double fs = d->sharedStdDev.allFinite() ? widening(d->sharedCovariance, x) : 1.0;
+  d->sharedCovariance *= fs;
+  widenStdDev(d->sharedCovariance, &d->sharedStdDev);
+  for (size_t m = 0; m < moduleCount; ++m) {
+    if (!d->moduleStdDev[m].allFinite()) continue;
+    const Eigen::MatrixXd& g = couplings[m];
+    const Eigen::MatrixXd gq = g * q[m].transpose();
+    const Eigen::MatrixXd sandwich = p[m] - gq - gq.transpose() + g * x * g.transpose();
+    const double f = widening(d->moduleCovariance[m], sandwich);
+    d->moduleCovariance[m] *= f;
+    d->moduleSharedCovariance[m] *= std::sqrt(f * fs);  // the same correlation
+    widenStdDev(d->moduleCovariance[m], &d->moduleStdDev[m]);
+  }
 }
 
 }  // namespace parallax

@@ -70,12 +70,41 @@ struct Diagnostics {
 
 // Builds the blocks from a row-major sparse Jacobian (Ceres' CRSMatrix fields) whose columns
 // are [module 0 (moduleSize) | module 1 | ... | shared (sharedSize)].
+// rowWeights, when given, scales each row's outer product (one per row).
 InformationBlocks informationFromJacobian(int numRows, int numCols, const std::vector<int>& rows,
                                           const std::vector<int>& cols,
                                           const std::vector<double>& values, int moduleCount,
-                                          int moduleSize, int sharedSize);
+                                          int moduleSize, int sharedSize,
+                                          const std::vector<double>* rowWeights = nullptr);
+
+// Takes out of `info` what a group of rows does not know because their errors share a common
+// part: rows of covariance w I + b 11ᵀ (σ units) inform J̃ᵀ(wI + b11ᵀ)⁻¹J̃
+//   = (1/w) [J̃ᵀJ̃ − b / (w + n b) (J̃ᵀ1)(J̃ᵀ1)ᵀ];
+// the first term is the rows' own (weighted 1/w by informationFromJacobian), this subtracts
+// the second: `coefficient` × s sᵀ with s the sum of the group's rows. Each group touches at
+// most one module (`module`, −1 for none).
+void subtractCommonPart(const Eigen::VectorXd& moduleSum, const Eigen::VectorXd& sharedSum,
+                        int module, double coefficient, InformationBlocks* info);
 
 Diagnostics diagnose(const InformationBlocks& info, const ConditioningOptions& options);
+
+// The score of one cluster of residuals, Σ Jᵀr over its σ-normalised rows, split as the fit's
+// structure: at most one module's block (module, −1 for none) and the shared block.
+struct ClusterScore {
+  int module = -1;
+  Eigen::VectorXd modulePart;
+  Eigen::VectorXd sharedPart;
+};
+
+// Widens the covariances of `d` (from diagnose: the model's, the rows independent with the σ
+// that scales them) by what the residuals themselves say, clustered: the sandwich
+// Σ_sw = H⁻¹ (Σ_c s_c s_cᵀ) H⁻¹ holds when clusters of rows err together in ways the model does
+// not know (one station's decoding of a module off as a whole). With few clusters per module
+// Σ_sw is rank deficient, so it only scales: each module's block (and the shared block) by
+// f = max(1, tr(Σ⁻¹ Σ_sw) / n), whose expectation is 1 when the model is right (B's is H);
+// cross-covariances by √(f_module f_shared), keeping the correlations.
+void widenToClusterRobust(const InformationBlocks& info, const std::vector<ClusterScore>& scores,
+                          const ConditioningOptions& options, Diagnostics* d);
 
 // Conditioning of one symmetric positive semi-definite block (exposed for tests).
 BlockConditioning conditioningOf(const Eigen::MatrixXd& block, const ConditioningOptions& options);

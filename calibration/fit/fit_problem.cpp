@@ -45,16 +45,16 @@ void addCameraTerms(const FitInputs& in, const NoiseLevels& sigmas,
   for (size_t i = 0; i < in.obs.fiducialSightings.size(); ++i) {
     if (fiducialOutliers && (*fiducialOutliers)[i]) continue;
     const FiducialSighting& f = in.obs.fiducialSightings[i];
-    problem.AddResidualBlock(
+    built->add(problem.AddResidualBlock(
         FiducialCost::Create(&in.obs.intrinsics, in.obs.fiducials[static_cast<size_t>(f.fiducial)],
                              f.cameraPx, 1.0 / sigmas.fiducialPx),
         built->withModules ? nullptr : built->loss.get(),
-        state->cameras[static_cast<size_t>(f.camera)].data(), &state->k);
+        state->cameras[static_cast<size_t>(f.camera)].data(), &state->k));
   }
   for (size_t c = 0; c < in.obs.stations.size(); ++c) {
-    problem.AddResidualBlock(
+    built->add(problem.AddResidualBlock(
         TapeCost::Create(in.obs.stations[c].tapeCentre, 1.0 / in.options.tapeSigmaM), nullptr,
-        state->cameras[c].data());
+        state->cameras[c].data()));
   }
 }
 
@@ -153,16 +153,19 @@ FitProblem buildProblem(const FitInputs& in, const NoiseLevels& sigmas, const Mo
                                                  form.cameraScale[i] / sigmas.correspondencePx)
             : ModulePxCorrespondenceCost::Create(in.correspondenceN[i], c.modulePx, width,
                                                  mirrorSignOf(m), 1.0 / sigmas.correspondencePx);
-    problem.AddResidualBlock(cost, loss, state->modules[static_cast<size_t>(c.module)].data(),
-                             state->cameras[static_cast<size_t>(c.camera)].data(), &state->k);
+    built.add(
+        problem.AddResidualBlock(cost, loss, state->modules[static_cast<size_t>(c.module)].data(),
+                                 state->cameras[static_cast<size_t>(c.camera)].data(), &state->k),
+        decodedGroup(c.camera, c.module, DecodedKind::kCorrespondence));
   }
   for (size_t i = 0; i < in.obs.stripes.size(); ++i) {
     const StripeCentre& s = in.obs.stripes[i];
     if (!in.observed[static_cast<size_t>(s.module)]) continue;
-    problem.AddResidualBlock(
-        StripeCost::Create(in.stripeN[i], in.transfer, 1.0 / (1e-3 * sigmas.stripeMm)), loss,
-        state->modules[static_cast<size_t>(s.module)].data(),
-        state->cameras[static_cast<size_t>(s.camera)].data(), &state->k);
+    built.add(problem.AddResidualBlock(
+                  StripeCost::Create(in.stripeN[i], in.transfer, 1.0 / (1e-3 * sigmas.stripeMm)),
+                  loss, state->modules[static_cast<size_t>(s.module)].data(),
+                  state->cameras[static_cast<size_t>(s.camera)].data(), &state->k),
+              decodedGroup(s.camera, s.module, DecodedKind::kStripe));
   }
   return built;
 }

@@ -72,6 +72,13 @@ std::string formatFitSummary(const FitResult& r) {
       r.iterations, r.solveSeconds, r.converged ? "converged" : "NOT converged",
       r.model.screen.curvature, r.curvatureStdDev, transferName(r.model.screen.transfer),
       r.correspondenceSigmaPx, r.correspondenceSigmaMm, r.stripeRmsMm, r.fiducialRmsPx, r.outliers);
+  const auto& se = r.sharedErrors;
+  if (se[3] > 0.0 || se[4] > 0.0 || se[5] > 0.0) {
+    out += fmt::format(
+        "errors shared by one module's decoded rows at one station (in σ, counted in the σ "
+        "above): correspondences {:.2f}, {:.2f}; stripes {:.2f}\n",
+        se[3], se[4], se[5]);
+  }
   for (const Deficiency& d : r.deficiencies) out += "  " + d.describe() + "\n";
   for (const std::string& n : r.notes) out += "  note: " + n + "\n";
   for (const std::string& g : r.gate.describe()) out += "  gate: " + g + "\n";

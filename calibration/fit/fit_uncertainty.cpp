@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <unordered_map>
 
 #include "calibration/fit/fit_diagnostics.h"
 
@@ -16,6 +17,148 @@ constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 // Ceres' quaternion tangent δ turns by 2|δ| (Plus multiplies by [cos|δ|, sin|δ| δ/|δ|]): a
 // rotation's σ in degrees is twice its tangent's.
 constexpr double kTangentToRotationDeg = 2.0 * kRadToDeg;
+
+// The information of the σ-normalised rows when the rows of a group (FitProblem::groupOf, per
+// axis) share a common error: each group's rows as w I + b 11ᵀ, with w and b measured from the
+// residuals at the solution per kind of row (correspondence u, v; stripe): w the pooled spread
+// within the groups (taken as at least 1: the σ that scales the rows), b what the groups'
+// means spread beyond w / n. Independent rows give b ≈ 0 and the plain JᵀJ.
+InformationBlocks sharedErrorInformation(const FitProblem& built, const ceres::CRSMatrix& jacobian,
+                                         const std::vector<double>& residuals, int moduleCount,
+                                         int sharedSize, FitResult* result) {
+  constexpr int kKinds = 3;  // correspondence u, correspondence v, stripe
+  struct Group {
+    int kind = 0, rows = 0;
+    double sum = 0.0;
+    std::vector<int> members;
+  };
+  std::vector<Group> groups;
+  std::vector<int> groupOfRow(residuals.size(), -1);
+  {
+    std::unordered_map<std::int64_t, int> index;
+    int row = 0;
+    for (size_t b = 0; b < built.residualBlocks.size(); ++b) {
+      const int rows =
+          built.problem->GetCostFunctionForResidualBlock(built.residualBlocks[b])->num_residuals();
+      for (int axis = 0; axis < rows; ++axis, ++row) {
+        const std::int64_t g = built.groupOf[b];
+        if (g < 0) continue;
+        const auto [it, fresh] = index.try_emplace(g * 2 + axis, static_cast<int>(groups.size()));
+        if (fresh) {
+          Group group;
+          group.kind = (g & 1) ? 2 : axis;
+          groups.push_back(group);
+        }
+        Group& group = groups[static_cast<size_t>(it->second)];
+        group.rows++;
+        group.sum += residuals[static_cast<size_t>(row)];
+        group.members.push_back(row);
+        groupOfRow[static_cast<size_t>(row)] = it->second;
+      }
+    }
+  }
+  // Per kind: the spread within the groups (w) and of their common parts (b).
+  std::array<double, kKinds> withinSq{}, meanSq{}, within{}, between{};
+  std::array<int, kKinds> rowCount{}, groupCount{};
+  for (const Group& g : groups) {
+    const double mean = g.sum / g.rows;
+    for (int r : g.members) {
+      const double e = residuals[static_cast<size_t>(r)] - mean;
+      withinSq[static_cast<size_t>(g.kind)] += e * e;
+    }
+    rowCount[static_cast<size_t>(g.kind)] += g.rows;
+    groupCount[static_cast<size_t>(g.kind)] += 1;
+  }
+  for (int k = 0; k < kKinds; ++k) {
+    const auto kk = static_cast<size_t>(k);
+    const int dof = rowCount[kk] - groupCount[kk];
+    within[kk] = std::max(1.0, dof > 0 ? withinSq[kk] / dof : 1.0);
+  }
+  for (const Group& g : groups) {
+    const auto kk = static_cast<size_t>(g.kind);
+    const double mean = g.sum / g.rows;
+    meanSq[kk] += mean * mean - within[kk] / g.rows;
+  }
+  for (int k = 0; k < kKinds; ++k) {
+    const auto kk = static_cast<size_t>(k);
+    between[kk] = groupCount[kk] > 1 ? std::max(0.0, meanSq[kk] / groupCount[kk]) : 0.0;
+  }
+  std::vector<double> weights(residuals.size(), 1.0);
+  for (size_t r = 0; r < residuals.size(); ++r) {
+    if (groupOfRow[r] >= 0)
+      weights[r] = 1.0 / within[static_cast<size_t>(groups[static_cast<size_t>(groupOfRow[r])].kind)];
+  }
+  InformationBlocks info =
+      informationFromJacobian(jacobian.num_rows, jacobian.num_cols, jacobian.rows, jacobian.cols,
+                              jacobian.values, moduleCount, kModuleTangentSize, sharedSize, &weights);
+  const int sharedStart = moduleCount * kModuleTangentSize;
+  for (const Group& g : groups) {
+    const auto kk = static_cast<size_t>(g.kind);
+    if (between[kk] <= 0.0) continue;
+    Eigen::VectorXd moduleSum = Eigen::VectorXd::Zero(kModuleTangentSize);
+    Eigen::VectorXd sharedSum = Eigen::VectorXd::Zero(sharedSize);
+    int module = -1;
+    for (int r : g.members) {
+      for (int k = jacobian.rows[static_cast<size_t>(r)]; k < jacobian.rows[static_cast<size_t>(r) + 1];
+           ++k) {
+        const int col = jacobian.cols[static_cast<size_t>(k)];
+        const double v = jacobian.values[static_cast<size_t>(k)];
+        if (col >= sharedStart) {
+          sharedSum[col - sharedStart] += v;
+        } else {
+          module = col / kModuleTangentSize;
+          moduleSum[col % kModuleTangentSize] += v;
+        }
+      }
+    }
+    const double coefficient = between[kk] / (within[kk] * (within[kk] + g.rows * between[kk]));
+    subtractCommonPart(moduleSum, sharedSum, module, coefficient, &info);
+  }
+  result->sharedErrors = {std::sqrt(within[0]), std::sqrt(within[1]), std::sqrt(within[2]),
+                          std::sqrt(between[0]), std::sqrt(between[1]), std::sqrt(between[2])};
+  return info;
+}
+
+// Σ Jᵀr over the decoded rows of each (station, module), and over every other block alone, in
+// the Jacobian's column layout [modules | shared].
+std::vector<ClusterScore> stationModuleScores(const FitProblem& built,
+                                              const ceres::CRSMatrix& jacobian,
+                                              const std::vector<double>& residuals,
+                                              int moduleCount, int sharedSize) {
+  std::vector<ClusterScore> scores;
+  std::unordered_map<std::int64_t, size_t> index;
+  const int sharedStart = moduleCount * kModuleTangentSize;
+  size_t row = 0;
+  for (size_t b = 0; b < built.residualBlocks.size(); ++b) {
+    const auto rows = static_cast<size_t>(
+        built.problem->GetCostFunctionForResidualBlock(built.residualBlocks[b])->num_residuals());
+    // Both kinds of a (station, module) together; other blocks each alone (negative keys).
+    const std::int64_t key = built.groupOf[b] >= 0 ? built.groupOf[b] / 2
+                                                   : -1 - static_cast<std::int64_t>(b);
+    const auto [it, fresh] = index.try_emplace(key, scores.size());
+    if (fresh) {
+      ClusterScore c;
+      c.modulePart = Eigen::VectorXd::Zero(kModuleTangentSize);
+      c.sharedPart = Eigen::VectorXd::Zero(sharedSize);
+      scores.push_back(std::move(c));
+    }
+    ClusterScore& score = scores[it->second];
+    for (size_t r = row; r < row + rows; ++r) {
+      for (int k = jacobian.rows[r]; k < jacobian.rows[r + 1]; ++k) {
+        const int col = jacobian.cols[static_cast<size_t>(k)];
+        const double v = jacobian.values[static_cast<size_t>(k)] * residuals[r];
+        if (col >= sharedStart) {
+          score.sharedPart[col - sharedStart] += v;
+        } else {
+          score.module = col / kModuleTangentSize;
+          score.modulePart[col % kModuleTangentSize] += v;
+        }
+      }
+    }
+    row += rows;
+  }
+  return scores;
+}
 
 }  // namespace
 
@@ -35,21 +178,28 @@ void diagnoseUncertainty(const FitInputs& in, FitState& state, const NoiseLevels
   if (options.fitCurvature) blocks.push_back(&state.k);
   ceres::Problem::EvaluateOptions eo;
   eo.parameter_blocks = blocks;
+  eo.residual_blocks = built.residualBlocks;
   eo.apply_loss_function = true;
   eo.num_threads = options.threads;
   ceres::CRSMatrix jacobian;
+  std::vector<double> residuals;
   double cost = 0.0;
   const int sharedSize =
       kCameraTangentSize * static_cast<int>(state.cameras.size()) + (options.fitCurvature ? 1 : 0);
-  if (!built.problem->Evaluate(eo, &cost, nullptr, nullptr, &jacobian)) {
+  if (!built.problem->Evaluate(eo, &cost, &residuals, nullptr, &jacobian)) {
     result->notes.push_back("the Jacobian could not be evaluated at the solution");
     result->converged = false;
     return;
   }
-  const InformationBlocks info = informationFromJacobian(
-      jacobian.num_rows, jacobian.num_cols, jacobian.rows, jacobian.cols, jacobian.values,
-      static_cast<int>(moduleOf.size()), kModuleTangentSize, sharedSize);
-  const Diagnostics d = diagnose(info, options.conditioning);
+  const InformationBlocks info = sharedErrorInformation(
+      built, jacobian, residuals, static_cast<int>(moduleOf.size()), sharedSize, result);
+  Diagnostics d = diagnose(info, options.conditioning);
+  // What the residuals themselves say, station by station: a station's decoding of a module
+  // that is off as a whole moves the module more than independent errors could.
+  widenToClusterRobust(info,
+                       stationModuleScores(built, jacobian, residuals,
+                                           static_cast<int>(moduleOf.size()), sharedSize),
+                       options.conditioning, &d);
 
   // ---- modules ----
   for (size_t j = 0; j < moduleOf.size(); ++j) {

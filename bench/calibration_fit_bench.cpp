@@ -6,12 +6,13 @@
 // residual statistics, covariance and conditioning that follow them.
 //
 //   calibration_fit_bench [default|demo] [--quick] [--experiment]
-//   calibration_fit_bench --pictures N [--true-intrinsics]
-//   calibration_fit_bench --decoder-error SEED [--true-intrinsics]
+//   calibration_fit_bench [--display NAME|FILE] --pictures N [--true-intrinsics]
+//   calibration_fit_bench [--display NAME|FILE] --decoder-error SEED [--true-intrinsics]
 // --experiment: only the errors-in-variables comparison (where the correspondences' noise sits:
 // on the camera pixel, as a camera gives it, or on the module pixel; the residual: two-stage
 // camera px, FitOptions' default, or module px only), at two sampling densities.
-// --pictures N: the picture path's seed sweep (issue 17) on demo: N seeds, each rendered
+// --display: the nominal of the picture modes (a built-in name or a display JSON; demo).
+// --pictures N: the picture path's seed sweep (issue 17): N seeds, each rendered
 // (checkerboard intrinsics, patterns from five stations over 4 m), decoded and fitted; per seed
 // the gate's verdict, the true worst error against the predicted 3σ worst, and over the sweep
 // the coverage (true worst within 3σ, per module) and the ratio of true to predicted RMS.
@@ -124,8 +125,8 @@ PictureSession pictureSession(const DisplayModel& nominal, std::uint64_t seed,
 // intrinsics), then the fit's true error against its predicted σ per module: where the picture
 // path's error comes from (issue 17). Outliers (stripes > 1 mm, correspondences > 0.5 px at the
 // truth) are counted apart; the means of the rest are the decoder's biases.
-int decoderError(std::uint64_t seed, bool trueIntrinsics) {
-  const DisplayModel nominal = resolveDisplay("demo");
+int decoderError(const std::string& display, std::uint64_t seed, bool trueIntrinsics) {
+  const DisplayModel nominal = resolveDisplay(display);
   const PictureSession session = pictureSession(nominal, seed, trueIntrinsics);
   const CalibrationObservations& obs = session.obs;
   const CameraIntrinsics& ti = session.camera.intrinsics;
@@ -136,9 +137,9 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
     return screenPointOfCameraRay(k, block.data(), n.x(), n.y(), s);
   };
   std::printf(
-      "# decoder error at the truth: demo seed %llu, %s intrinsics (f %.2f, k1 %.4f; "
+      "# decoder error at the truth: %s seed %llu, %s intrinsics (f %.2f, k1 %.4f; "
       "true f %.2f, k1 %.4f)\n",
-      static_cast<unsigned long long>(seed), trueIntrinsics ? "true" : "checkerboard",
+      display.c_str(), static_cast<unsigned long long>(seed), trueIntrinsics ? "true" : "checkerboard",
       session.intrinsicsUsed.fx, session.intrinsicsUsed.k1, ti.fx, ti.k1);
   const size_t stations = obs.stations.size();
   std::vector<double> sum(stations, 0.0), sumSq(stations, 0.0);
@@ -227,6 +228,7 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
     double bu[kBins] = {}, bv[kBins] = {}, bsq[kBins] = {};
     int bn[kBins] = {}, bout[kBins] = {};
     double cSum = 0.0, cSq = 0.0;
+    double scale[6] = {};
     int cCount = 0, cOut = 0;
     for (const Correspondence& c : obs.correspondences) {
       Eigen::Vector3d sp;
@@ -252,6 +254,16 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
       cSum += du + dv;
       cSq += du * du + dv * dv;
       ++cCount;
+      {
+        // A scale about the image centre cancels in the mean: its slope, per axis.
+        const double xu = uv[0] - 0.5 * tm.width, xv = uv[1] - 0.5 * tm.height;
+        scale[0] += du * xu;
+        scale[1] += xu * xu;
+        scale[2] += dv * xv;
+        scale[3] += xv * xv;
+        scale[4] += du;
+        scale[5] += dv;
+      }
       mu[st] += du;
       mv[st] += dv;
       su[st] += du * du;
@@ -266,6 +278,13 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
         "correspondences: %d within 0.5 px: mean %+.4f px, RMS %.3f px per axis; %d beyond\n",
         cCount, cCount ? cSum / (2 * cCount) : 0.0, cCount ? std::sqrt(cSq / (2 * cCount)) : 0.0,
         cOut);
+    if (cCount) {
+      std::printf(
+          "  against the module pixel from its image's centre: du %.6f px a px (%+.3f px at the "
+          "edge), dv %.6f px a px (%+.3f px at the edge)\n",
+          scale[0] / scale[1], scale[0] / scale[1] * 0.5 * session.truth.modules[0].width,
+          scale[2] / scale[3], scale[2] / scale[3] * 0.5 * session.truth.modules[0].height);
+    }
     for (int b = 0; b < kBins; ++b) {
       std::printf(
           "  %3.0f-%3.0f px from the edge: %6d, mean du %+.4f dv %+.4f, RMS %.3f; %d beyond\n",
@@ -289,6 +308,10 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
   std::printf("fit: k %.5f (true %.5f, σ %.5f); σ correspondences %.3f px, stripes %.3f mm\n",
               result.model.screen.curvature, k, result.curvatureStdDev,
               result.correspondenceSigmaPx, result.stripeSigmaMm);
+  const auto& se = result.sharedErrors;
+  std::printf("rows within a (station, module) group, in σ: u %.2f v %.2f stripes %.2f; their "
+              "common part: u %.2f v %.2f stripes %.2f\n",
+              se[0], se[1], se[2], se[3], se[4], se[5]);
   for (const CameraFit& cf : result.cameras) {
     const CameraPose& t = session.camera.poses[static_cast<size_t>(cf.camera)];
     const Eigen::Vector3d d = (cf.pose.centre - t.centre) * 1e3;
@@ -313,14 +336,14 @@ int decoderError(std::uint64_t seed, bool trueIntrinsics) {
   return 0;
 }
 
-// The picture path on `seeds` seeds of demo (issue 17's benchmark half of the sweep).
-int pictureSweep(int seeds, bool trueIntrinsics) {
-  const DisplayModel nominal = resolveDisplay("demo");
+// The picture path on `seeds` seeds of a display (issue 17's benchmark half of the sweep).
+int pictureSweep(const std::string& display, int seeds, bool trueIntrinsics) {
+  const DisplayModel nominal = resolveDisplay(display);
   std::printf(
-      "# picture path sweep: demo, %s intrinsics, 5 stations over 4 m, pixel step 6\n"
+      "# picture path sweep: %s, %s intrinsics, 5 stations over 4 m, pixel step 6\n"
       "| seed | gate | true worst px / mm | predicted 3σ worst px / mm | modules within 3σ | "
       "true/pred RMS px, mm | σ module px | first refusal |\n|---|---|---|---|---|---|---|---|\n",
-      trueIntrinsics ? "true" : "checkerboard");
+      display.c_str(), trueIntrinsics ? "true" : "checkerboard");
   int modules = 0, covered = 0, accepted = 0, violations = 0;
   double tPx = 0, pPx = 0, tMm = 0, pMm = 0;
   for (int i = 0; i < seeds; ++i) {
@@ -380,20 +403,23 @@ int pictureSweep(int seeds, bool trueIntrinsics) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string preset = "default";
+  std::string preset = "default", pictureDisplay = "demo";
   bool quick = false, experiment = false;
   for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--display") == 0 && i + 1 < argc) {
+      pictureDisplay = argv[++i];
+      continue;
+    }
     if (std::strcmp(argv[i], "--quick") == 0)
       quick = true;
     else if (std::strcmp(argv[i], "--experiment") == 0)
       experiment = true;
     else if (std::strcmp(argv[i], "--decoder-error") == 0 && i + 1 < argc) {
       const auto seed = static_cast<std::uint64_t>(std::atoll(argv[++i]));
-      return decoderError(seed, i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0);
+      return decoderError(pictureDisplay, seed, i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0);
     } else if (std::strcmp(argv[i], "--pictures") == 0 && i + 1 < argc) {
       const int seeds = std::max(1, std::atoi(argv[++i]));
-      return pictureSweep(seeds,
-                          i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0);
+      return pictureSweep(pictureDisplay, seeds, i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0);
     } else
       preset = argv[i];
   }

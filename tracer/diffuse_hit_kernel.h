@@ -4,10 +4,11 @@
 // a plain diffuse material (no emission); a packet that met several such meshes is shaded by one
 // call a mesh. Each lane's hit point (from the
 // triangle's vertices), its face normal turned toward the ray and its shading normal (the
-// vertex normals interpolated, where the mesh has them), with the material's albedo and
-// highlight, go into 16 new LitSurfaces entries; the caller adds the
-// ambient term and the frame cache's light bits. The arithmetic is hitInfoOf's and reflect's
-// in Eigen's order, without fused multiply-adds: bit-identical to the scalar shading.
+// vertex normals interpolated, where the mesh has them; a vector whose lanes met at most three
+// triangles reads each triangle's corners once, any other gathers them), with the material's albedo
+// and highlight, go into 16 new LitSurfaces entries; the caller adds the ambient term and the frame
+// cache's light bits. The arithmetic is hitInfoOf's and reflect's in Eigen's order, without fused
+// multiply-adds: bit-identical to the scalar shading.
 
 #include <embree3/rtcore.h>
 

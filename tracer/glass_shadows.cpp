@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "common/check.h"
 #include "tracer/optics.h"
 #include "tracer/physical_scene.h"
 #include "tracer/ray_batch.h"
@@ -9,11 +10,14 @@
 namespace parallax {
 
 ShadowQueryContext shadowQueryContext(bool coherent, const PhysicalScene* scene,
-                                      ShadowTransmittance* transmittance, long* filterCalls) {
+                                      ShadowTransmittance* transmittance, std::uint8_t* seen,
+                                      long* filterCalls) {
+  PARALLAX_CHECK((transmittance == nullptr) == (seen == nullptr));
   ShadowQueryContext context;
   context.base = intersectContext(coherent);
   context.scene = scene;
   context.transmittance = transmittance;
+  context.seen = seen;
   context.filterCalls = filterCalls;
   return context;
 }
@@ -30,7 +34,12 @@ void glassShadowFilter(const RTCFilterFunctionNArguments* args) {
     if (context->filterCalls) ++*context->filterCalls;
     const unsigned geomID = RTCHitN_geomID(args->hit, n, i);
     const unsigned primID = RTCHitN_primID(args->hit, n, i);
-    ShadowTransmittance& state = context->transmittance[RTCRayN_id(args->ray, n, i)];
+    const unsigned ray = RTCRayN_id(args->ray, n, i);
+    ShadowTransmittance& state = context->transmittance[ray];
+    if (!context->seen[ray]) {
+      context->seen[ray] = 1;
+      state.reset();
+    }
     const std::uint64_t key = (static_cast<std::uint64_t>(geomID) << 32) | primID;
     bool seen = false;
     for (int k = 0; k < state.crossings; ++k) seen = seen || state.crossed[k] == key;

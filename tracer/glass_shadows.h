@@ -20,6 +20,7 @@
 
 #include <embree3/rtcore.h>
 
+#include <cstddef>
 #include <cstdint>
 
 #include "tracer/scene.h"
@@ -42,7 +43,8 @@ struct ShadowTransmittance {
   // enters glass and ends inside it (a light inside glass, an open mesh) keeps no absorption.
   Rgb factor() const { return fresnel * (-opticalDepth.cwiseMax(0.0f)).array().exp().matrix(); }
 
-  // Ready for a new ray: only the running fields (`crossed` is read below `crossings` only).
+  // Ready for a new ray: only the running fields (`crossed` is read below `crossings` only). The
+  // filter does it when it first meets the ray (ShadowQueryContext::seen).
   void reset() {
     fresnel = 1.0f;
     opticalDepth.setZero();
@@ -52,18 +54,28 @@ struct ShadowTransmittance {
 
 // The context every occlusion query on a PhysicalScene passes to Embree (base first: Embree
 // sees only that). With `transmittance` null, glass blocks like any surface (one state per ray
-// otherwise, indexed by the ray's id).
+// otherwise, indexed by the ray's id, with a `seen` flag per ray that the caller zeroes: the
+// filter resets a ray's state when it first meets the ray, so most rays, which cross no glass,
+// cost a byte instead of a state's reset, and the caller finds the rays that crossed glass by
+// their flag).
 struct ShadowQueryContext {
   RTCIntersectContext base;
   const PhysicalScene* scene = nullptr;
   ShadowTransmittance* transmittance = nullptr;
-  long* filterCalls = nullptr;  // optional: glass hits the filter saw (duplicates included)
+  std::uint8_t* seen = nullptr;  // with transmittance: per ray, 1 once the filter met it
+  long* filterCalls = nullptr;   // optional: glass hits the filter saw (duplicates included)
 };
 
 // `coherent`: the RTCIntersectContext flag (see intersectContext in ray_batch.h).
 ShadowQueryContext shadowQueryContext(bool coherent, const PhysicalScene* scene = nullptr,
                                       ShadowTransmittance* transmittance = nullptr,
-                                      long* filterCalls = nullptr);
+                                      std::uint8_t* seen = nullptr, long* filterCalls = nullptr);
+
+// Whether ray i of a query crossed glass (its state then holds what the glass let through).
+inline bool crossedGlass(const ShadowTransmittance* transmittance, const std::uint8_t* seen,
+                         size_t i) {
+  return seen[i] != 0 && transmittance[i].crossings > 0;
+}
 
 // The occlusion filter PhysicalScene sets on dielectric geometries.
 void glassShadowFilter(const RTCFilterFunctionNArguments* args);

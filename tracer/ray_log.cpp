@@ -39,6 +39,7 @@ double replayRayLog(const PhysicalScene& scene, const RayLog& log, Traversal tra
     RayHitPackets hits;
     OcclusionPackets shadows;
     std::vector<ShadowTransmittance> states;  // scenes with glass shadows: traced as the frame does
+    std::vector<std::uint8_t> seen;
     long glassHits = 0;
   };
   tbb::enumerable_thread_specific<Packets> perThread;
@@ -57,8 +58,9 @@ double replayRayLog(const PhysicalScene& scene, const RayLog& log, Traversal tra
         if (scene.glassShadows()) {
           // Glass is part of the query's cost: its filter runs here as in the frame.
           if (p.states.size() < batch.rays.size()) p.states.resize(batch.rays.size());
-          for (size_t i = 0; i < batch.rays.size(); ++i) p.states[i].reset();
-          query = shadowQueryContext(batch.coherent, &scene, p.states.data(), &p.glassHits);
+          p.seen.assign(batch.rays.size(), 0);
+          query = shadowQueryContext(batch.coherent, &scene, p.states.data(), p.seen.data(),
+                                     &p.glassHits);
         }
         if (trace) occludedPackets(scene.handle(), p.shadows, traversal, &query);
       } else {

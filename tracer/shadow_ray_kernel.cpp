@@ -204,11 +204,41 @@ long MakeShadowRays(const ShadowRayJob& job) {
                                               : MakeShadowRaysFor<false>(job);
 }
 
+// Lanes [a, b) of a vector whose lane i adds to pixel base + i (pixels base .. base + lanes − 1
+// lie in the frame): the colours loaded as three plain vectors and deinterleaved, `add` added in
+// the lanes of `clear`, and the run's floats stored back. Only the run's: the pixels beside it
+// may be another tile's, being drawn at the same time.
+template <class D, class V = hn::Vec<D>, class M>
+HWY_INLINE void AddToRun(D d, float* colours, size_t base, const V (&add)[3], M clear, size_t a,
+                         size_t b) {
+  const size_t lanes = hn::Lanes(d);
+  float* at = colours + 3 * base;
+  V c[3];
+  hn::LoadInterleaved3(d, at, c[0], c[1], c[2]);
+  for (int k = 0; k < 3; ++k) c[k] = hn::IfThenElse(clear, hn::Add(c[k], add[k]), c[k]);
+  if (a == 0 && b == lanes) {
+    hn::StoreInterleaved3(c[0], c[1], c[2], d, at);
+    return;
+  }
+  constexpr size_t kMaxLanes = HWY_MAX_BYTES / sizeof(float);
+  HWY_ALIGN float interleaved[3 * kMaxLanes];
+  hn::StoreInterleaved3(c[0], c[1], c[2], d, interleaved);
+  const hn::RebindToSigned<D> di;
+  const auto from = hn::Set(di, static_cast<int>(3 * a)), to = hn::Set(di, static_cast<int>(3 * b));
+  for (size_t v = 0; v < 3; ++v) {
+    const auto index = hn::Iota(di, static_cast<int>(v * lanes));
+    const auto inRun = hn::RebindMask(d, hn::AndNot(hn::Lt(index, from), hn::Lt(index, to)));
+    if (hn::AllFalse(d, inRun)) continue;
+    hn::BlendedStore(hn::Load(d, interleaved + v * lanes), inRun, d, at + v * lanes);
+  }
+}
+
 // AddUnblockedLight, or with kAll every ray unblocked (packets unused).
 template <bool kAll>
 void AddLightOf(const StagedRays& staged, const RTCRay16* packets, Rgb* pixels) {
   const hn::ScalableTag<float> d;
   const hn::RebindToSigned<decltype(d)> di;
+  using V = hn::Vec<decltype(d)>;
   const size_t lanes = hn::Lanes(d);
   const size_t n = staged.size();
   const int* pixel = staged.pixels();
@@ -219,19 +249,43 @@ void AddLightOf(const StagedRays& staged, const RTCRay16* packets, Rgb* pixels) 
   // Whole vectors only, each within one packet: a partial one would scatter to the stale pixels
   // of its unused lanes (another tile's, perhaps, being drawn at the same time).
   if (lanes <= 16 && 16 % lanes == 0) {
+    constexpr size_t kMaxRuns = 3;
     const auto zero = hn::Zero(d);
     const auto three = hn::Set(di, 3);
+    const auto iota = hn::Iota(di, 0);
     for (; j + lanes <= n; j += lanes) {
       // Embree sets tfar to −inf on a blocked ray (OcclusionPackets::occluded).
       const auto clear =
           kAll ? hn::Eq(zero, zero) : hn::Ge(hn::LoadU(d, packets[j / 16].tfar + j % 16), zero);
       if (!kAll && hn::AllFalse(d, clear)) continue;
-      const auto index = hn::Mul(hn::LoadU(di, pixel + j), three);
+      const V add[3] = {hn::LoadU(d, contribution[0] + j), hn::LoadU(d, contribution[1] + j),
+                        hn::LoadU(d, contribution[2] + j)};
+      const auto pixelIndex = hn::LoadU(di, pixel + j);
+      // Neighbouring rays mostly light neighbouring pixels (a row of the tile): each run of
+      // consecutive pixels is read and written as whole vectors, which costs far less than a
+      // gather and a scatter per channel. Every pixel read lies between the vector's first and
+      // last (base ≥ 0, base + lanes − 1 ≤ the last lane's pixel): inside the frame.
+      const int last = pixel[j + lanes - 1];
+      size_t done = 0;
+      for (size_t run = 0; run < kMaxRuns && done < lanes; ++run) {
+        const int base = pixel[j + done] - static_cast<int>(done);
+        if (base < 0 || base + static_cast<int>(lanes) - 1 > last) break;
+        const auto inRun =
+            hn::Or(hn::FirstN(di, done), hn::Eq(pixelIndex, hn::Add(iota, hn::Set(di, base))));
+        const size_t end =
+            hn::AllTrue(di, inRun) ? lanes : hn::FindKnownFirstTrue(di, hn::Not(inRun));
+        AddToRun(d, colours, static_cast<size_t>(base), add, clear, done, end);
+        done = end;
+      }
+      if (done == lanes) continue;
+      // The rest: the pixels' colours gathered, added to and scattered back.
+      const auto rest = hn::And(clear, hn::Not(hn::FirstN(d, done)));
+      const auto index = hn::Mul(pixelIndex, three);
       for (int c = 0; c < 3; ++c) {
         const auto before = hn::GatherIndex(d, colours + c, index);
-        const auto after = hn::Add(before, hn::LoadU(d, contribution[c] + j));
-        // A blocked lane writes back what it read: the same bits.
-        hn::ScatterIndex(hn::IfThenElse(clear, after, before), d, colours + c, index);
+        const auto after = hn::Add(before, add[c]);
+        // A lane left out writes back what it read: the same bits.
+        hn::ScatterIndex(hn::IfThenElse(rest, after, before), d, colours + c, index);
       }
     }
   }

@@ -41,10 +41,12 @@ struct ShadowRayJob {
 long makeShadowRays(const ShadowRayJob& job);
 
 // After Embree traced them (`packets`: the staged rays in order, tfar −inf where blocked), adds
-// each unblocked ray's contribution (kR, kG, kB) to its pixel, a vector of rays at a time: the
-// pixels' colours gathered, added to and scattered back. The rays' pixels must differ (a first
-// generation's rays toward one light: one a pixel), so a vector's lanes never write the same
-// pixel; each colour gets exactly the scalar `+=`, so the frame is bit-identical.
+// each unblocked ray's contribution (kR, kG, kB) to its pixel, a vector of rays at a time: a
+// run of lanes that light consecutive pixels (up to three runs a vector: a row of the tile, the
+// next row) reads and writes their colours as whole vectors, the other lanes' colours are
+// gathered, added to and scattered back. The rays' pixels must differ (a first generation's
+// rays toward one light: one a pixel), so a vector's lanes never write the same pixel; each
+// colour gets exactly the scalar `+=`, so the frame is bit-identical.
 void addUnblockedLight(const StagedRays& staged, const RTCRay16* packets, Rgb* pixels);
 // The same for rays nothing blocks (ShadowRayJob::unblocked): every one adds its light.
 void addLight(const StagedRays& staged, Rgb* pixels);

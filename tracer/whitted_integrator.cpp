@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <memory>
 
@@ -62,15 +63,20 @@ class PhaseClock {
 struct ShadowBatch {
   StagedRays staged;
   OcclusionPackets rays;
-  // Per shadow ray: what glass let through (only in scenes with glass shadows).
+  // Per shadow ray: what glass let through, and whether the glass filter met it (only in scenes
+  // with glass shadows; a state is reset when the filter first meets its ray).
   std::vector<ShadowTransmittance> transmittance;
+  std::vector<std::uint8_t> seen;
 
-  // The staged rays as packets, each with a fresh glass state.
+  // The staged rays as packets, none of them met by the glass filter yet.
   void load(bool glass) {
     rays.assign(staged);
     if (!glass) return;
     if (transmittance.size() < staged.size()) transmittance.resize(staged.size());
-    for (size_t i = 0; i < staged.size(); ++i) transmittance[i].reset();
+    seen.assign(staged.size(), 0);
+  }
+  bool crossedGlass(size_t i) const {
+    return parallax::crossedGlass(transmittance.data(), seen.data(), i);
   }
 };
 
@@ -236,7 +242,6 @@ void TileRenderer::cone(int pixel, Path* path) const {
 }
 
 void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c) {
-  paths_.clear();
   const size_t capacity = static_cast<size_t>(x1 - x0) * static_cast<size_t>(y1 - y0);
   // A tile's rows are short runs far apart in the ray texture and the frame (12 B a pixel, a
   // row of 1024 pixels 12 KB): too short for the hardware prefetcher, so every row started
@@ -293,13 +298,17 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
   const int* pixel = staged.pixels();
   const float* skipped = staged.field(StagedRays::kR);
   // Filled through a plain pointer: emplace_back reloaded the (thread-local) vector's bounds for
-  // every ray.
+  // every ray. Every field is written: resize value-initialises only the paths it adds (not
+  // cleared first, the previous tile's are simply overwritten).
   paths_.resize(staged.size());
   Path* path = paths_.data();
   for (size_t i = 0; i < staged.size(); ++i) {
-    path[i].pixel = pixel[i];
-    path[i].coneWidth = skipped[i];
-    path[i].coneSpread = kConeUnknown;
+    Path& p = path[i];
+    p.pixel = pixel[i];
+    p.weight = Rgb::Ones();
+    p.coneWidth = skipped[i];
+    p.coneSpread = kConeUnknown;
+    p.inside = -1;
   }
   rays_.assign(staged);
   c->pixels += static_cast<long>(capacity);
@@ -404,34 +413,45 @@ void TileRenderer::traceShadowRays(ShadowBatch& batch, RTCScene scene, bool cohe
   clock->lap(RenderPhase::kShade);
   Rgb* pixels = frame_->pixels.data();
   const int* pixel = batch.staged.pixels();
-  const float* red = batch.staged.field(StagedRays::kR);
-  const float* green = batch.staged.field(StagedRays::kG);
-  const float* blue = batch.staged.field(StagedRays::kB);
+  float* red = batch.staged.field(StagedRays::kR);
+  float* green = batch.staged.field(StagedRays::kG);
+  float* blue = batch.staged.field(StagedRays::kB);
   if (glassShadows_) {
-    ShadowQueryContext query =
-        shadowQueryContext(coherent, &scene_, batch.transmittance.data(), &c->glassShadowHits);
+    ShadowQueryContext query = shadowQueryContext(coherent, &scene_, batch.transmittance.data(),
+                                                  batch.seen.data(), &c->glassShadowHits);
     occludedPackets(scene, rays, options_.traversal, &query);
     clock->lap(RenderPhase::kOcclude);
+    // What the glass let through, folded into the light of the rays that crossed some (most
+    // cross none: no exp() for them, and their flags are skipped eight at a time); the same
+    // product as contribution.cwiseProduct(factor).
+    const std::uint8_t* seen = batch.seen.data();
     for (size_t i = 0; i < rays.size(); ++i) {
-      if (rays.occluded(i)) continue;
-      const ShadowTransmittance& state = batch.transmittance[i];
-      // Most shadow rays cross no glass: no exp() for them.
-      const Rgb contribution(red[i], green[i], blue[i]);
-      pixels[pixel[i]] +=
-          state.crossings == 0 ? contribution : Rgb(contribution.cwiseProduct(state.factor()));
+      if (i % 8 == 0 && i + 8 <= rays.size()) {
+        std::uint64_t eight;
+        std::memcpy(&eight, seen + i, sizeof(eight));
+        if (eight == 0) {
+          i += 7;
+          continue;
+        }
+      }
+      if (!batch.crossedGlass(i) || rays.occluded(i)) continue;
+      const Rgb factor = batch.transmittance[i].factor();
+      red[i] *= factor.x();
+      green[i] *= factor.y();
+      blue[i] *= factor.z();
     }
   } else {
     // No glass: the plain query, no per-ray state.
     occludedPackets(scene, rays, options_.traversal, coherent);
     clock->lap(RenderPhase::kOcclude);
-    if (generation == 0 && options_.packetShading) {
-      // One ray a pixel toward this light: the SIMD gather and scatter (shadow_ray_kernel.h).
-      addUnblockedLight(batch.staged, rays.packets(), pixels);
-    } else {
-      // Later generations may bring a pixel twice (glass's two branches).
-      for (size_t i = 0; i < rays.size(); ++i) {
-        if (!rays.occluded(i)) pixels[pixel[i]] += Rgb(red[i], green[i], blue[i]);
-      }
+  }
+  if (generation == 0 && options_.packetShading) {
+    // One ray a pixel toward this light: whole vectors of pixels (shadow_ray_kernel.h).
+    addUnblockedLight(batch.staged, rays.packets(), pixels);
+  } else {
+    // Later generations may bring a pixel twice (glass's two branches).
+    for (size_t i = 0; i < rays.size(); ++i) {
+      if (!rays.occluded(i)) pixels[pixel[i]] += Rgb(red[i], green[i], blue[i]);
     }
   }
   clock->lap(RenderPhase::kGather);
@@ -444,7 +464,7 @@ void TileRenderer::recordStaticShadows(const ShadowBatch& batch, int lightIndex)
   const std::uint8_t bit = static_cast<std::uint8_t>(1u << lightIndex);
   for (size_t i = 0; i < batch.rays.size(); ++i) {
     StaticHit& hit = cache_->hits[static_cast<size_t>(batch.staged.pixels()[i])];
-    if (glassShadows_ && batch.transmittance[i].crossings > 0) {
+    if (glassShadows_ && batch.crossedGlass(i)) {
       hit.setLights(0);
     } else if (!batch.rays.occluded(i) && (hit.lights() & StaticHit::kLightsKnown)) {
       hit.setLights(hit.lights() | bit);

@@ -299,6 +299,7 @@ void readLink(TableReader& r, hw::LinkOptions* l) {
   r.readInt("connect_timeout_ms", &l->connectTimeoutMs, 1, 600000);
   r.readInt("link_down_retry_ms", &l->linkDownRetryMs, 0, 3600000);
   r.readInt("link_down_retry_max_ms", &l->linkDownRetryMaxMs, 0, 3600000);
+  r.readInt("down_retry_budget_ms", &l->downRetryBudgetMs, 1, 3600000);
   r.refuseUnknownKeys();
   try {
     l->validate();

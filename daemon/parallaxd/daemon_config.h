@@ -29,7 +29,8 @@
 //   [daemon]       socket = "...", cache_dir = "...", log_level = "info"
 //   [link]         ack_timeout_ms = 2000, max_retries = 3, stall_limit_ms = 3000,
 //                  capture_timeout_ms = 30000, reconnect_attempts = 5, reconnect_delay_ms = 50,
-//                  link_down_retry_ms = 1000, link_down_retry_max_ms = 16000
+//                  link_down_retry_ms = 1000, link_down_retry_max_ms = 16000,
+//                  down_retry_budget_ms = 500, connect_timeout_ms = 1000
 //                       (hw/link/link_client.h, LinkOptions; hw/link/PROTOCOL.md)
 //   [cluster]      modules = [[0, 1, 2], [3, 4, 5]]   (per MPI rank, the modules it renders
 //                       and pushes; omitted: contiguous blocks), timeout_ms = 30000

@@ -33,6 +33,8 @@ void LinkOptions::validate() const {
   require(linkDownRetryMs >= 0, "link_down_retry_ms", "must not be negative");
   require(linkDownRetryMaxMs >= linkDownRetryMs && linkDownRetryMaxMs <= 3600000,
           "link_down_retry_max_ms", "must be in link_down_retry_ms..3600000");
+  require(downRetryBudgetMs >= 1 && downRetryBudgetMs <= 3600000, "down_retry_budget_ms",
+          "must be in 1..3600000");
 }
 
 std::string_view frameStatusName(FrameStatus status) {
@@ -160,6 +162,7 @@ void LinkClient::goDown(const std::string& what) {
   quietMs_ = std::clamp(quietMs_, options_.linkDownRetryMs, options_.linkDownRetryMaxMs);
   downReason_ = fmt::format("link down ({}; next try in {} ms)", what, quietMs_);
   downUntil_ = Clock::now() + std::chrono::milliseconds(quietMs_);
+  down_ = true;
   quietMs_ = std::min(quietMs_ * 2, options_.linkDownRetryMaxMs);
   silence_ = {};  // the next reconnect has the whole stall limit
   for (Pending& p : pending_) finish(p, FrameStatus::kFailed, downReason_);
@@ -464,8 +467,9 @@ bool LinkClient::reconnect(const std::string& why) {
   int delay = options_.reconnectDelayMs;
   std::string error;
   bool up = false;
-  // Within the stall limit: what the waits before it left of it (all of it after a pause).
-  const int budgetMs = stallLeftMs();
+  // Within the stall limit: what the waits before it left of it (all of it after a pause);
+  // a try on a link that is down only asks whether the device is back.
+  const int budgetMs = down_ ? std::min(stallLeftMs(), options_.downRetryBudgetMs) : stallLeftMs();
   const auto giveUp = Clock::now() + std::chrono::milliseconds(budgetMs);
   const auto leftMs = [&] {
     return std::chrono::duration_cast<std::chrono::milliseconds>(giveUp - Clock::now()).count();
@@ -480,7 +484,13 @@ bool LinkClient::reconnect(const std::string& why) {
       delay *= 2;
     }
     ++stats_.reconnects;
-    if (transport_->open(&error) != TransportStatus::kOk) continue;
+    // A peer that does not take the connection (a hung one's full listen queue) is waited for
+    // within the budget too.
+    transport_->setConnectTimeoutMs(
+        static_cast<int>(std::clamp<int64_t>(leftMs(), 1, options_.connectTimeoutMs)));
+    const TransportStatus opened = transport_->open(&error);
+    transport_->setConnectTimeoutMs(options_.connectTimeoutMs);
+    if (opened != TransportStatus::kOk) continue;
     if (!helloOk(static_cast<int>(std::clamp<int64_t>(leftMs(), 1, options_.ackTimeoutMs)))) {
       error = "the device did not answer Hello";
       transport_->close();
@@ -507,6 +517,7 @@ bool LinkClient::reconnect(const std::string& why) {
   }
   if (up) {
     quietMs_ = options_.linkDownRetryMs;
+    down_ = false;
   } else {
     goDown(fmt::format("{}; reconnecting failed: {}", why, error));
   }

@@ -54,6 +54,12 @@ struct LinkOptions {
   // Doubled after each reconnect that failed in a row, up to linkDownRetryMaxMs.
   int linkDownRetryMs = 1000;
   int linkDownRetryMaxMs = 16000;
+  // A reconnect try after that pause, the link being down, waits on the device at most this
+  // long (its connects, Hello waits and pauses together; never more than stallLimitMs): it only
+  // asks whether the device is back, which a live one answers within milliseconds. A device
+  // that still hangs then holds the caller (in a cluster, the display) this long a try, not a
+  // whole stall limit.
+  int downRetryBudgetMs = 500;
   bool skipUnchanged = true;  // content hash: unchanged frames are not re-sent
 
   // Throws InputError naming the field (the [link] key of parallax.toml).
@@ -217,6 +223,7 @@ class LinkClient {
   bool reconnecting_ = false;
   bool awaitingReply_ = false;   // a request waits for its answer (stall limit)
   Clock::time_point downUntil_;  // no reconnect attempts before this
+  bool down_ = false;            // reconnecting failed, or the device hung; not back since
   int quietMs_ = 0;              // the pause after the next failed reconnect
   std::string downReason_;
   Clock::time_point lastHeard_;

@@ -479,8 +479,8 @@ TEST_F(ClusterTest, AHungSimulatorHoldsTheDisplayBriefly) {
   EXPECT_EQ(down.rfind("rank 1 (modules 8-15): link ", 0), 0u) << down;
   EXPECT_NE(down.find("answered nothing in 2000 ms"), std::string::npos) << down;
   EXPECT_NE(down.find("it hangs"), std::string::npos) << down;
-  // A stall limit of 2 s, and each later reconnect try costs about as much (its connect up to
-  // 1 s more). Generous for a loaded 2-core machine, and far below the 12-15 s the first stall
+  // A stall limit of 2 s; each later reconnect try costs at most [link] down_retry_budget_ms
+  // (500 ms). Generous for a loaded 2-core machine, and far below the 12-15 s the first stall
   // took before the limit.
   EXPECT_LT(longestStill, 8.0) << daemon->log();
   EXPECT_GE(shown, 3) << "rank 0 stopped presenting";

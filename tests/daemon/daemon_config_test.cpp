@@ -102,6 +102,7 @@ TEST(DaemonConfig, ErrorsNameTheKeyAndTheLine) {
       {"[link]\nstall_limit_ms = \"3 s\"\n", "link.stall_limit_ms", 2},
       {"[link]\nstall_limt_ms = 3000\n", "link.stall_limt_ms", 2},
       {"[link]\nconnect_timeout_ms = 0\n", "link.connect_timeout_ms", 2},
+      {"[link]\ndown_retry_budget_ms = 0\n", "link.down_retry_budget_ms", 2},
       {"[link]\nlink_down_retry_ms = 5000\nlink_down_retry_max_ms = 2000\n",
        "link.link_down_retry_max_ms", 3},  // the pauses grow: the most below the first
   };
@@ -120,7 +121,8 @@ TEST(DaemonConfig, LinkTimeoutsAreRead) {
   const DaemonConfig c = parseDaemonConfig(
       "[link]\nack_timeout_ms = 500\nmax_retries = 1\nstall_limit_ms = 1500\n"
       "capture_timeout_ms = 60000\nreconnect_attempts = 2\nreconnect_delay_ms = 10\n"
-      "link_down_retry_ms = 200\nlink_down_retry_max_ms = 4000\nconnect_timeout_ms = 5000\n",
+      "link_down_retry_ms = 200\nlink_down_retry_max_ms = 4000\nconnect_timeout_ms = 5000\n"
+      "down_retry_budget_ms = 250\n",
       "parallax.toml");
   EXPECT_EQ(c.link.ackTimeoutMs, 500);
   EXPECT_EQ(c.link.maxRetries, 1);
@@ -131,6 +133,7 @@ TEST(DaemonConfig, LinkTimeoutsAreRead) {
   EXPECT_EQ(c.link.linkDownRetryMs, 200);
   EXPECT_EQ(c.link.linkDownRetryMaxMs, 4000);
   EXPECT_EQ(c.link.connectTimeoutMs, 5000);
+  EXPECT_EQ(c.link.downRetryBudgetMs, 250);
   EXPECT_EQ(c.link.chunkSize, hw::LinkOptions{}.chunkSize);
   // A change needs a restart (the link is made once).
   EXPECT_EQ(sectionsNeedingRestart(defaults, c), std::vector<std::string>{"link"});

@@ -295,6 +295,20 @@ TEST(LinkClient, ADeadLinkFailsFramesAtOnceInsteadOfRetryingEachOne) {
   EXPECT_EQ(link->stats().reconnects, 3u);
 }
 
+// A hung device in the simulator's place: a socket at its path that takes connections (into its
+// listen queue) and never answers. Returns the socket, for the caller to close.
+int listenWithoutAnswering(InProcessSimhw& sim) {
+  sim.stop();
+  std::filesystem::remove(sim.path());
+  const int hung = ::socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  std::strncpy(address.sun_path, sim.path().c_str(), sizeof address.sun_path - 1);
+  EXPECT_EQ(::bind(hung, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
+  EXPECT_EQ(::listen(hung, 64), 0);
+  return hung;
+}
+
 // A hung device: its socket takes connections and never answers Hello. One reconnect costs at
 // most its budget (not 1 + reconnectAttempts Hello waits: in a cluster every rank waits for it),
 // and the pauses between reconnects grow, up to their maximum.
@@ -306,14 +320,7 @@ TEST(LinkClient, AReconnectToAHungDeviceStopsAtItsBudgetAndThePausesGrow) {
   options.linkDownRetryMs = 50;
   options.linkDownRetryMaxMs = 150;
   auto link = connect(sim, options);
-  sim.stop();
-  std::filesystem::remove(sim.path());
-  const int hung = ::socket(AF_UNIX, SOCK_STREAM, 0);
-  sockaddr_un address{};
-  address.sun_family = AF_UNIX;
-  std::strncpy(address.sun_path, sim.path().c_str(), sizeof address.sun_path - 1);
-  ASSERT_EQ(::bind(hung, reinterpret_cast<sockaddr*>(&address), sizeof address), 0);
-  ASSERT_EQ(::listen(hung, 64), 0);
+  const int hung = listenWithoutAnswering(sim);
 
   // Each frame after the pause of the last failed reconnect: a new reconnect, which fails.
   std::vector<std::string> reasons;
@@ -335,6 +342,47 @@ TEST(LinkClient, AReconnectToAHungDeviceStopsAtItsBudgetAndThePausesGrow) {
   EXPECT_NE(reasons[1].find("next try in 100 ms"), std::string::npos) << reasons[1];
   EXPECT_NE(reasons[2].find("next try in 150 ms"), std::string::npos) << reasons[2];
   EXPECT_NE(reasons[3].find("next try in 150 ms"), std::string::npos) << reasons[3];
+  link.reset();
+  ::close(hung);
+}
+
+// Once the link is down (its device hung), a later reconnect try only asks whether the device
+// is back: it waits on it downRetryBudgetMs, not a whole stall limit of Hello waits (in a
+// cluster the whole display stands still that long, each try).
+TEST(LinkClient, ATryOnALinkThatIsDownWaitsOnlyItsBudget) {
+  InProcessSimhw sim(smallDisplay(1));
+  LinkOptions options = fastOptions();
+  options.ackTimeoutMs = 1000;
+  options.stallLimitMs = 3000;
+  options.downRetryBudgetMs = 200;
+  options.linkDownRetryMs = 50;
+  options.linkDownRetryMaxMs = 50;
+  auto link = connect(sim, options);
+  const int hung = listenWithoutAnswering(sim);
+  using Clock = std::chrono::steady_clock;
+  const auto tryToSend = [&](uint32_t seed) {
+    const auto started = Clock::now();
+    link->submit(0, makeFrame(seed));
+    link->flush();
+    const double ms = std::chrono::duration<double, std::milli>(Clock::now() - started).count();
+    const auto outcomes = link->takeOutcomes();
+    EXPECT_EQ(outcomes.size(), 1u);
+    if (!outcomes.empty()) {
+      EXPECT_EQ(outcomes[0].status, FrameStatus::kFailed);
+      EXPECT_NE(outcomes[0].reason.find("the device did not answer Hello"), std::string::npos)
+          << outcomes[0].reason;
+    }
+    return ms;
+  };
+  // The link drops and the reconnect finds a device that hangs: the stall limit's Hello waits.
+  EXPECT_GE(tryToSend(1), 2000.0);
+  for (uint32_t seed : {2, 3}) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(60));  // past the pause
+    const uint64_t before = link->stats().reconnects;
+    // 200 ms and what it takes to fail the frame; the whole stall limit (3000 ms) before.
+    EXPECT_LT(tryToSend(seed), 1500.0);
+    EXPECT_EQ(link->stats().reconnects - before, 1u);
+  }
   link.reset();
   ::close(hung);
 }

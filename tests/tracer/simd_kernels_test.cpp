@@ -72,8 +72,8 @@ struct TargetGuard {
   ~TargetGuard() { hwy::SetSupportedTargetsForTest(0); }  // back to what the CPU has
 };
 
-// The kernels' scene, and the Cornell box: no glass, so its shadow rays' light is added by the
-// gather-and-scatter kernel (glass shadows keep the per-ray loop).
+// The kernels' scene (glass: what its shadow rays carry through glass is folded in first), and
+// the Cornell box (no glass); both add the first generation's light with the vector kernel.
 std::vector<Scene> kernelScenes() { return {kernelScene(), makeCornellScene()}; }
 
 // Each target's frames of `display`'s module 1, in the order of `targets`.

@@ -139,8 +139,9 @@ int decoderError(const std::string& display, std::uint64_t seed, bool trueIntrin
   std::printf(
       "# decoder error at the truth: %s seed %llu, %s intrinsics (f %.2f, k1 %.4f; "
       "true f %.2f, k1 %.4f)\n",
-      display.c_str(), static_cast<unsigned long long>(seed), trueIntrinsics ? "true" : "checkerboard",
-      session.intrinsicsUsed.fx, session.intrinsicsUsed.k1, ti.fx, ti.k1);
+      display.c_str(), static_cast<unsigned long long>(seed),
+      trueIntrinsics ? "true" : "checkerboard", session.intrinsicsUsed.fx,
+      session.intrinsicsUsed.k1, ti.fx, ti.k1);
   const size_t stations = obs.stations.size();
   std::vector<double> sum(stations, 0.0), sumSq(stations, 0.0);
   std::vector<int> count(stations, 0), outliers(stations, 0);
@@ -309,9 +310,10 @@ int decoderError(const std::string& display, std::uint64_t seed, bool trueIntrin
               result.model.screen.curvature, k, result.curvatureStdDev,
               result.correspondenceSigmaPx, result.stripeSigmaMm);
   const auto& se = result.sharedErrors;
-  std::printf("rows within a (station, module) group, in σ: u %.2f v %.2f stripes %.2f; their "
-              "common part: u %.2f v %.2f stripes %.2f\n",
-              se[0], se[1], se[2], se[3], se[4], se[5]);
+  std::printf(
+      "rows within a (station, module) group, in σ: u %.2f v %.2f stripes %.2f; their "
+      "common part: u %.2f v %.2f stripes %.2f\n",
+      se[0], se[1], se[2], se[3], se[4], se[5]);
   for (const CameraFit& cf : result.cameras) {
     const CameraPose& t = session.camera.poses[static_cast<size_t>(cf.camera)];
     const Eigen::Vector3d d = (cf.pose.centre - t.centre) * 1e3;
@@ -416,10 +418,12 @@ int main(int argc, char** argv) {
       experiment = true;
     else if (std::strcmp(argv[i], "--decoder-error") == 0 && i + 1 < argc) {
       const auto seed = static_cast<std::uint64_t>(std::atoll(argv[++i]));
-      return decoderError(pictureDisplay, seed, i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0);
+      return decoderError(pictureDisplay, seed,
+                          i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0);
     } else if (std::strcmp(argv[i], "--pictures") == 0 && i + 1 < argc) {
       const int seeds = std::max(1, std::atoi(argv[++i]));
-      return pictureSweep(pictureDisplay, seeds, i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0);
+      return pictureSweep(pictureDisplay, seeds,
+                          i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0);
     } else
       preset = argv[i];
   }

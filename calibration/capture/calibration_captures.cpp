@@ -129,8 +129,8 @@ int groupStrideFor(const DisplayModel& nominal, const std::vector<Eigen::Vector3
       // A lobe the screen's edge cuts above half its peak cannot be fitted, so nothing will
       // subtract it from a partner's stripe (stripe_peak.h): it counts as cut.
       for (const double end : {-0.5 * screen.width, 0.5 * screen.width}) {
-        const double a = stripeAngle(screen, screen.pointAt(end, 0.0), nominal.modules[m].position,
-                                     stations[c]);
+        const double a =
+            stripeAngle(screen, screen.pointAt(end, 0.0), nominal.modules[m].position, stations[c]);
         if (std::abs(a) < kCutSigmas * sigma) cut[c][m] = true;
       }
       if (!stripe[c][m]) cut[c][m] = true;

@@ -86,11 +86,12 @@ InformationBlocks sharedErrorInformation(const FitProblem& built, const ceres::C
   std::vector<double> weights(residuals.size(), 1.0);
   for (size_t r = 0; r < residuals.size(); ++r) {
     if (groupOfRow[r] >= 0)
-      weights[r] = 1.0 / within[static_cast<size_t>(groups[static_cast<size_t>(groupOfRow[r])].kind)];
+      weights[r] =
+          1.0 / within[static_cast<size_t>(groups[static_cast<size_t>(groupOfRow[r])].kind)];
   }
-  InformationBlocks info =
-      informationFromJacobian(jacobian.num_rows, jacobian.num_cols, jacobian.rows, jacobian.cols,
-                              jacobian.values, moduleCount, kModuleTangentSize, sharedSize, &weights);
+  InformationBlocks info = informationFromJacobian(
+      jacobian.num_rows, jacobian.num_cols, jacobian.rows, jacobian.cols, jacobian.values,
+      moduleCount, kModuleTangentSize, sharedSize, &weights);
   const int sharedStart = moduleCount * kModuleTangentSize;
   for (const Group& g : groups) {
     const auto kk = static_cast<size_t>(g.kind);
@@ -99,8 +100,8 @@ InformationBlocks sharedErrorInformation(const FitProblem& built, const ceres::C
     Eigen::VectorXd sharedSum = Eigen::VectorXd::Zero(sharedSize);
     int module = -1;
     for (int r : g.members) {
-      for (int k = jacobian.rows[static_cast<size_t>(r)]; k < jacobian.rows[static_cast<size_t>(r) + 1];
-           ++k) {
+      for (int k = jacobian.rows[static_cast<size_t>(r)];
+           k < jacobian.rows[static_cast<size_t>(r) + 1]; ++k) {
         const int col = jacobian.cols[static_cast<size_t>(k)];
         const double v = jacobian.values[static_cast<size_t>(k)];
         if (col >= sharedStart) {
@@ -114,7 +115,7 @@ InformationBlocks sharedErrorInformation(const FitProblem& built, const ceres::C
     const double coefficient = between[kk] / (within[kk] * (within[kk] + g.rows * between[kk]));
     subtractCommonPart(moduleSum, sharedSum, module, coefficient, &info);
   }
-  result->sharedErrors = {std::sqrt(within[0]), std::sqrt(within[1]), std::sqrt(within[2]),
+  result->sharedErrors = {std::sqrt(within[0]),  std::sqrt(within[1]),  std::sqrt(within[2]),
                           std::sqrt(between[0]), std::sqrt(between[1]), std::sqrt(between[2])};
   return info;
 }
@@ -123,8 +124,8 @@ InformationBlocks sharedErrorInformation(const FitProblem& built, const ceres::C
 // the Jacobian's column layout [modules | shared].
 std::vector<ClusterScore> stationModuleScores(const FitProblem& built,
                                               const ceres::CRSMatrix& jacobian,
-                                              const std::vector<double>& residuals,
-                                              int moduleCount, int sharedSize) {
+                                              const std::vector<double>& residuals, int moduleCount,
+                                              int sharedSize) {
   std::vector<ClusterScore> scores;
   std::unordered_map<std::int64_t, size_t> index;
   const int sharedStart = moduleCount * kModuleTangentSize;
@@ -133,8 +134,8 @@ std::vector<ClusterScore> stationModuleScores(const FitProblem& built,
     const auto rows = static_cast<size_t>(
         built.problem->GetCostFunctionForResidualBlock(built.residualBlocks[b])->num_residuals());
     // Both kinds of a (station, module) together; other blocks each alone (negative keys).
-    const std::int64_t key = built.groupOf[b] >= 0 ? built.groupOf[b] / 2
-                                                   : -1 - static_cast<std::int64_t>(b);
+    const std::int64_t key =
+        built.groupOf[b] >= 0 ? built.groupOf[b] / 2 : -1 - static_cast<std::int64_t>(b);
     const auto [it, fresh] = index.try_emplace(key, scores.size());
     if (fresh) {
       ClusterScore c;

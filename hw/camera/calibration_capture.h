@@ -30,7 +30,7 @@ namespace parallax::hw {
 
 struct CalibrationCaptureOptions {
   StructuredLightOptions patterns;
-  std::vector<int> stations;      // empty: every station of the camera metadata
+  std::vector<int> stations;  // empty: every station of the camera metadata
   int groupStride = 3;  // modules showing patterns at once: every n-th, or more (groupStrideFor)
   CameraSettings cameraSettings;  // locked for the whole session
   // A camera that does not lock a control is refused (naming it) unless this is true; then

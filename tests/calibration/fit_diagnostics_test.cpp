@@ -89,7 +89,8 @@ TEST(FitDiagnostics, RowsSharingACommonErrorInformAsTheirCorrelatedCovarianceSay
   const double w = 1.5, b = 0.8;
   const int n = 4;
   const std::vector<double> weights{1 / w, 1 / w, 1 / w, 1 / w, 1, 1, 1, 1};
-  InformationBlocks info = informationFromJacobian(8, 5, sparse.rows, sparse.cols, sparse.values, 2, 2, 1, &weights);
+  InformationBlocks info =
+      informationFromJacobian(8, 5, sparse.rows, sparse.cols, sparse.values, 2, 2, 1, &weights);
   const Eigen::VectorXd sum = j.topRows(n).colwise().sum().transpose();
   subtractCommonPart(sum.head(2), sum.tail(1), 0, b / (w * (w + n * b)), &info);
   const Diagnostics d = diagnose(info, {});
@@ -107,9 +108,9 @@ TEST(FitDiagnostics, RowsSharingACommonErrorInformAsTheirCorrelatedCovarianceSay
   EXPECT_NEAR(d.sharedStdDev[0], std::sqrt(full(4, 4)), 1e-10);
 }
 
-// Two modules of 3 parameters, 2 shared; each module seen by 5 stations of 40 alike rows. Returns the
-// module σ after widenToClusterRobust over the model's, for residuals that are independent
-// unit noise, plus `common` × a per (station, module) offset.
+// Two modules of 3 parameters, 2 shared; each module seen by 5 stations of 40 alike rows. Returns
+// the module σ after widenToClusterRobust over the model's, for residuals that are independent unit
+// noise, plus `common` × a per (station, module) offset.
 std::vector<double> widenedOverModel(double common) {
   std::mt19937 rng(17);
   std::normal_distribution<double> normal;
@@ -147,8 +148,8 @@ std::vector<double> widenedOverModel(double common) {
     }
   }
   const int numRows = static_cast<int>(rows.size()) - 1;
-  const InformationBlocks info = informationFromJacobian(numRows, cols, rows, columns, values,
-                                                         kModules, kModuleSize, kShared);
+  const InformationBlocks info =
+      informationFromJacobian(numRows, cols, rows, columns, values, kModules, kModuleSize, kShared);
   const Diagnostics model = diagnose(info, {});
   Diagnostics widened = model;
   widenToClusterRobust(info, scores, {}, &widened);

@@ -1,12 +1,13 @@
 // parallax.toml: what a user writes is read as meant, and every mistake is refused with the
 // file, the key and the line at fault.
 
-#include "daemon/parallaxd/calibration_pipeline.h"
 #include "daemon/parallaxd/daemon_config.h"
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 #include <unistd.h>
+
+#include "daemon/parallaxd/calibration_pipeline.h"
 
 namespace parallax::daemon {
 namespace {

@@ -14,6 +14,7 @@
 #include "calibration/capture/camera_picture.h"
 #include "calibration/capture/camera_response.h"
 #include "calibration/capture/fiducial_detector.h"
+#include "calibration/capture/stripe_peak.h"
 #include "calibration/display/conventions.h"
 #include "calibration/display/json_fields.h"
 #include "calibration/display/json_file.h"
@@ -100,70 +101,67 @@ std::vector<std::vector<int>> moduleGroups(int modules, int stride) {
   return groups;
 }
 
-int groupStrideFor(const DisplayModel& nominal, const std::vector<Eigen::Vector3d>& stations,
+int groupStrideFor(const DisplayModel& nominal, const std::vector<CameraStation>& stations,
                    int least) {
-  const int modules = static_cast<int>(nominal.modules.size());
+  const size_t modules = nominal.modules.size();
   const Screen& screen = nominal.screen;
   const double sigma = diffusionSigma(screen.diffusionDeg);
-  // Each module's stripe from each station: the point of the screen's middle row where its
-  // angle is smallest (none when that is not near zero: its peak is off the screen).
+  // Every module's angle (in lobe σ) along the screen's middle row, from every station.
   constexpr int kSamples = 256;
-  std::vector<std::vector<std::optional<Eigen::Vector3d>>> stripe(
-      stations.size(), std::vector<std::optional<Eigen::Vector3d>>(nominal.modules.size()));
-  std::vector<std::vector<bool>> cut(stations.size(), std::vector<bool>(nominal.modules.size()));
+  const auto angleAt = [&](double x, size_t c, size_t m) {
+    return stripeAngle(screen, screen.pointAt(x, 0.0), nominal.modules[m].position,
+                       stations[c].tapeCentre) /
+           sigma;
+  };
+  std::vector<std::vector<std::vector<double>>> angles(
+      stations.size(), std::vector<std::vector<double>>(modules, std::vector<double>(kSamples)));
+  // Whether module m's stripe is on the screen from station c (its angle nears zero on the
+  // row), and whether its lobe is cut: off the screen, or cut by the screen's edge above half
+  // its peak, so that it cannot be fitted and nothing will subtract it from a partner's stripe
+  // (stripe_peak.h).
+  std::vector<std::vector<bool>> onScreen(stations.size(), std::vector<bool>(modules));
+  std::vector<std::vector<bool>> cut(stations.size(), std::vector<bool>(modules));
   constexpr double kCutSigmas = 1.5;
   for (size_t c = 0; c < stations.size(); ++c) {
-    for (size_t m = 0; m < nominal.modules.size(); ++m) {
-      double best = std::numeric_limits<double>::infinity();
-      Eigen::Vector3d at;
+    for (size_t m = 0; m < modules; ++m) {
+      double smallest = std::numeric_limits<double>::infinity();
       for (int i = 0; i < kSamples; ++i) {
-        const double x = screen.width * ((i + 0.5) / kSamples - 0.5);
-        const Eigen::Vector3d s = screen.pointAt(x, 0.0);
-        const double a = std::abs(stripeAngle(screen, s, nominal.modules[m].position, stations[c]));
-        if (a < best) {
-          best = a;
-          at = s;
-        }
+        angles[c][m][static_cast<size_t>(i)] =
+            angleAt(screen.width * ((i + 0.5) / kSamples - 0.5), c, m);
+        smallest = std::min(smallest, std::abs(angles[c][m][static_cast<size_t>(i)]));
       }
-      if (best < 0.5 * sigma) stripe[c][m] = at;
-      // A lobe the screen's edge cuts above half its peak cannot be fitted, so nothing will
-      // subtract it from a partner's stripe (stripe_peak.h): it counts as cut.
-      for (const double end : {-0.5 * screen.width, 0.5 * screen.width}) {
-        const double a =
-            stripeAngle(screen, screen.pointAt(end, 0.0), nominal.modules[m].position, stations[c]);
-        if (std::abs(a) < kCutSigmas * sigma) cut[c][m] = true;
-      }
-      if (!stripe[c][m]) cut[c][m] = true;
+      onScreen[c][m] = smallest < 0.5;
+      cut[c][m] = !onScreen[c][m] || std::abs(angleAt(-0.5 * screen.width, c, m)) < kCutSigmas ||
+                  std::abs(angleAt(0.5 * screen.width, c, m)) < kCutSigmas;
     }
   }
-  // A cut partner's light relative to m's own, at the worst point of m's lobe fit (where m is
-  // at least 0.3 of its peak, stripe_peak.h's fitFraction: within 1.55σ).
+  // A cut partner o's light relative to m's own, at the worst point of m's lobe fit (where m is
+  // at least stripe_peak.h's fitFraction of its peak).
+  const double fitSigmas = std::sqrt(-2.0 * std::log(StripePeakOptions{}.fitFraction));
   const auto worstShare = [&](size_t c, size_t m, size_t o) {
     double worst = 0.0;
-    for (int i = 0; i < kSamples; ++i) {
-      const Eigen::Vector3d s = screen.pointAt(screen.width * ((i + 0.5) / kSamples - 0.5), 0.0);
-      const double am = stripeAngle(screen, s, nominal.modules[m].position, stations[c]) / sigma;
-      if (std::abs(am) > 1.55) continue;
-      const double ao = stripeAngle(screen, s, nominal.modules[o].position, stations[c]) / sigma;
-      worst = std::max(worst, std::exp(-0.5 * (ao * ao - am * am)));
+    for (size_t i = 0; i < kSamples; ++i) {
+      const double am = angles[c][m][i], ao = angles[c][o][i];
+      if (std::abs(am) <= fitSigmas) worst = std::max(worst, std::exp(-0.5 * (ao * ao - am * am)));
     }
     return worst;
   };
-  for (int stride = std::max(1, least); stride < modules; ++stride) {
+  const auto count = static_cast<int>(modules);
+  for (int stride = std::max(1, least); stride < count; ++stride) {
     bool apart = true;
     for (size_t c = 0; c < stations.size() && apart; ++c) {
-      for (int m = 0; m < modules && apart; ++m) {
-        if (!stripe[c][static_cast<size_t>(m)]) continue;
-        for (int o = m % stride; o < modules && apart; o += stride) {
+      for (size_t m = 0; m < modules && apart; ++m) {
+        if (!onScreen[c][m]) continue;
+        for (size_t o = m % static_cast<size_t>(stride); o < modules && apart;
+             o += static_cast<size_t>(stride)) {
           // A partner whose whole lobe is on the screen is fitted and subtracted.
-          if (o == m || !cut[c][static_cast<size_t>(o)]) continue;
-          apart = worstShare(c, static_cast<size_t>(m), static_cast<size_t>(o)) <= kGroupLightShare;
+          if (o != m && cut[c][o]) apart = worstShare(c, m, o) <= kGroupLightShare;
         }
       }
     }
     if (apart) return stride;
   }
-  return std::max(1, modules);
+  return std::max(1, count);
 }
 
 CalibrationObservations observationsFrame(const CameraMetadata& camera) {

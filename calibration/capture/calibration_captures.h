@@ -67,15 +67,15 @@ struct CalibrationCaptures {
 std::vector<std::vector<int>> moduleGroups(int modules, int stride);
 
 // The smallest stride from `least` up (at most one module a group) at which, from every
-// station, a group partner whose lobe the screen's edge cuts puts at most kGroupLightShare of a
-// module's own light anywhere on its stripe's flanks (on the nominal screen's middle row) (a whole
-// lobe is fitted and subtracted from its neighbours' stripes; a cut one cannot be, and
-// stripe_peak.h drops the stripes it lights). A display's lobes are a fixed share of its module
-// pitch near the screen centre, but an oblique view squeezes far modules' angles together: on a
-// 4-module display (42° lobes) module 3's cut lobe lit module 0's stripe from the end stations,
-// which left the edge modules with too few stripes to be fitted.
+// station (its tape-measured centre), a group partner whose lobe the screen's edge cuts puts at
+// most kGroupLightShare of a module's own light anywhere on its stripe's flanks (on the nominal
+// screen's middle row) (a whole lobe is fitted and subtracted from its neighbours' stripes; a cut
+// one cannot be, and stripe_peak.h drops the stripes it lights). A display's lobes are a fixed
+// share of its module pitch near the screen centre, but an oblique view squeezes far modules'
+// angles together: on a 4-module display (42° lobes) module 3's cut lobe lit module 0's stripe from
+// the end stations, which left the edge modules with too few stripes to be fitted.
 inline constexpr double kGroupLightShare = 0.01;
-int groupStrideFor(const DisplayModel& nominal, const std::vector<Eigen::Vector3d>& stations,
+int groupStrideFor(const DisplayModel& nominal, const std::vector<CameraStation>& stations,
                    int least = 3);
 
 // Correspondences and stripe centres from the pattern pictures, fiducial sightings from the

@@ -32,10 +32,8 @@ CalibrationCaptures renderSession(const DisplayModel& truth, const CameraTruth& 
       for (cv::Mat& f : *frames) cv::pow(f, options.moduleGamma, f);
   }
   // The stride the capture would choose (calibration_capture.cpp), from the tape's stations.
-  std::vector<Eigen::Vector3d> tapeCentres;
-  for (const CameraStation& station : camera.stations) tapeCentres.push_back(station.tapeCentre);
   const auto groups = moduleGroups(static_cast<int>(truth.modules.size()),
-                                   groupStrideFor(truth, tapeCentres, options.groupStride));
+                                   groupStrideFor(truth, camera.stations, options.groupStride));
   SeededRandom random(cameraTruth.seed);
   const int total = static_cast<int>(cameraTruth.poses.size() * groups.size() *
                                      (columnPatterns.size() + rowPatterns.size()));

@@ -196,10 +196,8 @@ CalibrationCaptures runSession(PatternScreen* screen, Camera& camera, const Disp
   if (stations.empty()) {
     for (int s = 0; s < static_cast<int>(metadata.stations.size()); ++s) stations.push_back(s);
   }
-  std::vector<Eigen::Vector3d> tapeCentres;
-  for (const CameraStation& station : metadata.stations) tapeCentres.push_back(station.tapeCentre);
   CalibrationCaptureOptions planned = options;
-  planned.groupStride = groupStrideFor(nominal, tapeCentres, options.groupStride);
+  planned.groupStride = groupStrideFor(nominal, metadata.stations, options.groupStride);
   const auto groups = moduleGroups(modules, planned.groupStride);
   const int total = static_cast<int>(stations.size() * groups.size() *
                                      (columnPatterns.size() + rowPatterns.size()));

@@ -167,10 +167,10 @@ TEST(CalibrationCaptures, ModuleGroupsCoverEveryModuleOnce) {
 }
 
 // Stations along the observer line at z, `span` apart end to end (what the tape gives).
-std::vector<Eigen::Vector3d> stationsAcross(const DisplayModel& display, double span, int count) {
-  std::vector<Eigen::Vector3d> out;
+std::vector<CameraStation> stationsAcross(const DisplayModel& display, double span, int count) {
+  std::vector<CameraStation> out;
   for (int i = 0; i < count; ++i)
-    out.push_back(display.observer.pointAt(span * (i / (count - 1.0) - 0.5)));
+    out.push_back({display.observer.pointAt(span * (i / (count - 1.0) - 0.5))});
   return out;
 }
 

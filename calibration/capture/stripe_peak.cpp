@@ -149,17 +149,15 @@ std::vector<std::optional<double>> stripePeaksInRow(const std::vector<StripeRowS
   for (size_t m = 0; m < modules; ++m) {
     if (!peaks[m]) continue;
     ownSamples(m);
-    bool contaminated = false;
+    const Lobe guess{lobes[m]->amplitude, 0.0, lobes[m]->width};
+    bool unfitted = false;
     for (size_t other = 0; other < modules; ++other) {
       if (other == m || lobes[other]) continue;
-      const Lobe guess{lobes[m]->amplitude, 0.0, lobes[m]->width};
-      for (size_t k = 0; k < owned[m].size(); ++k) {
-        const double light = guess.at(row[owned[m][k]].angles[other]);
-        contaminated = contaminated || light > 0.0;
-        contrast[k] -= light;
-      }
+      unfitted = true;
+      for (size_t k = 0; k < owned[m].size(); ++k)
+        contrast[k] -= guess.at(row[owned[m][k]].angles[other]);
     }
-    if (!contaminated) continue;
+    if (!unfitted) continue;
     const std::optional<Lobe> cleaned = fitOwn(m);
     if (!cleaned || !(std::abs(cleaned->mean - lobes[m]->mean) <= options.maxNeighbourBias))
       peaks[m].reset();

@@ -18,6 +18,25 @@ constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 // rotation's σ in degrees is twice its tangent's.
 constexpr double kTangentToRotationDeg = 2.0 * kRadToDeg;
 
+ClusterScore zeroScore(int sharedSize) {
+  return {-1, Eigen::VectorXd::Zero(kModuleTangentSize), Eigen::VectorXd::Zero(sharedSize)};
+}
+
+// Adds weight × row r of the Jacobian to `score`, split as its columns [modules | shared].
+void addJacobianRow(const ceres::CRSMatrix& jacobian, size_t r, double weight, int sharedStart,
+                    ClusterScore* score) {
+  for (int k = jacobian.rows[r]; k < jacobian.rows[r + 1]; ++k) {
+    const int col = jacobian.cols[static_cast<size_t>(k)];
+    const double v = jacobian.values[static_cast<size_t>(k)] * weight;
+    if (col >= sharedStart) {
+      score->sharedPart[col - sharedStart] += v;
+    } else {
+      score->module = col / kModuleTangentSize;
+      score->modulePart[col % kModuleTangentSize] += v;
+    }
+  }
+}
+
 // The information of the σ-normalised rows when the rows of a group (FitProblem::groupOf, per
 // axis) share a common error: each group's rows as w I + b 11ᵀ, with w and b measured from the
 // residuals at the solution per kind of row (correspondence u, v; stripe): w the pooled spread
@@ -96,24 +115,11 @@ InformationBlocks sharedErrorInformation(const FitProblem& built, const ceres::C
   for (const Group& g : groups) {
     const auto kk = static_cast<size_t>(g.kind);
     if (between[kk] <= 0.0) continue;
-    Eigen::VectorXd moduleSum = Eigen::VectorXd::Zero(kModuleTangentSize);
-    Eigen::VectorXd sharedSum = Eigen::VectorXd::Zero(sharedSize);
-    int module = -1;
-    for (int r : g.members) {
-      for (int k = jacobian.rows[static_cast<size_t>(r)];
-           k < jacobian.rows[static_cast<size_t>(r) + 1]; ++k) {
-        const int col = jacobian.cols[static_cast<size_t>(k)];
-        const double v = jacobian.values[static_cast<size_t>(k)];
-        if (col >= sharedStart) {
-          sharedSum[col - sharedStart] += v;
-        } else {
-          module = col / kModuleTangentSize;
-          moduleSum[col % kModuleTangentSize] += v;
-        }
-      }
-    }
+    ClusterScore sum = zeroScore(sharedSize);
+    for (int r : g.members)
+      addJacobianRow(jacobian, static_cast<size_t>(r), 1.0, sharedStart, &sum);
     const double coefficient = between[kk] / (within[kk] * (within[kk] + g.rows * between[kk]));
-    subtractCommonPart(moduleSum, sharedSum, module, coefficient, &info);
+    subtractCommonPart(sum.modulePart, sum.sharedPart, sum.module, coefficient, &info);
   }
   result->sharedErrors = {std::sqrt(within[0]),  std::sqrt(within[1]),  std::sqrt(within[2]),
                           std::sqrt(between[0]), std::sqrt(between[1]), std::sqrt(between[2])};
@@ -137,25 +143,9 @@ std::vector<ClusterScore> stationModuleScores(const FitProblem& built,
     const std::int64_t key =
         built.groupOf[b] >= 0 ? built.groupOf[b] / 2 : -1 - static_cast<std::int64_t>(b);
     const auto [it, fresh] = index.try_emplace(key, scores.size());
-    if (fresh) {
-      ClusterScore c;
-      c.modulePart = Eigen::VectorXd::Zero(kModuleTangentSize);
-      c.sharedPart = Eigen::VectorXd::Zero(sharedSize);
-      scores.push_back(std::move(c));
-    }
-    ClusterScore& score = scores[it->second];
-    for (size_t r = row; r < row + rows; ++r) {
-      for (int k = jacobian.rows[r]; k < jacobian.rows[r + 1]; ++k) {
-        const int col = jacobian.cols[static_cast<size_t>(k)];
-        const double v = jacobian.values[static_cast<size_t>(k)] * residuals[r];
-        if (col >= sharedStart) {
-          score.sharedPart[col - sharedStart] += v;
-        } else {
-          score.module = col / kModuleTangentSize;
-          score.modulePart[col % kModuleTangentSize] += v;
-        }
-      }
-    }
+    if (fresh) scores.push_back(zeroScore(sharedSize));
+    for (size_t r = row; r < row + rows; ++r)
+      addJacobianRow(jacobian, r, residuals[r], sharedStart, &scores[it->second]);
     row += rows;
   }
   return scores;

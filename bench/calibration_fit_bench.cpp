@@ -27,6 +27,7 @@
 #include <cstring>
 #include <ctime>
 #include <map>
+#include <optional>
 #include <string>
 
 #include "calibration/camera/calibration_geometry.h"
@@ -92,6 +93,7 @@ struct PictureSession {
   DisplayModel truth;
   CameraTruth camera;
   CameraIntrinsics intrinsicsUsed;
+  std::optional<CheckerboardCalibration> checkerboard;  // unless the true intrinsics were used
   CalibrationObservations obs;
 };
 
@@ -112,7 +114,7 @@ PictureSession pictureSession(const DisplayModel& nominal, std::uint64_t seed,
     shots.pictures = 12;
     captures.checkerboard = simulateCheckerboardCaptures(camera.truth, CheckerboardBoard{}, shots);
     captures.camera.intrinsicsKnown = false;
-    calibrateCapturesCamera(&captures);
+    out.checkerboard = calibrateCapturesCamera(&captures);
   }
   out.intrinsicsUsed = captures.camera.intrinsics;
   CaptureDecoderOptions decoder;
@@ -142,6 +144,8 @@ int decoderError(const std::string& display, std::uint64_t seed, bool trueIntrin
       display.c_str(), static_cast<unsigned long long>(seed),
       trueIntrinsics ? "true" : "checkerboard", session.intrinsicsUsed.fx,
       session.intrinsicsUsed.k1, ti.fx, ti.k1);
+  if (session.checkerboard)
+    std::printf("%s\n", formatCheckerboardCalibration(*session.checkerboard, &ti).c_str());
   const size_t stations = obs.stations.size();
   std::vector<double> sum(stations, 0.0), sumSq(stations, 0.0);
   std::vector<int> count(stations, 0), outliers(stations, 0);

@@ -31,12 +31,18 @@ Eigen::Vector2d CameraIntrinsics::normalized(const Eigen::Vector2d& pixel) const
 
 double& intrinsicsParameter(CameraIntrinsics& intrinsics, int index) {
   switch (index) {
-    case 0: return intrinsics.fx;
-    case 1: return intrinsics.fy;
-    case 2: return intrinsics.cx;
-    case 3: return intrinsics.cy;
-    case 4: return intrinsics.k1;
-    case 5: return intrinsics.k2;
+    case 0:
+      return intrinsics.fx;
+    case 1:
+      return intrinsics.fy;
+    case 2:
+      return intrinsics.cx;
+    case 3:
+      return intrinsics.cy;
+    case 4:
+      return intrinsics.k1;
+    case 5:
+      return intrinsics.k2;
   }
   PARALLAX_CHECK(index >= 0 && index < kIntrinsicsParameters);
   return intrinsics.fx;

@@ -2,10 +2,10 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <Eigen/Cholesky>
 #include <opencv2/calib3d.hpp>
 
 #include "calibration/display/conventions.h"

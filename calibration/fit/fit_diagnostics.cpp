@@ -293,8 +293,8 @@ Eigen::MatrixXd solveInformation(const InformationBlocks& info, const Diagnostic
   for (size_t m = 0; m < moduleCount; ++m) {
     const Eigen::Index start = static_cast<Eigen::Index>(m) * moduleSize;
     x.middleRows(start, moduleSize) =
-        inverses[m] * (scores.middleRows(start, moduleSize) -
-                       info.moduleShared[m] * x.bottomRows(sharedSize));
+        inverses[m] *
+        (scores.middleRows(start, moduleSize) - info.moduleShared[m] * x.bottomRows(sharedSize));
   }
   return x;
 }

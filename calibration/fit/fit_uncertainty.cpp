@@ -228,8 +228,8 @@ void diagnoseUncertainty(const FitInputs& in, FitState& state, const NoiseLevels
   // (intrinsics_sensitivity.h), solved before the widening below changes Σ_ss.
   Eigen::MatrixXd intrinsicsShift;
   if (intrinsicsSensitivity.rows() == jacobian.num_rows) {
-    intrinsicsShift = solveInformation(
-        info, d, options.conditioning, crossInformation(errors, jacobian, intrinsicsSensitivity));
+    intrinsicsShift = solveInformation(info, d, options.conditioning,
+                                       crossInformation(errors, jacobian, intrinsicsSensitivity));
   } else if (!in.obs.intrinsicsCovariance.isZero()) {
     result->notes.push_back(
         "the camera intrinsics' uncertainty could not be carried into the σ (their effect on "

@@ -4,9 +4,9 @@
 // (checkerboard_calibration.h); bad pictures and folders are refused with the file named.
 
 #include <gtest/gtest.h>
-#include <Eigen/Cholesky>
 #include <unistd.h>
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <filesystem>
 #include <fstream>

@@ -57,19 +57,19 @@ TEST(ObservationsJson, IntrinsicsCovarianceRoundTripsAndIsChecked) {
 
   nlohmann::json c = cameraMetadataToJson(o);
   c["intrinsics"]["covariance"][2][2] = -1.0;
-  EXPECT_NE(inputErrorOf([&] { cameraMetadataFromJson(c, &back); })
-                .find("intrinsics.covariance[2][2]"),
-            std::string::npos);
+  EXPECT_NE(
+      inputErrorOf([&] { cameraMetadataFromJson(c, &back); }).find("intrinsics.covariance[2][2]"),
+      std::string::npos);
   c = cameraMetadataToJson(o);
   c["intrinsics"]["covariance"][1][0] = 0.5;  // no longer symmetric
-  EXPECT_NE(inputErrorOf([&] { cameraMetadataFromJson(c, &back); })
-                .find("intrinsics.covariance[1][0]"),
-            std::string::npos);
+  EXPECT_NE(
+      inputErrorOf([&] { cameraMetadataFromJson(c, &back); }).find("intrinsics.covariance[1][0]"),
+      std::string::npos);
   c = cameraMetadataToJson(o);
   c["intrinsics"]["covariance"][3] = {1.0, 2.0};
-  EXPECT_NE(inputErrorOf([&] { cameraMetadataFromJson(c, &back); })
-                .find("intrinsics.covariance[3]"),
-            std::string::npos);
+  EXPECT_NE(
+      inputErrorOf([&] { cameraMetadataFromJson(c, &back); }).find("intrinsics.covariance[3]"),
+      std::string::npos);
   c = cameraMetadataToJson(o);
   c["intrinsics"]["covariance"].erase(5);
   EXPECT_NE(inputErrorOf([&] { cameraMetadataFromJson(c, &back); }).find("intrinsics.covariance"),

@@ -8,6 +8,8 @@
 //   calibration_fit_bench [default|demo] [--quick] [--experiment]
 //   calibration_fit_bench [--display NAME|FILE] --pictures N [--true-intrinsics]
 //   calibration_fit_bench [--display NAME|FILE] --decoder-error SEED [--true-intrinsics]
+//   calibration_fit_bench --setup NAME|all [--seeds N] [--first-seed S] [--threads T] [--verbose]
+//   calibration_fit_bench --noise-map
 // --experiment: only the errors-in-variables comparison (where the correspondences' noise sits:
 // on the camera pixel, as a camera gives it, or on the module pixel; the residual: two-stage
 // camera px, FitOptions' default, or module px only), at two sampling densities.
@@ -16,6 +18,10 @@
 // (checkerboard intrinsics, patterns from five stations over 4 m), decoded and fitted; per seed
 // the gate's verdict, the true worst error against the predicted 3σ worst, and over the sweep
 // the coverage (true worst within 3σ, per module) and the ratio of true to predicted RMS.
+// --setup: the picture path over the synthetic sweep's setups (picture_sessions.h), by name
+// ("2 stations", "observer line 10 m", ...; "all": every one), N seeds each (20) from S (1000);
+// the table per setup and the count of installed modules beyond the gate's limits (exit 1 when
+// there are any). --noise-map: how the synthetic camera noise maps to the sensor's.
 // --decoder-error SEED: one such session, the decoder's stripe centres and correspondences
 // measured against the truth (bias and outliers), and the fit's error against its σ per module.
 
@@ -27,17 +33,14 @@
 #include <cstring>
 #include <ctime>
 #include <map>
-#include <optional>
 #include <string>
 
+#include "bench/picture_sessions.h"
 #include "calibration/camera/calibration_geometry.h"
-#include "calibration/capture/calibration_captures.h"
-#include "calibration/capture/checkerboard_calibration.h"
 #include "calibration/display/display_presets.h"
 #include "calibration/display/ray_error.h"
 #include "calibration/fit/display_fit.h"
 #include "calibration/simulation/ground_truth.h"
-#include "calibration/simulation/simulated_session.h"
 #include "calibration/simulation/synthetic_observations.h"
 
 namespace {
@@ -87,40 +90,11 @@ void print(const std::string& value, const Row& r) {
   std::fflush(stdout);
 }
 
-// One picture-path session on demo: the truth, the camera's truth and what the decoder made of
-// the rendered pictures (intrinsics from simulated checkerboard pictures, or the true ones).
-struct PictureSession {
-  DisplayModel truth;
-  CameraTruth camera;
-  CameraIntrinsics intrinsicsUsed;
-  std::optional<CheckerboardCalibration> checkerboard;  // unless the true intrinsics were used
-  CalibrationObservations obs;
-};
-
 PictureSession pictureSession(const DisplayModel& nominal, std::uint64_t seed,
                               bool trueIntrinsics = false) {
-  PictureSession out;
-  GroundTruthOptions gt;
-  gt.seed = seed;
-  out.truth = makeGroundTruth(nominal, gt);
-  CameraRigOptions rig;
-  rig.spanM = 4.0;
-  rig.intrinsics = CameraIntrinsics::centred(640, 360, 700.0, -0.04);
-  const SimulatedRig camera = makeSimulatedRig(out.truth, rig, seed * 7919 + 1);
-  out.camera = camera.truth;
-  CalibrationCaptures captures = renderSession(out.truth, camera.truth, camera.metadata, {});
-  if (!trueIntrinsics) {
-    CheckerboardShotOptions shots;
-    shots.pictures = 12;
-    captures.checkerboard = simulateCheckerboardCaptures(camera.truth, CheckerboardBoard{}, shots);
-    captures.camera.intrinsicsKnown = false;
-    out.checkerboard = calibrateCapturesCamera(&captures);
-  }
-  out.intrinsicsUsed = captures.camera.intrinsics;
-  CaptureDecoderOptions decoder;
-  decoder.pixelStep = 6;
-  out.obs = decodeCaptures(captures, nominal, decoder);
-  return out;
+  PictureSessionOptions options;
+  options.trueIntrinsics = trueIntrinsics;
+  return renderPictureSession(nominal, seed, options);
 }
 
 // The decoder's own error, measured against the truth (true display, camera poses and
@@ -411,7 +385,40 @@ int pictureSweep(const std::string& display, int seeds, bool trueIntrinsics) {
 int main(int argc, char** argv) {
   std::string preset = "default", pictureDisplay = "demo";
   bool quick = false, experiment = false;
+  PictureSweepOptions sweep;
+  bool setupSweep = false;
   for (int i = 1; i < argc; ++i) {
+    const bool hasValue = i + 1 < argc;
+    if (std::strcmp(argv[i], "--setup") == 0 && hasValue) {
+      sweep.setup = argv[++i];
+      setupSweep = true;
+      continue;
+    }
+    if (std::strcmp(argv[i], "--setups") == 0 && hasValue) {
+      sweep.setup = argv[++i];  // "all"
+      setupSweep = true;
+      continue;
+    }
+    if (std::strcmp(argv[i], "--seeds") == 0 && hasValue) {
+      sweep.seeds = std::max(1, std::atoi(argv[++i]));
+      continue;
+    }
+    if (std::strcmp(argv[i], "--first-seed") == 0 && hasValue) {
+      sweep.firstSeed = std::atoi(argv[++i]);
+      continue;
+    }
+    if (std::strcmp(argv[i], "--threads") == 0 && hasValue) {
+      sweep.threads = std::max(1, std::atoi(argv[++i]));
+      continue;
+    }
+    if (std::strcmp(argv[i], "--verbose") == 0) {
+      sweep.verbose = true;
+      continue;
+    }
+    if (std::strcmp(argv[i], "--noise-map") == 0) {
+      pictureNoiseMap(sweep.threads);
+      return 0;
+    }
     if (std::strcmp(argv[i], "--display") == 0 && i + 1 < argc) {
       pictureDisplay = argv[++i];
       continue;
@@ -430,6 +437,10 @@ int main(int argc, char** argv) {
                           i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0);
     } else
       preset = argv[i];
+  }
+  if (setupSweep) {
+    const int beyond = pictureSetupSweep(sweep);
+    return beyond < 0 ? 2 : beyond > 0 ? 1 : 0;
   }
   NominalDisplayOptions nominalOptions;
   nominalOptions.preset = preset;

@@ -1,5 +1,6 @@
 #include "calibration/simulation/simulated_session.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace parallax {
@@ -48,7 +49,11 @@ CalibrationCaptures renderSession(const DisplayModel& truth, const CameraTruth& 
       auto shoot = [&](const std::vector<cv::Mat>& patterns, std::vector<cv::Mat>* out) {
         for (const cv::Mat& pattern : patterns) {
           std::vector<cv::Mat> images(truth.modules.size());
-          for (int m : group) images[static_cast<size_t>(m)] = pattern;
+          for (int m : group) {
+            const bool dark = std::find(options.darkModules.begin(), options.darkModules.end(),
+                                        m) != options.darkModules.end();
+            if (!dark) images[static_cast<size_t>(m)] = pattern;
+          }
           cv::Mat recorded = renderFrame(view, images, cameraTruth.sensor, random);
           cv::Mat bytes;
           recorded.convertTo(bytes, CV_8U, 255.0);

@@ -20,6 +20,9 @@ struct SimulatedSessionOptions {
   // The modules' own response: a pattern value v is shown as v^moduleGamma (projectors driven
   // without linearization; 1: linear, as the patterns assume).
   double moduleGamma = 1.0;
+  // Modules that stay dark in every picture (a dead projector, or one no station sees): the
+  // picture-path counterpart of SyntheticOptions::hiddenModules.
+  std::vector<int> darkModules;
   // Called after every picture (done of total): a session of demo takes a minute or more.
   std::function<void(int done, int total)> onPicture;
 };

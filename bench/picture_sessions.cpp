@@ -1,0 +1,331 @@
+#include "bench/picture_sessions.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+
+#include "calibration/capture/calibration_captures.h"
+#include "calibration/capture/checkerboard_calibration.h"
+#include "calibration/display/display_presets.h"
+#include "calibration/display/ray_error.h"
+#include "calibration/fit/display_fit.h"
+#include "calibration/simulation/ground_truth.h"
+#include "calibration/simulation/simulated_session.h"
+#include "calibration/simulation/synthetic_observations.h"
+
+namespace parallax {
+
+PictureSession renderPictureSession(const DisplayModel& nominal, std::uint64_t seed,
+                                    const PictureSessionOptions& options) {
+  PictureSession out;
+  GroundTruthOptions gt;
+  gt.seed = seed;
+  gt.transfer = options.truthTransfer;
+  out.truth = makeGroundTruth(nominal, gt);
+  CameraRigOptions rig;
+  rig.stations = options.stations;
+  rig.spanM = options.spanM;
+  rig.intrinsics = CameraIntrinsics::centred(640, 360, 700.0, -0.04);
+  CameraRenderOptions sensor;
+  if (options.sensorNoise) sensor.noiseSigma = *options.sensorNoise;
+  const SimulatedRig camera = makeSimulatedRig(out.truth, rig, seed * 7919 + 1, sensor);
+  out.camera = camera.truth;
+  SimulatedSessionOptions session;
+  session.darkModules = options.darkModules;
+  CalibrationCaptures captures = renderSession(out.truth, camera.truth, camera.metadata, session);
+  if (!options.trueIntrinsics) {
+    CheckerboardShotOptions shots;
+    shots.pictures = 12;
+    captures.checkerboard = simulateCheckerboardCaptures(camera.truth, CheckerboardBoard{}, shots);
+    captures.camera.intrinsicsKnown = false;
+    out.checkerboard = calibrateCapturesCamera(&captures);
+  }
+  out.intrinsicsUsed = captures.camera.intrinsics;
+  CaptureDecoderOptions decoder;
+  decoder.pixelStep = 6;
+  out.obs = decodeCaptures(captures, nominal, decoder);
+  return out;
+}
+
+namespace {
+
+// The synthetic sweep's camera noise p (σ in px of its 1920 × 1080 camera at f 2100) as the
+// simulated sensor's noise (recorded units, full scale 1): 0.0375·p makes the fit measure the
+// same correspondence σ on both paths (`--noise-map`, demo seed 1000: synthetic 0.296 module px
+// per camera px of noise; pictures 7.9 module px per unit of sensor noise, 0.035 at the
+// sensor's default 0.004, i.e. the default is the sweep's 0.1 px). The pictures' 640 × 360
+// camera (f 700) sees the same angles with 3× larger pixels: p is p/3 of its own px.
+constexpr double kSensorNoisePerSyntheticPx = 0.0375;
+
+// The setups of tests/calibration/calibration_sweep_test.cpp, by the same names and values.
+struct PictureSetup {
+  std::string name;
+  int modules = 16;  // 16: demo (512×384); otherwise the default layout at 256×192
+  int stations = 5;
+  double spanM = 3.2;
+  double noisePx = 0.3;
+  ScreenTransfer truth = ScreenTransfer::kConical;
+  ScreenTransfer nominal = ScreenTransfer::kConical;
+  double observerM = 2.0;
+  std::vector<int> dark;
+};
+
+std::vector<PictureSetup> pictureSetups() {
+  std::vector<PictureSetup> out;
+  auto add = [&](std::string name, auto&& change) {
+    PictureSetup s;
+    s.name = std::move(name);
+    change(s);
+    out.push_back(s);
+  };
+  add("base: 5 stations 0.3 px", [](PictureSetup&) {});
+  add("noise 0.1 px", [](PictureSetup& s) { s.noisePx = 0.1; });
+  add("noise 1 px", [](PictureSetup& s) { s.noisePx = 1.0; });
+  add("noise 2 px", [](PictureSetup& s) { s.noisePx = 2.0; });
+  add("3 stations", [](PictureSetup& s) { s.stations = 3; });
+  add("2 stations", [](PictureSetup& s) { s.stations = 2; });
+  add("linear screen", [](PictureSetup& s) { s.truth = s.nominal = ScreenTransfer::kLinear; });
+  add("linear truth, conical nominal", [](PictureSetup& s) { s.truth = ScreenTransfer::kLinear; });
+  add("conical truth, linear nominal",
+      [](PictureSetup& s) { s.nominal = ScreenTransfer::kLinear; });
+  add("mismatch at 1 px", [](PictureSetup& s) {
+    s.truth = ScreenTransfer::kLinear;
+    s.noisePx = 1.0;
+  });
+  add("observer line 1 m", [](PictureSetup& s) {
+    s.observerM = 1.0;
+    s.spanM = 1.6;
+  });
+  add("observer line 6 m", [](PictureSetup& s) { s.observerM = 6.0; });
+  add("observer line 10 m", [](PictureSetup& s) { s.observerM = 10.0; });
+  add("narrow span 1 m", [](PictureSetup& s) { s.spanM = 1.0; });
+  add("wide span 5 m", [](PictureSetup& s) { s.spanM = 5.0; });
+  add("2 modules unseen", [](PictureSetup& s) { s.dark = {3, 12}; });
+  add("72 modules", [](PictureSetup& s) { s.modules = 72; });
+  return out;
+}
+
+DisplayModel nominalOf(const PictureSetup& s) {
+  NominalDisplayOptions options;
+  options.preset = s.modules == 16 ? "demo" : "default";
+  if (s.modules != 16) {
+    options.modules = s.modules;
+    options.width = 256;
+    options.height = 192;
+  }
+  options.transfer = s.nominal;
+  DisplayModel model = makeNominalDisplay(options);
+  model.observer.z = s.observerM;
+  return model;
+}
+
+// What the predicted σ says against the truth, over a set of modules.
+struct Coverage {
+  int modules = 0, covered = 0;
+  double trueSqPx = 0, predSqPx = 0, trueSqMm = 0, predSqMm = 0;
+
+  void add(const Coverage& o) {
+    modules += o.modules;
+    covered += o.covered;
+    trueSqPx += o.trueSqPx;
+    predSqPx += o.predSqPx;
+    trueSqMm += o.trueSqMm;
+    predSqMm += o.predSqMm;
+  }
+  std::string text() const {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%.1f%% of %d, %.2f / %.2f",
+                  modules ? 100.0 * covered / modules : 0.0, modules,
+                  predSqPx > 0 ? std::sqrt(trueSqPx / predSqPx) : 0.0,
+                  predSqMm > 0 ? std::sqrt(trueSqMm / predSqMm) : 0.0);
+    return buf;
+  }
+};
+
+struct SetupTally {
+  int runs = 0, accepted = 0, violations = 0;  // violations: installed modules beyond limits
+  double worstPx = 0, worstMm = 0, boundPx = 0, boundMm = 0;  // accepted runs
+  double sigmaSum = 0;                                        // the fit's σ, module px
+  double seconds = 0;
+  Coverage installed, judged;
+  std::string firstRefusal;
+};
+
+void runOne(const PictureSetup& s, std::uint64_t seed, int threads, bool verbose, SetupTally* t) {
+  const auto start = std::chrono::steady_clock::now();
+  const DisplayModel nominal = nominalOf(s);
+  PictureSessionOptions options;
+  options.stations = s.stations;
+  options.spanM = s.spanM;
+  options.sensorNoise = s.noisePx * kSensorNoisePerSyntheticPx;
+  options.truthTransfer = s.truth;
+  options.darkModules = s.dark;
+  const PictureSession session = renderPictureSession(nominal, seed, options);
+  FitOptions fit;
+  fit.threads = threads;
+  const FitResult result = fitDisplay(nominal, session.obs, fit);
+  const std::vector<RayErrorStats> rays = compareRays(session.truth, result.model);
+  const bool accepted = result.passesQualityChecks();
+  ++t->runs;
+  t->accepted += accepted;
+  t->sigmaSum += result.correspondenceSigmaPx;
+  const std::vector<std::string> why = result.gate.describe();
+  if (!accepted && t->firstRefusal.empty())
+    t->firstRefusal = why.empty() ? "(refused without a reason)" : why.front();
+  double runWorstPx = 0, runWorstMm = 0, runBoundPx = 0, runBoundMm = 0;
+  Coverage runCoverage;
+  for (const ModuleGate& g : result.gate.modules) {
+    const RayErrorStats& e = rays[static_cast<size_t>(g.module)];
+    const bool heldNominal =
+        std::count(result.gate.heldNominal.begin(), result.gate.heldNominal.end(), g.module) > 0;
+    if (accepted && !heldNominal) {
+      runWorstPx = std::max(runWorstPx, e.maxPx);
+      runWorstMm = std::max(runWorstMm, e.maxObserverMm);
+      runBoundPx = std::max(runBoundPx, g.boundPx);
+      runBoundMm = std::max(runBoundMm, g.boundObserverMm);
+      if (e.maxPx > fit.gate.worstPx || e.maxObserverMm > fit.gate.worstObserverMm) {
+        ++t->violations;
+        std::printf(
+            "BEYOND THE LIMITS: %s seed %llu: installed module %d is %.3f px / %.2f mm off at "
+            "its worst (limits %.1f px / %.1f mm; predicted 3σ worst %.3f px / %.2f mm)\n",
+            s.name.c_str(), static_cast<unsigned long long>(seed), g.module, e.maxPx,
+            e.maxObserverMm, fit.gate.worstPx, fit.gate.worstObserverMm, g.boundPx,
+            g.boundObserverMm);
+      }
+    }
+    // As the synthetic sweep: coverage over modules with a bounded prediction in fits that
+    // finished with a decided transfer, accepted or not ("judged"), and the installed ones.
+    if (!result.gate.reasons.empty() || !g.predicted.bounded || g.predicted.samples == 0 ||
+        g.held || e.samples == 0)
+      continue;
+    const double k = fit.gate.sigmas;
+    Coverage one;
+    one.modules = 1;
+    one.covered =
+        e.maxPx <= k * g.predicted.worstPx && e.maxObserverMm <= k * g.predicted.worstObserverMm;
+    one.trueSqPx = e.rmsPx * e.rmsPx;
+    one.predSqPx = g.predicted.rmsPx * g.predicted.rmsPx;
+    one.trueSqMm = e.rmsObserverMm * e.rmsObserverMm;
+    one.predSqMm = g.predicted.rmsObserverMm * g.predicted.rmsObserverMm;
+    runCoverage.add(one);
+    t->judged.add(one);
+    if (accepted && !heldNominal) t->installed.add(one);
+  }
+  t->worstPx = std::max(t->worstPx, runWorstPx);
+  t->worstMm = std::max(t->worstMm, runWorstMm);
+  t->boundPx = std::max(t->boundPx, runBoundPx);
+  t->boundMm = std::max(t->boundMm, runBoundMm);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  t->seconds += seconds;
+  if (verbose)
+    std::printf(
+        "  %s seed %llu: %s, true worst %.3f px / %.2f mm, 3σ worst %.3f / %.2f, "
+        "judged %s, σ %.3f module px, %.0f s%s%s\n",
+        s.name.c_str(), static_cast<unsigned long long>(seed), accepted ? "accepted" : "refused",
+        runWorstPx, runWorstMm, runBoundPx, runBoundMm, runCoverage.text().c_str(),
+        result.correspondenceSigmaPx, seconds, why.empty() ? "" : ": ",
+        why.empty() ? "" : why.front().c_str());
+  std::fflush(stdout);
+}
+
+void printRow(const std::string& name, const SetupTally& t) {
+  std::printf("| %s | %d | %d / %d | %.3f / %.2f | %.3f / %.2f | %s | %s | %.3f | %.0f | %s |\n",
+              name.c_str(), t.runs, t.accepted, t.runs - t.accepted, t.worstPx, t.worstMm,
+              t.boundPx, t.boundMm, t.installed.text().c_str(), t.judged.text().c_str(),
+              t.runs ? t.sigmaSum / t.runs : 0.0, t.runs ? t.seconds / t.runs : 0.0,
+              t.firstRefusal.c_str());
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int pictureSetupSweep(const PictureSweepOptions& options) {
+  std::vector<PictureSetup> chosen;
+  for (const PictureSetup& s : pictureSetups())
+    if (options.setup == "all" || options.setup == s.name) chosen.push_back(s);
+  if (chosen.empty()) {
+    std::fprintf(stderr, "unknown setup \"%s\"; the setups:\n", options.setup.c_str());
+    for (const PictureSetup& s : pictureSetups()) std::fprintf(stderr, "  %s\n", s.name.c_str());
+    return -1;
+  }
+  double load[1] = {-1.0};
+  getloadavg(load, 1);
+  std::printf(
+      "# picture path over the synthetic sweep's setups: seeds %d-%d, checkerboard intrinsics, "
+      "640×360 camera (f 700), pixel step 6; camera noise p px → sensor noise %.3f·p; load %.2f\n"
+      "| setup | runs | accepted / refused | true worst px / mm (accepted) | predicted 3σ worst "
+      "px / mm (accepted) | installed: within 3σ, true/pred RMS px / mm | all judged: within "
+      "3σ, true/pred RMS px / mm | fit σ module px | s a run | first refusal |\n"
+      "|---|---|---|---|---|---|---|---|---|---|\n",
+      options.firstSeed, options.firstSeed + options.seeds - 1, kSensorNoisePerSyntheticPx,
+      load[0]);
+  std::fflush(stdout);
+  SetupTally all;
+  for (const PictureSetup& s : chosen) {
+    SetupTally t;
+    for (int i = 0; i < options.seeds; ++i)
+      runOne(s, static_cast<std::uint64_t>(options.firstSeed + i), options.threads, options.verbose,
+             &t);
+    printRow(s.name, t);
+    all.runs += t.runs;
+    all.accepted += t.accepted;
+    all.violations += t.violations;
+    all.worstPx = std::max(all.worstPx, t.worstPx);
+    all.worstMm = std::max(all.worstMm, t.worstMm);
+    all.boundPx = std::max(all.boundPx, t.boundPx);
+    all.boundMm = std::max(all.boundMm, t.boundMm);
+    all.sigmaSum += t.sigmaSum;
+    all.seconds += t.seconds;
+    all.installed.add(t.installed);
+    all.judged.add(t.judged);
+    if (all.firstRefusal.empty()) all.firstRefusal = t.firstRefusal;
+  }
+  if (chosen.size() > 1) printRow("all", all);
+  std::printf(
+      "\nall: %d runs, %d accepted, %d refused; installed modules beyond the gate's limits: %d; "
+      "installed modules within 3σ: %s\n",
+      all.runs, all.accepted, all.runs - all.accepted, all.violations,
+      all.installed.text().c_str());
+  return all.violations;
+}
+
+void pictureNoiseMap(int threads) {
+  const PictureSetup base;
+  const DisplayModel nominal = nominalOf(base);
+  const std::uint64_t seed = 1000;
+  std::printf(
+      "# camera noise: the fit's correspondence σ (module px) and stripe σ (mm), %s "
+      "seed %llu, 5 stations over 3.2 m\n| path | noise | σ module px | stripe σ mm |\n"
+      "|---|---|---|---|\n",
+      nominal.name.c_str(), static_cast<unsigned long long>(seed));
+  FitOptions fit;
+  fit.threads = threads;
+  GroundTruthOptions gt;
+  gt.seed = seed;
+  const DisplayModel truth = makeGroundTruth(nominal, gt);
+  for (double p : {0.1, 0.3, 1.0, 2.0}) {
+    SyntheticOptions sim;
+    sim.seed = seed * 7919 + 1;
+    sim.noisePx = p;
+    sim.rig.spanM = base.spanM;
+    const FitResult r = fitDisplay(nominal, simulateObservations(truth, sim).observations, fit);
+    std::printf("| synthetic | %.1f camera px | %.4f | %.3f |\n", p, r.correspondenceSigmaPx,
+                r.stripeSigmaMm);
+    std::fflush(stdout);
+  }
+  for (double sensor : {0.004, 0.01, 0.02, 0.04}) {
+    PictureSessionOptions options;
+    options.spanM = base.spanM;
+    options.sensorNoise = sensor;
+    const PictureSession session = renderPictureSession(nominal, seed, options);
+    const FitResult r = fitDisplay(nominal, session.obs, fit);
+    std::printf("| pictures | sensor %.3f | %.4f | %.3f |\n", sensor, r.correspondenceSigmaPx,
+                r.stripeSigmaMm);
+    std::fflush(stdout);
+  }
+}
+
+}  // namespace parallax

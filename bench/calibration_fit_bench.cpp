@@ -9,6 +9,7 @@
 //   calibration_fit_bench [--display NAME|FILE] --pictures N [--true-intrinsics]
 //   calibration_fit_bench [--display NAME|FILE] --decoder-error SEED [--true-intrinsics]
 //   calibration_fit_bench --setup NAME|all [--seeds N] [--first-seed S] [--threads T] [--verbose]
+//                        [--allow-partial]
 //   calibration_fit_bench --noise-map
 // --experiment: only the errors-in-variables comparison (where the correspondences' noise sits:
 // on the camera pixel, as a camera gives it, or on the module pixel; the residual: two-stage
@@ -411,6 +412,10 @@ int main(int argc, char** argv) {
     }
     if (std::strcmp(argv[i], "--verbose") == 0) {
       sweep.verbose = true;
+      continue;
+    }
+    if (std::strcmp(argv[i], "--allow-partial") == 0) {
+      sweep.allowPartial = true;
       continue;
     }
     if (std::strcmp(argv[i], "--noise-map") == 0) {

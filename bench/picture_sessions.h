@@ -42,6 +42,8 @@ struct PictureSweepOptions {
   int firstSeed = 1000;
   int threads = 2;       // the fit's solver threads
   bool verbose = false;  // a line per run
+  // GateLimits::allowPartial: the modules that pass are installed, the others held nominal.
+  bool allowPartial = false;
 };
 
 // Prints the table (markdown) and the overall line; returns the number of installed modules

@@ -121,6 +121,16 @@ DisplayModel nominalOf(const PictureSetup& s) {
   return model;
 }
 
+PictureSessionOptions sessionOptionsOf(const PictureSetup& s) {
+  PictureSessionOptions options;
+  options.stations = s.stations;
+  options.spanM = s.spanM;
+  options.sensorNoise = s.noisePx * kSensorNoisePerSyntheticPx;
+  options.truthTransfer = s.truth;
+  options.darkModules = s.dark;
+  return options;
+}
+
 // What the predicted σ says against the truth, over a set of modules.
 struct Coverage {
   int modules = 0, covered = 0;
@@ -158,13 +168,7 @@ void runOne(const PictureSetup& s, std::uint64_t seed, const PictureSweepOptions
             SetupTally* t) {
   const auto start = std::chrono::steady_clock::now();
   const DisplayModel nominal = nominalOf(s);
-  PictureSessionOptions options;
-  options.stations = s.stations;
-  options.spanM = s.spanM;
-  options.sensorNoise = s.noisePx * kSensorNoisePerSyntheticPx;
-  options.truthTransfer = s.truth;
-  options.darkModules = s.dark;
-  const PictureSession session = renderPictureSession(nominal, seed, options);
+  const PictureSession session = renderPictureSession(nominal, seed, sessionOptionsOf(s));
   FitOptions fit;
   fit.threads = sweep.threads;
   fit.gate.allowPartial = sweep.allowPartial;
@@ -264,6 +268,19 @@ void printRow(const std::string& name, const SetupTally& t) {
 }
 
 }  // namespace
+
+bool pictureSetupByName(const std::string& name, DisplayModel* nominal,
+                        PictureSessionOptions* options) {
+  for (const PictureSetup& s : pictureSetups()) {
+    if (s.name != name) continue;
+    *nominal = nominalOf(s);
+    const bool trueIntrinsics = options->trueIntrinsics;
+    *options = sessionOptionsOf(s);
+    options->trueIntrinsics = trueIntrinsics;
+    return true;
+  }
+  return false;
+}
 
 int pictureSetupSweep(const PictureSweepOptions& options) {
   std::vector<PictureSetup> chosen;

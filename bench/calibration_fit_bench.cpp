@@ -11,6 +11,7 @@
 //   calibration_fit_bench --setup NAME|all [--seeds N] [--first-seed S] [--threads T] [--verbose]
 //                        [--allow-partial]
 //   calibration_fit_bench --setup NAME --decoder-error SEED [--true-intrinsics]
+//                         [--module-px-residual]
 //   calibration_fit_bench --noise-map
 // --experiment: only the errors-in-variables comparison (where the correspondences' noise sits:
 // on the camera pixel, as a camera gives it, or on the module pixel; the residual: two-stage
@@ -104,7 +105,8 @@ PictureSession pictureSession(const DisplayModel& nominal, std::uint64_t seed,
 // path's error comes from (issue 17). Outliers (stripes > 1 mm, correspondences > 0.5 px at the
 // truth) are counted apart; the means of the rest are the decoder's biases.
 int decoderError(const DisplayModel& nominal, const std::string& display,
-                 const PictureSessionOptions& options, std::uint64_t seed) {
+                 const PictureSessionOptions& options, std::uint64_t seed,
+                 bool residualInModulePx) {
   const bool trueIntrinsics = options.trueIntrinsics;
   const PictureSession session = renderPictureSession(nominal, seed, options);
   const CalibrationObservations& obs = session.obs;
@@ -283,9 +285,13 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
 
   FitOptions fit;
   fit.threads = 2;
+  // A decoded correspondence's noise is on its module pixel (the camera pixel is a grid point):
+  // --module-px-residual fits it where it sits (FitOptions::residualInCameraPx false).
+  fit.residualInCameraPx = !residualInModulePx;
   const FitResult result = fitDisplay(nominal, obs, fit);
   const std::vector<RayErrorStats> rays = compareRays(session.truth, result.model);
-  std::printf("fit: k %.5f (true %.5f, σ %.5f); σ correspondences %.3f px, stripes %.3f mm\n",
+  std::printf("fit (%s residual): k", residualInModulePx ? "module px" : "camera px (two-stage)");
+  std::printf(" %.5f (true %.5f, σ %.5f); σ correspondences %.3f px, stripes %.3f mm\n",
               result.model.screen.curvature, k, result.curvatureStdDev,
               result.correspondenceSigmaPx, result.stripeSigmaMm);
   const auto& se = result.sharedErrors;
@@ -436,15 +442,20 @@ int main(int argc, char** argv) {
     else if (std::strcmp(argv[i], "--decoder-error") == 0 && i + 1 < argc) {
       const auto seed = static_cast<std::uint64_t>(std::atoll(argv[++i]));
       PictureSessionOptions options;
-      options.trueIntrinsics = i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0;
+      bool modulePx = false;
+      for (int j = i + 1; j < argc; ++j) {
+        options.trueIntrinsics |= std::strcmp(argv[j], "--true-intrinsics") == 0;
+        modulePx |= std::strcmp(argv[j], "--module-px-residual") == 0;
+      }
       if (!setupSweep)
-        return decoderError(resolveDisplay(pictureDisplay), pictureDisplay, options, seed);
+        return decoderError(resolveDisplay(pictureDisplay), pictureDisplay, options, seed,
+                            modulePx);
       DisplayModel nominal;
       if (!pictureSetupByName(sweep.setup, &nominal, &options)) {
         std::fprintf(stderr, "unknown setup \"%s\"\n", sweep.setup.c_str());
         return 2;
       }
-      return decoderError(nominal, sweep.setup, options, seed);
+      return decoderError(nominal, sweep.setup, options, seed, modulePx);
     } else if (std::strcmp(argv[i], "--pictures") == 0 && i + 1 < argc) {
       const int seeds = std::max(1, std::atoi(argv[++i]));
       return pictureSweep(pictureDisplay, seeds,

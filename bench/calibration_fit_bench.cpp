@@ -123,6 +123,8 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
       display.c_str(), static_cast<unsigned long long>(seed),
       trueIntrinsics ? "true" : "checkerboard", session.intrinsicsUsed.fx,
       session.intrinsicsUsed.k1, ti.fx, ti.k1);
+  if (session.checkerboard)
+    std::printf("%s\n", formatCheckerboardCalibration(*session.checkerboard, &ti).c_str());
   const size_t stations = obs.stations.size();
   std::vector<double> sum(stations, 0.0), sumSq(stations, 0.0);
   std::vector<int> count(stations, 0), outliers(stations, 0);

@@ -40,7 +40,7 @@ PictureSession renderPictureSession(const DisplayModel& nominal, std::uint64_t s
     shots.pictures = 12;
     captures.checkerboard = simulateCheckerboardCaptures(camera.truth, CheckerboardBoard{}, shots);
     captures.camera.intrinsicsKnown = false;
-    calibrateCapturesCamera(&captures);
+    out.checkerboard = calibrateCapturesCamera(&captures);
   }
   out.intrinsicsUsed = captures.camera.intrinsics;
   CaptureDecoderOptions decoder;

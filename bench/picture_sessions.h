@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "calibration/camera/calibration_observations.h"
+#include "calibration/capture/checkerboard_calibration.h"
 #include "calibration/display/display_model.h"
 #include "calibration/simulation/camera_truth.h"
 
@@ -30,6 +31,7 @@ struct PictureSession {
   DisplayModel truth;
   CameraTruth camera;
   CameraIntrinsics intrinsicsUsed;
+  std::optional<CheckerboardCalibration> checkerboard;  // unless the true intrinsics were used
   CalibrationObservations obs;
 };
 

@@ -281,8 +281,11 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
   for (int row = y0; row < y1; ++row) {
     const auto [begin, end] = liveColumns(row);
     Rgb* line = &frame_->at(0, row);
-    std::fill(line + x0, line + begin, Rgb::Zero());
-    std::fill(line + end, line + x1, Rgb::Zero());
+    // Masked pixels are black: +0.0f is all zero bits, so memset writes them as whole vectors
+    // where std::fill stored each 12-byte Rgb as two moves (3-5% of initialRays on demo).
+    static_assert(sizeof(Rgb) == 3 * sizeof(float));
+    std::memset(static_cast<void*>(line + x0), 0, sizeof(Rgb) * static_cast<size_t>(begin - x0));
+    std::memset(static_cast<void*>(line + end), 0, sizeof(Rgb) * static_cast<size_t>(x1 - end));
     c->masked += (begin - x0) + (x1 - end);
     if (begin == end) continue;
     job.count = end - begin;

@@ -1,6 +1,7 @@
 #include "calibration/camera/calibration_camera.h"
 
 #include "calibration/display/conventions.h"
+#include "common/check.h"
 
 namespace parallax {
 
@@ -26,6 +27,25 @@ Eigen::Vector2d CameraIntrinsics::normalized(const Eigen::Vector2d& pixel) const
     y = yd / scale;
   }
   return {x, y};
+}
+
+double& intrinsicsParameter(CameraIntrinsics& intrinsics, int index) {
+  switch (index) {
+    case 0:
+      return intrinsics.fx;
+    case 1:
+      return intrinsics.fy;
+    case 2:
+      return intrinsics.cx;
+    case 3:
+      return intrinsics.cy;
+    case 4:
+      return intrinsics.k1;
+    case 5:
+      return intrinsics.k2;
+  }
+  PARALLAX_CHECK(index >= 0 && index < kIntrinsicsParameters);
+  return intrinsics.fx;
 }
 
 Eigen::Quaterniond aimCameraAt(const Eigen::Vector3d& centre, const Eigen::Vector3d& target) {

@@ -41,6 +41,12 @@ struct CameraIntrinsics {
   }
 };
 
+// The six intrinsics a checkerboard calibration estimates, in the order of their covariance
+// wherever one is carried: fx, fy, cx, cy, k1, k2.
+inline constexpr int kIntrinsicsParameters = 6;
+using IntrinsicsCovariance = Eigen::Matrix<double, kIntrinsicsParameters, kIntrinsicsParameters>;
+double& intrinsicsParameter(CameraIntrinsics& intrinsics, int index);
+
 struct CameraPose {
   Eigen::Quaterniond physicalFromCamera = Eigen::Quaterniond::Identity();
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // physical (m)

@@ -40,6 +40,9 @@ struct FiducialSighting {
 
 struct CalibrationObservations {
   CameraIntrinsics intrinsics;
+  // Their uncertainty when they were estimated (the checkerboard's; zero: taken as exact). The
+  // fit holds them fixed and carries this into its σ (fit_uncertainty.h).
+  IntrinsicsCovariance intrinsicsCovariance = IntrinsicsCovariance::Zero();
   std::vector<CameraStation> stations;
   std::vector<Eigen::Vector2d> fiducials;  // (x, y) on the screen surface, z = sag(x)
   std::vector<Correspondence> correspondences;

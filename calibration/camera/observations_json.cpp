@@ -51,6 +51,15 @@ json cameraMetadataToJson(const CalibrationObservations& o) {
                      {"focal_px", {in.fx, in.fy}},
                      {"principal_px", {in.cx, in.cy}},
                      {"distortion", {in.k1, in.k2}}};
+  if (!o.intrinsicsCovariance.isZero()) {
+    json rowsOut = json::array();
+    for (int r = 0; r < kIntrinsicsParameters; ++r) {
+      json row = json::array();
+      for (int c = 0; c < kIntrinsicsParameters; ++c) row.push_back(o.intrinsicsCovariance(r, c));
+      rowsOut.push_back(row);
+    }
+    j["intrinsics"]["covariance"] = rowsOut;
+  }
   j["stations"] = json::array();
   for (const CameraStation& s : o.stations) {
     j["stations"].push_back(
@@ -98,6 +107,32 @@ void intrinsicsFromJson(const json& in, CalibrationObservations* o) {
   o->intrinsics.k2 = distortion[1];
   if (std::abs(o->intrinsics.k1) > 1.0 || std::abs(o->intrinsics.k2) > 1.0) {
     fail("intrinsics.distortion", "|k1|, |k2| must be <= 1 (a calibration camera, not a fisheye)");
+  }
+  o->intrinsicsCovariance.setZero();
+  if (!in.contains("covariance")) return;
+  // Optional: the intrinsics' uncertainty (fx, fy, cx, cy, k1, k2), as the checkerboard gave it.
+  const json& rowsIn = jsonfield::array(in["covariance"], "intrinsics.covariance", 6);
+  if (rowsIn.size() != kIntrinsicsParameters)
+    fail("intrinsics.covariance", "must be 6 rows (fx, fy, cx, cy, k1, k2) of 6 numbers");
+  for (int r = 0; r < kIntrinsicsParameters; ++r) {
+    const auto row = numbers(rowsIn[static_cast<size_t>(r)],
+                             fmt::format("intrinsics.covariance[{}]", r), kIntrinsicsParameters);
+    for (int c = 0; c < kIntrinsicsParameters; ++c)
+      o->intrinsicsCovariance(r, c) = row[static_cast<size_t>(c)];
+  }
+  const IntrinsicsCovariance& cov = o->intrinsicsCovariance;
+  // A covariance: symmetric, its variances not negative, no correlation beyond ±1.
+  for (int r = 0; r < kIntrinsicsParameters; ++r) {
+    if (!(cov(r, r) >= 0.0))
+      fail(fmt::format("intrinsics.covariance[{}][{}]", r, r), "a variance must be >= 0");
+    for (int c = 0; c < r; ++c) {
+      const double scale = std::sqrt(cov(r, r) * cov(c, c));
+      if (std::abs(cov(r, c) - cov(c, r)) > 1e-9 * std::max(scale, 1e-300) ||
+          std::abs(cov(r, c)) > scale * (1.0 + 1e-9)) {
+        fail(fmt::format("intrinsics.covariance[{}][{}]", r, c),
+             "must be symmetric, each correlation within ±1");
+      }
+    }
   }
 }
 

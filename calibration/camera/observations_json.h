@@ -4,7 +4,10 @@
 //
 //   camera.json   {"format": "parallax-camera", "version": 1,
 //                  intrinsics: {width, height, focal_px: [fx, fy], principal_px: [cx, cy],
-//                               distortion: [k1, k2]}        (conventions.h, centres at +0.5)
+//                               distortion: [k1, k2],        (conventions.h, centres at +0.5)
+//                               covariance: 6 rows of 6}     (optional: the uncertainty of fx,
+//                                 fy, cx, cy, k1, k2 as the checkerboard gave it; the fit
+//                                 carries it into its σ)
 //                                 (in a captures folder with checkerboard pictures, only
 //                                  {width, height}: the camera is calibrated from them,
 //                                  checkerboard_captures.h)

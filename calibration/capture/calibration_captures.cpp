@@ -167,6 +167,7 @@ int groupStrideFor(const DisplayModel& nominal, const std::vector<CameraStation>
 CalibrationObservations observationsFrame(const CameraMetadata& camera) {
   CalibrationObservations obs;
   obs.intrinsics = camera.intrinsics;
+  obs.intrinsicsCovariance = camera.intrinsicsCovariance;
   obs.stations = camera.stations;
   obs.fiducials = camera.fiducials;
   return obs;
@@ -179,6 +180,7 @@ CheckerboardCalibration calibrateCapturesCamera(CalibrationCaptures* captures,
   CheckerboardCalibration result = calibrateFromCheckerboard(
       captures->checkerboard->pictures, captures->checkerboard->board, width, height, options);
   captures->camera.intrinsics = result.intrinsics;
+  captures->camera.intrinsicsCovariance = result.covariance;
   captures->camera.intrinsicsKnown = true;
   return result;
 }
@@ -364,6 +366,7 @@ CameraMetadata loadCameraMetadata(const std::string& path) {
     CameraMetadata camera;
     cameraMetadataFromJson(j, &obs, &camera.intrinsicsKnown);
     camera.intrinsics = obs.intrinsics;
+    camera.intrinsicsCovariance = obs.intrinsicsCovariance;
     camera.stations = obs.stations;
     camera.fiducials = obs.fiducials;
     if (j.contains("response_gamma")) {

@@ -34,6 +34,7 @@ namespace parallax {
 
 struct CameraMetadata {
   CameraIntrinsics intrinsics;  // from the camera's own (checkerboard) calibration
+  IntrinsicsCovariance intrinsicsCovariance = IntrinsicsCovariance::Zero();  // zero: exact
   // false: camera.json gave only the picture size (fx, fy, cx, cy NaN); the intrinsics must
   // come from the checkerboard pictures before anything is decoded.
   bool intrinsicsKnown = true;

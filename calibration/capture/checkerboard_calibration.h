@@ -33,8 +33,13 @@ struct PictureError {
 
 struct CheckerboardCalibration {
   CameraIntrinsics intrinsics;  // width and height are the pictures'
-  // Standard deviations OpenCV estimates for fx, fy, cx, cy, k1, k2.
+  // Standard deviations of fx, fy, cx, cy, k1, k2: the covariance's diagonal (OpenCV's own
+  // when it could not be formed).
   double sigmaFx = 0.0, sigmaFy = 0.0, sigmaCx = 0.0, sigmaCy = 0.0, sigmaK1 = 0.0, sigmaK2 = 0.0;
+  // Their whole covariance, correlations included (f, k1 and the principal point err
+  // together): what a fit holding these intrinsics fixed carries into its own σ. Zero when the
+  // corners' information could not be inverted.
+  IntrinsicsCovariance covariance = IntrinsicsCovariance::Zero();
   double rmsPx = 0.0;                // over every corner of every used picture
   std::vector<PictureError> used;    // per used picture
   std::vector<std::string> skipped;  // pictures where the board was not found

@@ -10,6 +10,7 @@
 #include "calibration/fit/fit_solve.h"
 #include "calibration/fit/fit_statistics.h"
 #include "calibration/fit/fit_uncertainty.h"
+#include "calibration/fit/intrinsics_sensitivity.h"
 #include "common/input_error.h"
 
 namespace parallax {
@@ -132,6 +133,7 @@ FitResult runStages(const DisplayModel& nominal, const CalibrationObservations& 
   stage2.fiducialOutliers = &fiducialOutliers;
   if (options.residualInCameraPx) form = fit::cameraPxForm(in, state, sigmas);
   stage2.form = &form;
+  const fit::ModuleStage& finalStage = finalFollows ? stage2 : stage1;
   if (finalFollows) {
     steps.begin(name + ": final solve");
     problem = {};  // the previous problem's blocks go before the new one is built
@@ -149,7 +151,9 @@ FitResult runStages(const DisplayModel& nominal, const CalibrationObservations& 
   steps.begin(name + ": uncertainty");
   const auto diagnosticsStart = std::chrono::steady_clock::now();
   fit::summarizeResiduals(in, state, form, sigmas, &result);
-  fit::diagnoseUncertainty(in, state, sigmas, problem, &result);
+  fit::diagnoseUncertainty(in, state, sigmas, problem,
+                           fit::intrinsicsSensitivity(in, sigmas, finalStage, state, problem),
+                           &result);
   fit::noteModulesNotEstimated(in, &result);
   result.diagnosticsSeconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - diagnosticsStart).count();

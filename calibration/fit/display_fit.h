@@ -138,6 +138,9 @@ struct FitResult {
   // in units of their σ: correspondences u, v, stripes within; then the same between
   // (fit_uncertainty.cpp). A common part widens the σ of what those rows determine.
   std::array<double, 6> sharedErrors{};
+  // The σ include the camera intrinsics' uncertainty (CalibrationObservations::
+  // intrinsicsCovariance, the checkerboard's), carried through the fit (fit_uncertainty.h).
+  bool intrinsicsCarried = false;
   // Set when the transfer cannot be decided and the choice matters (transfer_selection.h).
   bool transferMismatch = false;
   // Set when camera.json gives no response, the pictures bend, and the decoder cannot tell

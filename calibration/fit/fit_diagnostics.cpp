@@ -272,4 +272,58 @@ void widenToClusterRobust(const InformationBlocks& info, const std::vector<Clust
   }
 }
 
+Eigen::MatrixXd solveInformation(const InformationBlocks& info, const Diagnostics& d,
+                                 const ConditioningOptions& options,
+                                 const Eigen::MatrixXd& scores) {
+  const size_t moduleCount = info.moduleModule.size();
+  const Eigen::Index sharedSize = info.sharedShared.rows();
+  const Eigen::Index moduleSize = moduleCount ? info.moduleModule[0].rows() : 0;
+  const Eigen::Index sharedStart = static_cast<Eigen::Index>(moduleCount) * moduleSize;
+  PARALLAX_CHECK_OP(scores.rows(), ==, sharedStart + sharedSize);
+  // x_s = Σ_ss (g_s − Σ_i H_isᵀ H_ii⁻¹ g_i),  x_i = H_ii⁻¹ (g_i − H_is x_s).
+  std::vector<Eigen::MatrixXd> inverses(moduleCount);
+  Eigen::MatrixXd reduced = scores.bottomRows(sharedSize);
+  for (size_t m = 0; m < moduleCount; ++m) {
+    inverses[m] = pseudoInverse(info.moduleModule[m], options.rankDeficientBelow, nullptr);
+    reduced.noalias() -= info.moduleShared[m].transpose() * inverses[m] *
+                         scores.middleRows(static_cast<Eigen::Index>(m) * moduleSize, moduleSize);
+  }
+  Eigen::MatrixXd x(scores.rows(), scores.cols());
+  x.bottomRows(sharedSize) = d.sharedCovariance * reduced;
+  for (size_t m = 0; m < moduleCount; ++m) {
+    const Eigen::Index start = static_cast<Eigen::Index>(m) * moduleSize;
+    x.middleRows(start, moduleSize) =
+        inverses[m] *
+        (scores.middleRows(start, moduleSize) - info.moduleShared[m] * x.bottomRows(sharedSize));
+  }
+  return x;
+}
+
+void addCarriedCovariance(const Eigen::MatrixXd& x, const Eigen::MatrixXd& heldCovariance,
+                          Diagnostics* d) {
+  const size_t moduleCount = d->moduleCovariance.size();
+  const Eigen::Index sharedSize = d->sharedCovariance.rows();
+  const Eigen::Index moduleSize = moduleCount ? d->moduleCovariance[0].rows() : 0;
+  PARALLAX_CHECK_OP(x.rows(), ==, static_cast<Eigen::Index>(moduleCount) * moduleSize + sharedSize);
+  PARALLAX_CHECK_OP(x.cols(), ==, heldCovariance.rows());
+  const Eigen::MatrixXd xs = x.bottomRows(sharedSize);
+  const Eigen::MatrixXd xsSigma = xs * heldCovariance;
+  const auto addToStdDev = [](const Eigen::MatrixXd& cov, Eigen::VectorXd* sd) {
+    for (Eigen::Index j = 0; j < sd->size(); ++j) {
+      if (std::isfinite((*sd)[j])) (*sd)[j] = std::sqrt(std::max(0.0, cov(j, j)));
+    }
+  };
+  if (d->sharedStdDev.allFinite()) {
+    d->sharedCovariance.noalias() += xsSigma * xs.transpose();
+    addToStdDev(d->sharedCovariance, &d->sharedStdDev);
+  }
+  for (size_t m = 0; m < moduleCount; ++m) {
+    if (!d->moduleStdDev[m].allFinite()) continue;
+    const Eigen::MatrixXd xm = x.middleRows(static_cast<Eigen::Index>(m) * moduleSize, moduleSize);
+    d->moduleCovariance[m].noalias() += xm * heldCovariance * xm.transpose();
+    d->moduleSharedCovariance[m].noalias() += xm * xsSigma.transpose();
+    addToStdDev(d->moduleCovariance[m], &d->moduleStdDev[m]);
+  }
+}
+
 }  // namespace parallax

@@ -106,6 +106,17 @@ struct ClusterScore {
 void widenToClusterRobust(const InformationBlocks& info, const std::vector<ClusterScore>& scores,
                           const ConditioningOptions& options, Diagnostics* d);
 
+// Carries the uncertainty of quantities the fit held fixed at an estimate (the camera's
+// intrinsics, from its checkerboard) into `d`: the answer moves with them as δθ = −H⁻¹ g δφ,
+// g = Jᵀ Ω⁻¹ ∂r/∂φ (`scores`, one full-length column [modules | shared] per held quantity), so
+// Σ_θ gains X Σ_φ Xᵀ with X = H⁻¹ g, found by the Schur complement as diagnose's covariance
+// is. Call it on diagnose's answer before any widening (it solves with d's Σ_ss); it returns
+// X for addCarriedCovariance, which may follow a widening. Undetermined parameters stay so.
+Eigen::MatrixXd solveInformation(const InformationBlocks& info, const Diagnostics& d,
+                                 const ConditioningOptions& options, const Eigen::MatrixXd& scores);
+void addCarriedCovariance(const Eigen::MatrixXd& x, const Eigen::MatrixXd& heldCovariance,
+                          Diagnostics* d);
+
 // Conditioning of one symmetric positive semi-definite block (exposed for tests).
 BlockConditioning conditioningOf(const Eigen::MatrixXd& block, const ConditioningOptions& options);
 

@@ -72,6 +72,8 @@ std::string formatFitSummary(const FitResult& r) {
       r.iterations, r.solveSeconds, r.converged ? "converged" : "NOT converged",
       r.model.screen.curvature, r.curvatureStdDev, transferName(r.model.screen.transfer),
       r.correspondenceSigmaPx, r.correspondenceSigmaMm, r.stripeRmsMm, r.fiducialRmsPx, r.outliers);
+  if (r.intrinsicsCarried)
+    out += "σ include the camera intrinsics' uncertainty (their checkerboard covariance)\n";
   const auto& se = r.sharedErrors;
   if (se[3] > 0.0 || se[4] > 0.0 || se[5] > 0.0) {
     out += fmt::format(

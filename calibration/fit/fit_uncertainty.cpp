@@ -37,21 +37,27 @@ void addJacobianRow(const ceres::CRSMatrix& jacobian, size_t r, double weight, i
   }
 }
 
-// The information of the σ-normalised rows when the rows of a group (FitProblem::groupOf, per
-// axis) share a common error: each group's rows as w I + b 11ᵀ, with w and b measured from the
-// residuals at the solution per kind of row (correspondence u, v; stripe): w the pooled spread
-// within the groups (taken as at least 1: the σ that scales the rows), b what the groups'
-// means spread beyond w / n. Independent rows give b ≈ 0 and the plain JᵀJ.
-InformationBlocks sharedErrorInformation(const FitProblem& built, const ceres::CRSMatrix& jacobian,
-                                         const std::vector<double>& residuals, int moduleCount,
-                                         int sharedSize, FitResult* result) {
-  constexpr int kKinds = 3;  // correspondence u, correspondence v, stripe
+// What the σ-normalised rows of a group (FitProblem::groupOf, per axis) share: each group's
+// rows as w I + b 11ᵀ, with w and b measured from the residuals at the solution per kind of row
+// (correspondence u, v; stripe): w the pooled spread within the groups (taken as at least 1:
+// the σ that scales the rows), b what the groups' means spread beyond w / n. Independent rows
+// give b ≈ 0, and the plain JᵀJ. Ω⁻¹ of a group is (1/w) [I − b / (w + n b) 11ᵀ]: a weight 1/w
+// a row and `coefficient` = b / (w (w + n b)) on its sums.
+struct SharedErrorModel {
   struct Group {
     int kind = 0, rows = 0;
-    double sum = 0.0;
+    double sum = 0.0, coefficient = 0.0;
     std::vector<int> members;
   };
   std::vector<Group> groups;
+  std::vector<double> weights;  // per row
+};
+
+SharedErrorModel sharedErrorModel(const FitProblem& built, const std::vector<double>& residuals,
+                                  FitResult* result) {
+  constexpr int kKinds = 3;  // correspondence u, correspondence v, stripe
+  SharedErrorModel model;
+  std::vector<SharedErrorModel::Group>& groups = model.groups;
   std::vector<int> groupOfRow(residuals.size(), -1);
   {
     std::unordered_map<std::int64_t, int> index;
@@ -64,11 +70,11 @@ InformationBlocks sharedErrorInformation(const FitProblem& built, const ceres::C
         if (g < 0) continue;
         const auto [it, fresh] = index.try_emplace(g * 2 + axis, static_cast<int>(groups.size()));
         if (fresh) {
-          Group group;
+          SharedErrorModel::Group group;
           group.kind = (g & 1) ? 2 : axis;
           groups.push_back(group);
         }
-        Group& group = groups[static_cast<size_t>(it->second)];
+        SharedErrorModel::Group& group = groups[static_cast<size_t>(it->second)];
         group.rows++;
         group.sum += residuals[static_cast<size_t>(row)];
         group.members.push_back(row);
@@ -79,7 +85,7 @@ InformationBlocks sharedErrorInformation(const FitProblem& built, const ceres::C
   // Per kind: the spread within the groups (w) and of their common parts (b).
   std::array<double, kKinds> withinSq{}, meanSq{}, within{}, between{};
   std::array<int, kKinds> rowCount{}, groupCount{};
-  for (const Group& g : groups) {
+  for (const SharedErrorModel::Group& g : groups) {
     const double mean = g.sum / g.rows;
     for (int r : g.members) {
       const double e = residuals[static_cast<size_t>(r)] - mean;
@@ -93,7 +99,7 @@ InformationBlocks sharedErrorInformation(const FitProblem& built, const ceres::C
     const int dof = rowCount[kk] - groupCount[kk];
     within[kk] = std::max(1.0, dof > 0 ? withinSq[kk] / dof : 1.0);
   }
-  for (const Group& g : groups) {
+  for (const SharedErrorModel::Group& g : groups) {
     const auto kk = static_cast<size_t>(g.kind);
     const double mean = g.sum / g.rows;
     meanSq[kk] += mean * mean - within[kk] / g.rows;
@@ -102,28 +108,59 @@ InformationBlocks sharedErrorInformation(const FitProblem& built, const ceres::C
     const auto kk = static_cast<size_t>(k);
     between[kk] = groupCount[kk] > 1 ? std::max(0.0, meanSq[kk] / groupCount[kk]) : 0.0;
   }
-  std::vector<double> weights(residuals.size(), 1.0);
+  for (SharedErrorModel::Group& g : groups) {
+    const auto kk = static_cast<size_t>(g.kind);
+    g.coefficient = between[kk] / (within[kk] * (within[kk] + g.rows * between[kk]));
+  }
+  model.weights.assign(residuals.size(), 1.0);
   for (size_t r = 0; r < residuals.size(); ++r) {
     if (groupOfRow[r] >= 0)
-      weights[r] =
+      model.weights[r] =
           1.0 / within[static_cast<size_t>(groups[static_cast<size_t>(groupOfRow[r])].kind)];
-  }
-  InformationBlocks info = informationFromJacobian(
-      jacobian.num_rows, jacobian.num_cols, jacobian.rows, jacobian.cols, jacobian.values,
-      moduleCount, kModuleTangentSize, sharedSize, &weights);
-  const int sharedStart = moduleCount * kModuleTangentSize;
-  for (const Group& g : groups) {
-    const auto kk = static_cast<size_t>(g.kind);
-    if (between[kk] <= 0.0) continue;
-    ClusterScore sum = zeroScore(sharedSize);
-    for (int r : g.members)
-      addJacobianRow(jacobian, static_cast<size_t>(r), 1.0, sharedStart, &sum);
-    const double coefficient = between[kk] / (within[kk] * (within[kk] + g.rows * between[kk]));
-    subtractCommonPart(sum.modulePart, sum.sharedPart, sum.module, coefficient, &info);
   }
   result->sharedErrors = {std::sqrt(within[0]),  std::sqrt(within[1]),  std::sqrt(within[2]),
                           std::sqrt(between[0]), std::sqrt(between[1]), std::sqrt(between[2])};
+  return model;
+}
+
+// The information JᵀΩ⁻¹J of the rows under `model`.
+InformationBlocks sharedErrorInformation(const SharedErrorModel& model,
+                                         const ceres::CRSMatrix& jacobian, int moduleCount,
+                                         int sharedSize) {
+  InformationBlocks info = informationFromJacobian(
+      jacobian.num_rows, jacobian.num_cols, jacobian.rows, jacobian.cols, jacobian.values,
+      moduleCount, kModuleTangentSize, sharedSize, &model.weights);
+  const int sharedStart = moduleCount * kModuleTangentSize;
+  for (const SharedErrorModel::Group& g : model.groups) {
+    if (g.coefficient <= 0.0) continue;
+    ClusterScore sum = zeroScore(sharedSize);
+    for (int r : g.members)
+      addJacobianRow(jacobian, static_cast<size_t>(r), 1.0, sharedStart, &sum);
+    subtractCommonPart(sum.modulePart, sum.sharedPart, sum.module, g.coefficient, &info);
+  }
   return info;
+}
+
+// JᵀΩ⁻¹ D under `model` for the dense columns D (one row per Jacobian row): full-length
+// columns over the Jacobian's [modules | shared] layout.
+Eigen::MatrixXd crossInformation(const SharedErrorModel& model, const ceres::CRSMatrix& jacobian,
+                                 const Eigen::MatrixXd& columns) {
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(jacobian.num_cols, columns.cols());
+  const auto addRow = [&](size_t r, const Eigen::RowVectorXd& weight) {
+    for (int k = jacobian.rows[r]; k < jacobian.rows[r + 1]; ++k) {
+      out.row(jacobian.cols[static_cast<size_t>(k)]) +=
+          jacobian.values[static_cast<size_t>(k)] * weight;
+    }
+  };
+  for (size_t r = 0; r < static_cast<size_t>(jacobian.num_rows); ++r)
+    addRow(r, model.weights[r] * columns.row(static_cast<Eigen::Index>(r)));
+  for (const SharedErrorModel::Group& g : model.groups) {
+    if (g.coefficient <= 0.0) continue;
+    Eigen::RowVectorXd sum = Eigen::RowVectorXd::Zero(columns.cols());
+    for (int r : g.members) sum += columns.row(r);
+    for (int r : g.members) addRow(static_cast<size_t>(r), -g.coefficient * sum);
+  }
+  return out;
 }
 
 // Σ Jᵀr over the decoded rows of each (station, module), and over every other block alone, in
@@ -154,7 +191,8 @@ std::vector<ClusterScore> stationModuleScores(const FitProblem& built,
 }  // namespace
 
 void diagnoseUncertainty(const FitInputs& in, FitState& state, const NoiseLevels& sigmas,
-                         FitProblem& built, FitResult* result) {
+                         FitProblem& built, const Eigen::MatrixXd& intrinsicsSensitivity,
+                         FitResult* result) {
   const FitOptions& options = in.options;
   // ---- the Jacobian over the estimated blocks: modules first, then cameras and k ----
   std::vector<double*> blocks;
@@ -182,15 +220,37 @@ void diagnoseUncertainty(const FitInputs& in, FitState& state, const NoiseLevels
     result->converged = false;
     return;
   }
-  const InformationBlocks info = sharedErrorInformation(
-      built, jacobian, residuals, static_cast<int>(moduleOf.size()), sharedSize, result);
+  const SharedErrorModel errors = sharedErrorModel(built, residuals, result);
+  const InformationBlocks info =
+      sharedErrorInformation(errors, jacobian, static_cast<int>(moduleOf.size()), sharedSize);
   Diagnostics d = diagnose(info, options.conditioning);
+  // How the answer moves with the camera intrinsics held at the checkerboard's estimate
+  // (intrinsics_sensitivity.h), solved before the widening below changes Σ_ss.
+  Eigen::MatrixXd intrinsicsShift;
+  if (intrinsicsSensitivity.rows() == jacobian.num_rows) {
+    intrinsicsShift = solveInformation(info, d, options.conditioning,
+                                       crossInformation(errors, jacobian, intrinsicsSensitivity));
+  } else if (!in.obs.intrinsicsCovariance.isZero()) {
+    result->notes.push_back(
+        "the camera intrinsics' uncertainty could not be carried into the σ (their effect on "
+        "the residuals could not be evaluated): the σ leave it out");
+  } else if (in.obs.cameraResponse) {
+    // Decoded from pictures with intrinsics that came without a covariance (camera.json).
+    result->notes.push_back(
+        "the σ take the camera's intrinsics as exact (camera.json gives no covariance): "
+        "calibrate the camera from its checkerboard pictures (`parallax camera`) so that their "
+        "uncertainty is counted");
+  }
   // What the residuals themselves say, station by station: a station's decoding of a module
   // that is off as a whole moves the module more than independent errors could.
   widenToClusterRobust(info,
                        stationModuleScores(built, jacobian, residuals,
                                            static_cast<int>(moduleOf.size()), sharedSize),
                        options.conditioning, &d);
+  if (intrinsicsShift.size() > 0) {
+    addCarriedCovariance(intrinsicsShift, in.obs.intrinsicsCovariance, &d);
+    result->intrinsicsCarried = true;
+  }
 
   // ---- modules ----
   for (size_t j = 0; j < moduleOf.size(); ++j) {

@@ -10,8 +10,11 @@ namespace parallax::fit {
 
 // Fills the modules' and cameras' standard deviations, conditioning, worst pixel σ, the
 // curvature's σ, the deficiencies and their notes. `built` is the final problem, its residuals
-// scaled by the final noise levels `sigmas`, its blocks pointing into `state`.
+// scaled by the final noise levels `sigmas`, its blocks pointing into `state`. The σ include
+// the camera intrinsics' uncertainty (in.obs.intrinsicsCovariance) through
+// `intrinsicsSensitivity` (intrinsics_sensitivity.h; empty: not carried).
 void diagnoseUncertainty(const FitInputs& in, FitState& state, const NoiseLevels& sigmas,
-                         FitProblem& built, FitResult* result);
+                         FitProblem& built, const Eigen::MatrixXd& intrinsicsSensitivity,
+                         FitResult* result);
 
 }  // namespace parallax::fit

@@ -198,9 +198,11 @@ class ViewCollector {
 
 // camera.json with these intrinsics: an existing file keeps everything else (its stations,
 // fiducials, response), but must describe pictures of this size.
-void writeIntrinsics(const CameraIntrinsics& intrinsics, const std::string& path) {
+void writeIntrinsics(const CheckerboardCalibration& calibration, const std::string& path) {
+  const CameraIntrinsics& intrinsics = calibration.intrinsics;
   CalibrationObservations frame;
   frame.intrinsics = intrinsics;
+  frame.intrinsicsCovariance = calibration.covariance;
   json j = cameraMetadataToJson(frame);
   if (std::filesystem::exists(path)) {
     json existing = readJsonFile(path);  // names the file and line when it is not JSON
@@ -305,7 +307,7 @@ void runCalibrateCamera(const CalibrateCameraArgs& args) {
   std::cout << fmt::format("{} pictures, the board found in {}, {} views kept, coverage {:.0f}%\n",
                            pictures, found, views->views(), 100.0 * views->coverage());
   std::cout << formatCheckerboardCalibration(result);
-  writeIntrinsics(result.intrinsics, args.out);
+  writeIntrinsics(result, args.out);
   std::cout << fmt::format("camera intrinsics written to {}\n",
                            std::filesystem::absolute(args.out).string());
 }

@@ -94,6 +94,7 @@ SimhwChild::SimhwChild(const DisplayModel& nominal, const HardwareConfig& hardwa
   const CheckerboardCalibration cameraFit = calibrateFromCheckerboard(
       board.pictures, board.board, rig.intrinsics.width, rig.intrinsics.height);
   camera.metadata.intrinsics = cameraFit.intrinsics;
+  camera.metadata.intrinsicsCovariance = cameraFit.covariance;
   spdlog::info(
       "simulated camera calibrated from {} checkerboard pictures: fx {:.2f} fy {:.2f} cx {:.2f} cy "
       "{:.2f} "

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
@@ -147,6 +148,41 @@ TEST(Checkerboard, CalibrationRecoversTheCamera) {
   EXPECT_LT(std::abs(in.k1 - truth.k1), 0.01);
   EXPECT_LT(result.rmsPx, 0.2);
   EXPECT_TRUE(std::isfinite(in.k2));
+}
+
+// The intrinsics' covariance, which the display fit carries into its σ: its diagonal is the
+// reported σ², its correlations are a covariance's, and over seeds it describes the real error
+// (the squared Mahalanobis distance of the error has the χ² mean of its 6 parameters; a
+// covariance 2× too narrow would give 24, 2× too wide 1.5).
+TEST(Checkerboard, IntrinsicsCovarianceDescribesTheError) {
+  const CameraIntrinsics truth = testCamera();
+  double sumMahalanobis = 0.0;
+  constexpr int kSeeds = 10;
+  for (int seed = 0; seed < kSeeds; ++seed) {
+    const auto pictures = photograph(truth, 12, 400 + static_cast<std::uint64_t>(seed));
+    const CheckerboardCalibration r =
+        calibrateFromCheckerboard(pictures, CheckerboardBoard{}, truth.width, truth.height);
+    const IntrinsicsCovariance& cov = r.covariance;
+    ASSERT_TRUE(cov.allFinite());
+    const double sigmas[] = {r.sigmaFx, r.sigmaFy, r.sigmaCx, r.sigmaCy, r.sigmaK1, r.sigmaK2};
+    for (int i = 0; i < kIntrinsicsParameters; ++i) {
+      EXPECT_DOUBLE_EQ(std::sqrt(cov(i, i)), sigmas[i]) << "parameter " << i;
+      for (int j = 0; j < i; ++j) {
+        EXPECT_DOUBLE_EQ(cov(i, j), cov(j, i));
+        EXPECT_LE(std::abs(cov(i, j)), std::sqrt(cov(i, i) * cov(j, j)));
+      }
+    }
+    Eigen::Matrix<double, 6, 1> error;
+    CameraIntrinsics found = r.intrinsics, expected = truth;
+    for (int i = 0; i < kIntrinsicsParameters; ++i)
+      error[i] = intrinsicsParameter(found, i) - intrinsicsParameter(expected, i);
+    sumMahalanobis += error.dot(cov.ldlt().solve(error));
+  }
+  const double mean = sumMahalanobis / kSeeds;
+  std::printf("mean squared Mahalanobis distance of the intrinsics' error: %.2f (χ² mean 6)\n",
+              mean);
+  EXPECT_GT(mean, 2.0);
+  EXPECT_LT(mean, 14.0);
 }
 
 TEST(Checkerboard, PictureWithoutTheBoardIsSkippedAndNamed) {

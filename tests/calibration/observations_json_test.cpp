@@ -40,6 +40,42 @@ TEST(ObservationsJson, RoundTripsThroughAFolderExactly) {
   EXPECT_EQ(back.fiducials, o.fiducials);
 }
 
+// The camera intrinsics' covariance (from the checkerboard) survives camera.json, and one that
+// is not a covariance is refused with its entry named.
+TEST(ObservationsJson, IntrinsicsCovarianceRoundTripsAndIsChecked) {
+  CalibrationObservations o = sample();
+  o.intrinsicsCovariance.setZero();
+  EXPECT_FALSE(cameraMetadataToJson(o)["intrinsics"].contains("covariance"));
+  IntrinsicsCovariance cov = IntrinsicsCovariance::Zero();
+  const double sigma[] = {0.9, 0.8, 0.45, 0.6, 0.003, 0.014};
+  for (int i = 0; i < kIntrinsicsParameters; ++i) cov(i, i) = sigma[i] * sigma[i];
+  cov(0, 1) = cov(1, 0) = 0.9 * sigma[0] * sigma[1];
+  o.intrinsicsCovariance = cov;
+  CalibrationObservations back;
+  cameraMetadataFromJson(cameraMetadataToJson(o), &back);
+  EXPECT_EQ(back.intrinsicsCovariance, cov);
+
+  nlohmann::json c = cameraMetadataToJson(o);
+  c["intrinsics"]["covariance"][2][2] = -1.0;
+  EXPECT_NE(
+      inputErrorOf([&] { cameraMetadataFromJson(c, &back); }).find("intrinsics.covariance[2][2]"),
+      std::string::npos);
+  c = cameraMetadataToJson(o);
+  c["intrinsics"]["covariance"][1][0] = 0.5;  // no longer symmetric
+  EXPECT_NE(
+      inputErrorOf([&] { cameraMetadataFromJson(c, &back); }).find("intrinsics.covariance[1][0]"),
+      std::string::npos);
+  c = cameraMetadataToJson(o);
+  c["intrinsics"]["covariance"][3] = {1.0, 2.0};
+  EXPECT_NE(
+      inputErrorOf([&] { cameraMetadataFromJson(c, &back); }).find("intrinsics.covariance[3]"),
+      std::string::npos);
+  c = cameraMetadataToJson(o);
+  c["intrinsics"]["covariance"].erase(5);
+  EXPECT_NE(inputErrorOf([&] { cameraMetadataFromJson(c, &back); }).find("intrinsics.covariance"),
+            std::string::npos);
+}
+
 TEST(ObservationsJson, NamesTheBadField) {
   CalibrationObservations o = sample();
   nlohmann::json j = decodedToJson(o);

@@ -11,6 +11,7 @@
 //   calibration_fit_bench --setup NAME|all [--seeds N] [--first-seed S] [--threads T] [--verbose]
 //                        [--allow-partial]
 //   calibration_fit_bench --setup NAME --decoder-error SEED [--true-intrinsics]
+//   (--decoder-error also takes --blur PX: the camera's lens blur, σ in px, 0.6 by default)
 //                         [--module-px-residual]
 //   calibration_fit_bench --noise-map
 // --experiment: only the errors-in-variables comparison (where the correspondences' noise sits:
@@ -448,6 +449,8 @@ int main(int argc, char** argv) {
       for (int j = i + 1; j < argc; ++j) {
         options.trueIntrinsics |= std::strcmp(argv[j], "--true-intrinsics") == 0;
         modulePx |= std::strcmp(argv[j], "--module-px-residual") == 0;
+        if (std::strcmp(argv[j], "--blur") == 0 && j + 1 < argc)
+          options.blurSigmaPx = std::atof(argv[j + 1]);
       }
       if (!setupSweep)
         return decoderError(resolveDisplay(pictureDisplay), pictureDisplay, options, seed,

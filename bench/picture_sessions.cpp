@@ -30,6 +30,7 @@ PictureSession renderPictureSession(const DisplayModel& nominal, std::uint64_t s
   rig.intrinsics = CameraIntrinsics::centred(640, 360, 700.0, -0.04);
   CameraRenderOptions sensor;
   if (options.sensorNoise) sensor.noiseSigma = *options.sensorNoise;
+  if (options.blurSigmaPx) sensor.blurSigmaPx = *options.blurSigmaPx;
   const SimulatedRig camera = makeSimulatedRig(out.truth, rig, seed * 7919 + 1, sensor);
   out.camera = camera.truth;
   SimulatedSessionOptions session;
@@ -274,9 +275,11 @@ bool pictureSetupByName(const std::string& name, DisplayModel* nominal,
   for (const PictureSetup& s : pictureSetups()) {
     if (s.name != name) continue;
     *nominal = nominalOf(s);
-    const bool trueIntrinsics = options->trueIntrinsics;
+    // The setup's own options; what the command line chose beyond them stays.
+    const PictureSessionOptions chosen = *options;
     *options = sessionOptionsOf(s);
-    options->trueIntrinsics = trueIntrinsics;
+    options->trueIntrinsics = chosen.trueIntrinsics;
+    if (chosen.blurSigmaPx) options->blurSigmaPx = chosen.blurSigmaPx;
     return true;
   }
   return false;

@@ -22,6 +22,7 @@ struct PictureSessionOptions {
   int stations = 5;
   double spanM = 4.0;
   std::optional<double> sensorNoise;  // CameraRenderOptions::noiseSigma; default: the sensor's
+  std::optional<double> blurSigmaPx;  // CameraRenderOptions::blurSigmaPx; default: the sensor's
   std::optional<ScreenTransfer> truthTransfer;  // default: the nominal's
   std::vector<int> darkModules;                 // modules that show nothing (never seen)
   bool trueIntrinsics = false;                  // else from simulated checkerboard pictures

@@ -9,6 +9,9 @@
 //   calibration_fit_bench [--display NAME|FILE] --pictures N [--true-intrinsics]
 //   calibration_fit_bench [--display NAME|FILE] --decoder-error SEED [--true-intrinsics]
 //   calibration_fit_bench --setup NAME|all [--seeds N] [--first-seed S] [--threads T] [--verbose]
+//                        [--allow-partial]
+//   calibration_fit_bench --setup NAME --decoder-error SEED [--true-intrinsics]
+//                         [--module-px-residual]
 //   calibration_fit_bench --noise-map
 // --experiment: only the errors-in-variables comparison (where the correspondences' noise sits:
 // on the camera pixel, as a camera gives it, or on the module pixel; the residual: two-stage
@@ -101,9 +104,11 @@ PictureSession pictureSession(const DisplayModel& nominal, std::uint64_t seed,
 // intrinsics), then the fit's true error against its predicted σ per module: where the picture
 // path's error comes from (issue 17). Outliers (stripes > 1 mm, correspondences > 0.5 px at the
 // truth) are counted apart; the means of the rest are the decoder's biases.
-int decoderError(const std::string& display, std::uint64_t seed, bool trueIntrinsics) {
-  const DisplayModel nominal = resolveDisplay(display);
-  const PictureSession session = pictureSession(nominal, seed, trueIntrinsics);
+int decoderError(const DisplayModel& nominal, const std::string& display,
+                 const PictureSessionOptions& options, std::uint64_t seed,
+                 bool residualInModulePx) {
+  const bool trueIntrinsics = options.trueIntrinsics;
+  const PictureSession session = renderPictureSession(nominal, seed, options);
   const CalibrationObservations& obs = session.obs;
   const CameraIntrinsics& ti = session.camera.intrinsics;
   const double k = session.truth.screen.curvature;
@@ -282,9 +287,13 @@ int decoderError(const std::string& display, std::uint64_t seed, bool trueIntrin
 
   FitOptions fit;
   fit.threads = 2;
+  // A decoded correspondence's noise is on its module pixel (the camera pixel is a grid point):
+  // --module-px-residual fits it where it sits (FitOptions::residualInCameraPx false).
+  fit.residualInCameraPx = !residualInModulePx;
   const FitResult result = fitDisplay(nominal, obs, fit);
   const std::vector<RayErrorStats> rays = compareRays(session.truth, result.model);
-  std::printf("fit: k %.5f (true %.5f, σ %.5f); σ correspondences %.3f px, stripes %.3f mm\n",
+  std::printf("fit (%s residual): k", residualInModulePx ? "module px" : "camera px (two-stage)");
+  std::printf(" %.5f (true %.5f, σ %.5f); σ correspondences %.3f px, stripes %.3f mm\n",
               result.model.screen.curvature, k, result.curvatureStdDev,
               result.correspondenceSigmaPx, result.stripeSigmaMm);
   const auto& se = result.sharedErrors;
@@ -300,8 +309,8 @@ int decoderError(const std::string& display, std::uint64_t seed, bool trueIntrin
                 cf.pose.physicalFromCamera.angularDistance(t.physicalFromCamera) * 180.0 / M_PI);
   }
   std::printf(
-      "| module | Δx, Δy, Δz mm (σ) | Δfx px (σ) | true RMS px / observer mm | predicted |\n"
-      "|---|---|---|---|---|\n");
+      "| module | Δx, Δy, Δz mm (σ) | Δfx px (σ) | true RMS px / observer mm | predicted | true "
+      "worst px / mm | 3σ worst |\n|---|---|---|---|---|---|---|\n");
   for (const ModuleGate& g : result.gate.modules) {
     const auto m = static_cast<size_t>(g.module);
     const OpticalModule &t = session.truth.modules[m], &f = result.model.modules[m];
@@ -309,9 +318,10 @@ int decoderError(const std::string& display, std::uint64_t seed, bool trueIntrin
     const auto& sd = result.modules[m].stdDev;
     std::printf(
         "| %zu | %+.2f (%.2f), %+.2f (%.2f), %+.2f (%.2f) | %+.2f (%.2f) | %.3f / %.2f | "
-        "%.3f / %.2f |\n",
+        "%.3f / %.2f | %.3f / %.2f | %.3f / %.2f%s |\n",
         m, d.x(), sd[3], d.y(), sd[4], d.z(), sd[5], f.fx - t.fx, sd[6], rays[m].rmsPx,
-        rays[m].rmsObserverMm, g.predicted.rmsPx, g.predicted.rmsObserverMm);
+        rays[m].rmsObserverMm, g.predicted.rmsPx, g.predicted.rmsObserverMm, rays[m].maxPx,
+        rays[m].maxObserverMm, g.boundPx, g.boundObserverMm, g.passes ? "" : " (fails)");
   }
   return 0;
 }
@@ -415,6 +425,10 @@ int main(int argc, char** argv) {
       sweep.verbose = true;
       continue;
     }
+    if (std::strcmp(argv[i], "--allow-partial") == 0) {
+      sweep.allowPartial = true;
+      continue;
+    }
     if (std::strcmp(argv[i], "--noise-map") == 0) {
       pictureNoiseMap(sweep.threads);
       return 0;
@@ -429,8 +443,21 @@ int main(int argc, char** argv) {
       experiment = true;
     else if (std::strcmp(argv[i], "--decoder-error") == 0 && i + 1 < argc) {
       const auto seed = static_cast<std::uint64_t>(std::atoll(argv[++i]));
-      return decoderError(pictureDisplay, seed,
-                          i + 1 < argc && std::strcmp(argv[i + 1], "--true-intrinsics") == 0);
+      PictureSessionOptions options;
+      bool modulePx = false;
+      for (int j = i + 1; j < argc; ++j) {
+        options.trueIntrinsics |= std::strcmp(argv[j], "--true-intrinsics") == 0;
+        modulePx |= std::strcmp(argv[j], "--module-px-residual") == 0;
+      }
+      if (!setupSweep)
+        return decoderError(resolveDisplay(pictureDisplay), pictureDisplay, options, seed,
+                            modulePx);
+      DisplayModel nominal;
+      if (!pictureSetupByName(sweep.setup, &nominal, &options)) {
+        std::fprintf(stderr, "unknown setup \"%s\"\n", sweep.setup.c_str());
+        return 2;
+      }
+      return decoderError(nominal, sweep.setup, options, seed, modulePx);
     } else if (std::strcmp(argv[i], "--pictures") == 0 && i + 1 < argc) {
       const int seeds = std::max(1, std::atoi(argv[++i]));
       return pictureSweep(pictureDisplay, seeds,

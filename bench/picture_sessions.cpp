@@ -121,6 +121,16 @@ DisplayModel nominalOf(const PictureSetup& s) {
   return model;
 }
 
+PictureSessionOptions sessionOptionsOf(const PictureSetup& s) {
+  PictureSessionOptions options;
+  options.stations = s.stations;
+  options.spanM = s.spanM;
+  options.sensorNoise = s.noisePx * kSensorNoisePerSyntheticPx;
+  options.truthTransfer = s.truth;
+  options.darkModules = s.dark;
+  return options;
+}
+
 // What the predicted σ says against the truth, over a set of modules.
 struct Coverage {
   int modules = 0, covered = 0;
@@ -147,24 +157,21 @@ struct Coverage {
 struct SetupTally {
   int runs = 0, accepted = 0, violations = 0;  // violations: installed modules beyond limits
   double worstPx = 0, worstMm = 0, boundPx = 0, boundMm = 0;  // accepted runs
-  double sigmaSum = 0;                                        // the fit's σ, module px
+  double refusedWorstMm = 0;  // refused runs' true worst (mm): how near a wrong install came
+  double sigmaSum = 0;        // the fit's σ, module px
   double seconds = 0;
   Coverage installed, judged;
   std::string firstRefusal;
 };
 
-void runOne(const PictureSetup& s, std::uint64_t seed, int threads, bool verbose, SetupTally* t) {
+void runOne(const PictureSetup& s, std::uint64_t seed, const PictureSweepOptions& sweep,
+            SetupTally* t) {
   const auto start = std::chrono::steady_clock::now();
   const DisplayModel nominal = nominalOf(s);
-  PictureSessionOptions options;
-  options.stations = s.stations;
-  options.spanM = s.spanM;
-  options.sensorNoise = s.noisePx * kSensorNoisePerSyntheticPx;
-  options.truthTransfer = s.truth;
-  options.darkModules = s.dark;
-  const PictureSession session = renderPictureSession(nominal, seed, options);
+  const PictureSession session = renderPictureSession(nominal, seed, sessionOptionsOf(s));
   FitOptions fit;
-  fit.threads = threads;
+  fit.threads = sweep.threads;
+  fit.gate.allowPartial = sweep.allowPartial;
   const FitResult result = fitDisplay(nominal, session.obs, fit);
   const std::vector<RayErrorStats> rays = compareRays(session.truth, result.model);
   const bool accepted = result.passesQualityChecks();
@@ -176,8 +183,13 @@ void runOne(const PictureSetup& s, std::uint64_t seed, int threads, bool verbose
     t->firstRefusal = why.empty() ? "(refused without a reason)" : why.front();
   double runWorstPx = 0, runWorstMm = 0, runBoundPx = 0, runBoundMm = 0;
   Coverage runCoverage;
+  const ModuleGate* worstModule = nullptr;  // the module furthest off on the observer line
   for (const ModuleGate& g : result.gate.modules) {
     const RayErrorStats& e = rays[static_cast<size_t>(g.module)];
+    if (e.samples > 0 &&
+        (!worstModule ||
+         e.maxObserverMm > rays[static_cast<size_t>(worstModule->module)].maxObserverMm))
+      worstModule = &g;
     const bool heldNominal =
         std::count(result.gate.heldNominal.begin(), result.gate.heldNominal.end(), g.module) > 0;
     if (accepted && !heldNominal) {
@@ -213,6 +225,9 @@ void runOne(const PictureSetup& s, std::uint64_t seed, int threads, bool verbose
     t->judged.add(one);
     if (accepted && !heldNominal) t->installed.add(one);
   }
+  if (!accepted && worstModule)
+    t->refusedWorstMm =
+        std::max(t->refusedWorstMm, rays[static_cast<size_t>(worstModule->module)].maxObserverMm);
   t->worstPx = std::max(t->worstPx, runWorstPx);
   t->worstMm = std::max(t->worstMm, runWorstMm);
   t->boundPx = std::max(t->boundPx, runBoundPx);
@@ -220,27 +235,52 @@ void runOne(const PictureSetup& s, std::uint64_t seed, int threads, bool verbose
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   t->seconds += seconds;
-  if (verbose)
+  if (sweep.verbose) {
+    std::string furthest;
+    if (worstModule) {
+      const RayErrorStats& e = rays[static_cast<size_t>(worstModule->module)];
+      char buf[160];
+      std::snprintf(buf, sizeof buf,
+                    "furthest off: module %d, %.3f px / %.2f mm (3σ worst %.3f / %.2f%s), ",
+                    worstModule->module, e.maxPx, e.maxObserverMm, worstModule->boundPx,
+                    worstModule->boundObserverMm, worstModule->passes ? "" : ", fails");
+      furthest = buf;
+    }
     std::printf(
         "  %s seed %llu: %s, true worst %.3f px / %.2f mm, 3σ worst %.3f / %.2f, "
-        "judged %s, σ %.3f module px, %.0f s%s%s\n",
+        "%sjudged %s, σ %.3f module px, %.0f s%s%s\n",
         s.name.c_str(), static_cast<unsigned long long>(seed), accepted ? "accepted" : "refused",
-        runWorstPx, runWorstMm, runBoundPx, runBoundMm, runCoverage.text().c_str(),
-        result.correspondenceSigmaPx, seconds, why.empty() ? "" : ": ",
+        runWorstPx, runWorstMm, runBoundPx, runBoundMm, furthest.c_str(),
+        runCoverage.text().c_str(), result.correspondenceSigmaPx, seconds, why.empty() ? "" : ": ",
         why.empty() ? "" : why.front().c_str());
+  }
   std::fflush(stdout);
 }
 
 void printRow(const std::string& name, const SetupTally& t) {
-  std::printf("| %s | %d | %d / %d | %.3f / %.2f | %.3f / %.2f | %s | %s | %.3f | %.0f | %s |\n",
-              name.c_str(), t.runs, t.accepted, t.runs - t.accepted, t.worstPx, t.worstMm,
-              t.boundPx, t.boundMm, t.installed.text().c_str(), t.judged.text().c_str(),
-              t.runs ? t.sigmaSum / t.runs : 0.0, t.runs ? t.seconds / t.runs : 0.0,
-              t.firstRefusal.c_str());
+  std::printf(
+      "| %s | %d | %d / %d | %.3f / %.2f | %.3f / %.2f | %.2f | %s | %s | %.3f | %.0f | %s |\n",
+      name.c_str(), t.runs, t.accepted, t.runs - t.accepted, t.worstPx, t.worstMm, t.boundPx,
+      t.boundMm, t.refusedWorstMm, t.installed.text().c_str(), t.judged.text().c_str(),
+      t.runs ? t.sigmaSum / t.runs : 0.0, t.runs ? t.seconds / t.runs : 0.0,
+      t.firstRefusal.c_str());
   std::fflush(stdout);
 }
 
 }  // namespace
+
+bool pictureSetupByName(const std::string& name, DisplayModel* nominal,
+                        PictureSessionOptions* options) {
+  for (const PictureSetup& s : pictureSetups()) {
+    if (s.name != name) continue;
+    *nominal = nominalOf(s);
+    const bool trueIntrinsics = options->trueIntrinsics;
+    *options = sessionOptionsOf(s);
+    options->trueIntrinsics = trueIntrinsics;
+    return true;
+  }
+  return false;
+}
 
 int pictureSetupSweep(const PictureSweepOptions& options) {
   std::vector<PictureSetup> chosen;
@@ -255,20 +295,21 @@ int pictureSetupSweep(const PictureSweepOptions& options) {
   getloadavg(load, 1);
   std::printf(
       "# picture path over the synthetic sweep's setups: seeds %d-%d, checkerboard intrinsics, "
-      "640×360 camera (f 700), pixel step 6; camera noise p px → sensor noise %.3f·p; load %.2f\n"
+      "640×360 camera (f 700), pixel step 6; camera noise p px → sensor noise %.4f·p;%s load "
+      "%.2f\n"
       "| setup | runs | accepted / refused | true worst px / mm (accepted) | predicted 3σ worst "
-      "px / mm (accepted) | installed: within 3σ, true/pred RMS px / mm | all judged: within "
+      "px / mm (accepted) | true worst mm (refused) | installed: within 3σ, true/pred RMS px / mm "
+      "| all judged: within "
       "3σ, true/pred RMS px / mm | fit σ module px | s a run | first refusal |\n"
-      "|---|---|---|---|---|---|---|---|---|---|\n",
+      "|---|---|---|---|---|---|---|---|---|---|---|\n",
       options.firstSeed, options.firstSeed + options.seeds - 1, kSensorNoisePerSyntheticPx,
-      load[0]);
+      options.allowPartial ? " --allow-partial;" : "", load[0]);
   std::fflush(stdout);
   SetupTally all;
   for (const PictureSetup& s : chosen) {
     SetupTally t;
     for (int i = 0; i < options.seeds; ++i)
-      runOne(s, static_cast<std::uint64_t>(options.firstSeed + i), options.threads, options.verbose,
-             &t);
+      runOne(s, static_cast<std::uint64_t>(options.firstSeed + i), options, &t);
     printRow(s.name, t);
     all.runs += t.runs;
     all.accepted += t.accepted;
@@ -277,6 +318,7 @@ int pictureSetupSweep(const PictureSweepOptions& options) {
     all.worstMm = std::max(all.worstMm, t.worstMm);
     all.boundPx = std::max(all.boundPx, t.boundPx);
     all.boundMm = std::max(all.boundMm, t.boundMm);
+    all.refusedWorstMm = std::max(all.refusedWorstMm, t.refusedWorstMm);
     all.sigmaSum += t.sigmaSum;
     all.seconds += t.seconds;
     all.installed.add(t.installed);

@@ -38,12 +38,19 @@ struct PictureSession {
 PictureSession renderPictureSession(const DisplayModel& nominal, std::uint64_t seed,
                                     const PictureSessionOptions& options);
 
+// One of the sweep's setups by name: its nominal and the session's options (the checkerboard's
+// intrinsics unless `trueIntrinsics`); false for an unknown name.
+bool pictureSetupByName(const std::string& name, DisplayModel* nominal,
+                        PictureSessionOptions* options);
+
 struct PictureSweepOptions {
   std::string setup = "all";  // a setup's name, or "all"
   int seeds = 20;             // per setup, consecutive from 1000 as the synthetic sweep
   int firstSeed = 1000;
   int threads = 2;       // the fit's solver threads
   bool verbose = false;  // a line per run
+  // GateLimits::allowPartial: the modules that pass are installed, the others held nominal.
+  bool allowPartial = false;
 };
 
 // Prints the table (markdown) and the overall line; returns the number of installed modules

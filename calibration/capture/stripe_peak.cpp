@@ -9,6 +9,8 @@
 namespace parallax {
 namespace {
 
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
 // A lobe as a function of its module's angle: amplitude·exp(−(angle − mean)² / (2·width²)).
 struct Lobe {
   double amplitude = 0.0, mean = 0.0, width = 0.0;
@@ -26,8 +28,9 @@ struct Lobe {
 // A bright end is a cut (the module's image or the screen ended there) unless the stripe runs
 // on into a neighbour's pixels: that is a valley between two lobes, whose overlap the rounds
 // remove.
-std::optional<Lobe> fitLobe(const std::vector<double>& angle, const std::vector<double>& contrast,
-                            const std::vector<bool>& clipped, bool frontIsValley, bool backIsValley,
+std::optional<Lobe> fitLobe(const std::vector<double>& x, const std::vector<double>& angle,
+                            const std::vector<double>& contrast, const std::vector<bool>& clipped,
+                            bool frontIsValley, bool backIsValley,
                             const StripePeakOptions& options) {
   const size_t n = angle.size();
   if (n < 3) return std::nullopt;
@@ -46,8 +49,13 @@ std::optional<Lobe> fitLobe(const std::vector<double>& angle, const std::vector<
   Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
   int used = 0;
   double tMin = 0.0, tMax = 0.0;
+  // Next to a cut the lens blurred the edge with the dark beyond it: those pixels are darker
+  // than the lobe, and would pull the vertex away from the cut.
+  const double frontGuard = frontIsValley ? -kInf : x.front() + options.cutGuardPx;
+  const double backGuard = backIsValley ? kInf : x.back() - options.cutGuardPx;
   for (size_t i = 0; i < n; ++i) {
     if (!(contrast[i] >= options.fitFraction * peak) || clipped[i]) continue;
+    if (x[i] < frontGuard || x[i] > backGuard) continue;
     const double t = (angle[i] - angle[top]) / spread;
     if (!std::isfinite(t)) return std::nullopt;
     const Eigen::Vector3d row(1.0, t, t * t);
@@ -129,7 +137,7 @@ std::vector<std::optional<double>> stripePeaksInRow(const std::vector<StripeRowS
   const auto fitOwn = [&](size_t m) {
     const bool frontIsValley = !owned[m].empty() && bordersNeighbour(row, owned[m].front(), -1);
     const bool backIsValley = !owned[m].empty() && bordersNeighbour(row, owned[m].back(), +1);
-    return fitLobe(angle, contrast, clipped, frontIsValley, backIsValley, options);
+    return fitLobe(x, angle, contrast, clipped, frontIsValley, backIsValley, options);
   };
   for (int round = 0; round <= options.rounds; ++round) {
     for (size_t m = 0; m < modules; ++m) {

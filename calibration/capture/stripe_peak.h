@@ -38,6 +38,9 @@ struct StripeRowSample {
 struct StripePeakOptions {
   double fitFraction = 0.3;  // samples at or above this fraction of the peak enter the fit
   double cutFraction = 0.5;  // a stripe whose first or last pixel is this bright was cut off
+  // Pixels this close (camera px) to an end that is not a valley between two lobes stay out of
+  // the fit: the lens blurs a cut lobe's edge (and a lobe's own dim end) with the dark beyond.
+  double cutGuardPx = 2.0;
   int minFitSamples = 4;
   int rounds = 6;  // neighbour-subtraction rounds after the first fit (Gauss–Seidel)
   // Largest pull (rad) a neighbour whose lobe could not be fitted may be predicted to put on a

@@ -264,6 +264,15 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
       __builtin_prefetch(rays + b, 0);
     for (size_t b = 0; b < columns * sizeof(Rgb) + kLine - 1; b += kLine)
       __builtin_prefetch(pixels + b, 1);
+    if (cache_ && !cache_->build) {
+      // The frame cache's records of these pixels (limitToStaticHits reads them next): the
+      // same short rows, 12 B a pixel, and a stall on every row's first record without this.
+      const auto* records = reinterpret_cast<const char*>(
+          cache_->hits + static_cast<size_t>(row) * static_cast<size_t>(textures_.width()) +
+          static_cast<size_t>(begin));
+      for (size_t b = 0; b < columns * sizeof(StaticHit) + kLine - 1; b += kLine)
+        __builtin_prefetch(records + b, 0);
+    }
   }
   // The rays, row by row, by the SIMD kernel (primary_ray_kernel.h). Each starts just before
   // the scene's box rather than on the observer line, metres away: Embree intersects in float

@@ -13,6 +13,7 @@
 #include "calibration/fit/display_fit.h"
 #include "calibration/simulation/ground_truth.h"
 #include "calibration/simulation/simulated_session.h"
+#include "calibration/simulation/sweep_setups.h"
 #include "calibration/simulation/synthetic_observations.h"
 
 namespace parallax {
@@ -60,53 +61,9 @@ namespace {
 // camera (f 700) sees the same angles with 3× larger pixels: p is p/3 of its own px.
 constexpr double kSensorNoisePerSyntheticPx = 0.0375;
 
-// The setups of tests/calibration/calibration_sweep_test.cpp, by the same names and values.
-struct PictureSetup {
-  std::string name;
-  int modules = 16;  // 16: demo (512×384); otherwise the default layout at 256×192
-  int stations = 5;
-  double spanM = 3.2;
-  double noisePx = 0.3;
-  ScreenTransfer truth = ScreenTransfer::kConical;
-  ScreenTransfer nominal = ScreenTransfer::kConical;
-  double observerM = 2.0;
-  std::vector<int> dark;
-};
-
-std::vector<PictureSetup> pictureSetups() {
-  std::vector<PictureSetup> out;
-  auto add = [&](std::string name, auto&& change) {
-    PictureSetup s;
-    s.name = std::move(name);
-    change(s);
-    out.push_back(s);
-  };
-  add("base: 5 stations 0.3 px", [](PictureSetup&) {});
-  add("noise 0.1 px", [](PictureSetup& s) { s.noisePx = 0.1; });
-  add("noise 1 px", [](PictureSetup& s) { s.noisePx = 1.0; });
-  add("noise 2 px", [](PictureSetup& s) { s.noisePx = 2.0; });
-  add("3 stations", [](PictureSetup& s) { s.stations = 3; });
-  add("2 stations", [](PictureSetup& s) { s.stations = 2; });
-  add("linear screen", [](PictureSetup& s) { s.truth = s.nominal = ScreenTransfer::kLinear; });
-  add("linear truth, conical nominal", [](PictureSetup& s) { s.truth = ScreenTransfer::kLinear; });
-  add("conical truth, linear nominal",
-      [](PictureSetup& s) { s.nominal = ScreenTransfer::kLinear; });
-  add("mismatch at 1 px", [](PictureSetup& s) {
-    s.truth = ScreenTransfer::kLinear;
-    s.noisePx = 1.0;
-  });
-  add("observer line 1 m", [](PictureSetup& s) {
-    s.observerM = 1.0;
-    s.spanM = 1.6;
-  });
-  add("observer line 6 m", [](PictureSetup& s) { s.observerM = 6.0; });
-  add("observer line 10 m", [](PictureSetup& s) { s.observerM = 10.0; });
-  add("narrow span 1 m", [](PictureSetup& s) { s.spanM = 1.0; });
-  add("wide span 5 m", [](PictureSetup& s) { s.spanM = 5.0; });
-  add("2 modules unseen", [](PictureSetup& s) { s.dark = {3, 12}; });
-  add("72 modules", [](PictureSetup& s) { s.modules = 72; });
-  return out;
-}
+// The synthetic sweep's setups (sweep_setups.h), rendered as pictures.
+using PictureSetup = SweepSetup;
+std::vector<PictureSetup> pictureSetups() { return sweepSetups(); }
 
 DisplayModel nominalOf(const PictureSetup& s) {
   NominalDisplayOptions options;
@@ -128,7 +85,7 @@ PictureSessionOptions sessionOptionsOf(const PictureSetup& s) {
   options.spanM = s.spanM;
   options.sensorNoise = s.noisePx * kSensorNoisePerSyntheticPx;
   options.truthTransfer = s.truth;
-  options.darkModules = s.dark;
+  options.darkModules = s.unseen;
   return options;
 }
 

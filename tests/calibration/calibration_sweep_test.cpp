@@ -23,56 +23,13 @@
 #include "calibration/display/ray_error.h"
 #include "calibration/fit/display_fit.h"
 #include "calibration/simulation/ground_truth.h"
+#include "calibration/simulation/sweep_setups.h"
 #include "calibration/simulation/synthetic_observations.h"
 
 namespace parallax {
 namespace {
 
-struct SweepSetup {
-  std::string name;
-  int modules = 16;  // 16: demo (512×384); otherwise the default layout, small images
-  int stations = 5;
-  double spanM = 3.2;
-  double noisePx = 0.3;
-  ScreenTransfer truth = ScreenTransfer::kConical;
-  ScreenTransfer nominal = ScreenTransfer::kConical;
-  double observerM = 2.0;
-  std::vector<int> hidden;
-};
-
-std::vector<SweepSetup> setups() {
-  std::vector<SweepSetup> out;
-  auto add = [&](std::string name, auto&& change) {
-    SweepSetup s;
-    s.name = std::move(name);
-    change(s);
-    out.push_back(s);
-  };
-  add("base: 5 stations 0.3 px", [](SweepSetup&) {});
-  add("noise 0.1 px", [](SweepSetup& s) { s.noisePx = 0.1; });
-  add("noise 1 px", [](SweepSetup& s) { s.noisePx = 1.0; });
-  add("noise 2 px", [](SweepSetup& s) { s.noisePx = 2.0; });
-  add("3 stations", [](SweepSetup& s) { s.stations = 3; });
-  add("2 stations", [](SweepSetup& s) { s.stations = 2; });
-  add("linear screen", [](SweepSetup& s) { s.truth = s.nominal = ScreenTransfer::kLinear; });
-  add("linear truth, conical nominal", [](SweepSetup& s) { s.truth = ScreenTransfer::kLinear; });
-  add("conical truth, linear nominal", [](SweepSetup& s) { s.nominal = ScreenTransfer::kLinear; });
-  add("mismatch at 1 px", [](SweepSetup& s) {
-    s.truth = ScreenTransfer::kLinear;
-    s.noisePx = 1.0;
-  });
-  add("observer line 1 m", [](SweepSetup& s) {
-    s.observerM = 1.0;
-    s.spanM = 1.6;
-  });
-  add("observer line 6 m", [](SweepSetup& s) { s.observerM = 6.0; });
-  add("observer line 10 m", [](SweepSetup& s) { s.observerM = 10.0; });
-  add("narrow span 1 m", [](SweepSetup& s) { s.spanM = 1.0; });
-  add("wide span 5 m", [](SweepSetup& s) { s.spanM = 5.0; });
-  add("2 modules unseen", [](SweepSetup& s) { s.hidden = {3, 12}; });
-  add("72 modules", [](SweepSetup& s) { s.modules = 72; });
-  return out;
-}
+std::vector<SweepSetup> setups() { return sweepSetups(); }
 
 // How well the predicted σ describes the true error, over a set of modules.
 struct Accuracy {
@@ -144,7 +101,7 @@ Tally runOne(const SweepSetup& s, std::uint64_t seed) {
   sim.noisePx = s.noisePx;
   sim.rig.stations = s.stations;
   sim.rig.spanM = s.spanM;
-  sim.hiddenModules = s.hidden;
+  sim.hiddenModules = s.unseen;
   if (s.modules != 16) sim.rowStepPx = 8;
   const SyntheticCalibration data = simulateObservations(truth, sim);
   FitOptions options;

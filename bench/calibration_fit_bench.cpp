@@ -44,6 +44,7 @@
 #include "calibration/display/display_presets.h"
 #include "calibration/display/ray_error.h"
 #include "calibration/fit/display_fit.h"
+#include "calibration/fit/prediction_coverage.h"
 #include "calibration/simulation/ground_truth.h"
 #include "calibration/simulation/synthetic_observations.h"
 
@@ -335,8 +336,8 @@ int pictureSweep(const std::string& display, int seeds, bool trueIntrinsics) {
       "| seed | gate | true worst px / mm | predicted 3σ worst px / mm | modules within 3σ | "
       "true/pred RMS px, mm | σ module px | first refusal |\n|---|---|---|---|---|---|---|---|\n",
       display.c_str(), trueIntrinsics ? "true" : "checkerboard");
-  int modules = 0, covered = 0, accepted = 0, violations = 0;
-  double tPx = 0, pPx = 0, tMm = 0, pMm = 0;
+  int accepted = 0, violations = 0;
+  PredictionCoverage all;
   for (int i = 0; i < seeds; ++i) {
     const std::uint64_t seed = 3000 + static_cast<std::uint64_t>(i);
     const PictureSession session = pictureSession(nominal, seed, trueIntrinsics);
@@ -349,8 +350,7 @@ int pictureSweep(const std::string& display, int seeds, bool trueIntrinsics) {
     const bool passes = result.passesQualityChecks();
     accepted += passes;
     double worstPx = 0, worstMm = 0, boundPx = 0, boundMm = 0;
-    int m0 = 0, c0 = 0;
-    double st = 0, sp = 0, smt = 0, smp = 0;
+    PredictionCoverage run;
     for (const ModuleGate& g : result.gate.modules) {
       const RayErrorStats& e = rays[static_cast<size_t>(g.module)];
       if (!g.predicted.bounded || g.predicted.samples == 0 || e.samples == 0) continue;
@@ -361,33 +361,21 @@ int pictureSweep(const std::string& display, int seeds, bool trueIntrinsics) {
       if (passes && (e.maxPx > fit.gate.worstPx || e.maxObserverMm > fit.gate.worstObserverMm))
         ++violations;
       if (!result.gate.reasons.empty()) continue;
-      ++m0;
-      c0 += e.maxPx <= 3.0 * g.predicted.worstPx &&
-            e.maxObserverMm <= 3.0 * g.predicted.worstObserverMm;
-      st += e.rmsPx * e.rmsPx;
-      sp += g.predicted.rmsPx * g.predicted.rmsPx;
-      smt += e.rmsObserverMm * e.rmsObserverMm;
-      smp += g.predicted.rmsObserverMm * g.predicted.rmsObserverMm;
+      run.add(PredictionCoverage::ofModule(g, e, fit.gate.sigmas));
     }
-    modules += m0;
-    covered += c0;
-    tPx += st;
-    pPx += sp;
-    tMm += smt;
-    pMm += smp;
+    all.add(run);
     const std::vector<std::string> why = result.gate.describe();
     std::printf("| %llu | %s | %.3f / %.2f | %.3f / %.2f | %d/%d | %.2f, %.2f | %.3f | %s |\n",
                 static_cast<unsigned long long>(seed), passes ? "accepted" : "refused", worstPx,
-                worstMm, boundPx, boundMm, c0, m0, sp > 0 ? std::sqrt(st / sp) : 0.0,
-                smp > 0 ? std::sqrt(smt / smp) : 0.0, result.correspondenceSigmaPx,
-                why.empty() ? "" : why.front().c_str());
+                worstMm, boundPx, boundMm, run.covered, run.modules, run.ratioPx(), run.ratioMm(),
+                result.correspondenceSigmaPx, why.empty() ? "" : why.front().c_str());
     std::fflush(stdout);
   }
   std::printf(
       "\nall: %d/%d accepted, %d installed modules beyond the gate's limits; coverage %.1f%% of "
       "%d modules within 3σ; true/predicted RMS %.2f px, %.2f mm\n",
-      accepted, seeds, violations, modules ? 100.0 * covered / modules : 0.0, modules,
-      pPx > 0 ? std::sqrt(tPx / pPx) : 0.0, pMm > 0 ? std::sqrt(tMm / pMm) : 0.0);
+      accepted, seeds, violations, all.modules ? 100.0 * all.coverage() : 0.0, all.modules,
+      all.ratioPx(), all.ratioMm());
   return 0;
 }
 

@@ -11,6 +11,7 @@
 #include "calibration/display/display_presets.h"
 #include "calibration/display/ray_error.h"
 #include "calibration/fit/display_fit.h"
+#include "calibration/fit/prediction_coverage.h"
 #include "calibration/simulation/ground_truth.h"
 #include "calibration/simulation/simulated_session.h"
 #include "calibration/simulation/sweep_setups.h"
@@ -90,27 +91,14 @@ PictureSessionOptions sessionOptionsOf(const PictureSetup& s) {
 }
 
 // What the predicted σ says against the truth, over a set of modules.
-struct Coverage {
-  int modules = 0, covered = 0;
-  double trueSqPx = 0, predSqPx = 0, trueSqMm = 0, predSqMm = 0;
+using Coverage = PredictionCoverage;
 
-  void add(const Coverage& o) {
-    modules += o.modules;
-    covered += o.covered;
-    trueSqPx += o.trueSqPx;
-    predSqPx += o.predSqPx;
-    trueSqMm += o.trueSqMm;
-    predSqMm += o.predSqMm;
-  }
-  std::string text() const {
-    char buf[96];
-    std::snprintf(buf, sizeof buf, "%.1f%% of %d, %.2f / %.2f",
-                  modules ? 100.0 * covered / modules : 0.0, modules,
-                  predSqPx > 0 ? std::sqrt(trueSqPx / predSqPx) : 0.0,
-                  predSqMm > 0 ? std::sqrt(trueSqMm / predSqMm) : 0.0);
-    return buf;
-  }
-};
+std::string coverageText(const Coverage& c) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "%.1f%% of %d, %.2f / %.2f",
+                c.modules ? 100.0 * c.coverage() : 0.0, c.modules, c.ratioPx(), c.ratioMm());
+  return buf;
+}
 
 struct SetupTally {
   int runs = 0, accepted = 0, violations = 0;  // violations: installed modules beyond limits
@@ -171,14 +159,7 @@ void runOne(const PictureSetup& s, std::uint64_t seed, const PictureSweepOptions
         g.held || e.samples == 0)
       continue;
     const double k = fit.gate.sigmas;
-    Coverage one;
-    one.modules = 1;
-    one.covered =
-        e.maxPx <= k * g.predicted.worstPx && e.maxObserverMm <= k * g.predicted.worstObserverMm;
-    one.trueSqPx = e.rmsPx * e.rmsPx;
-    one.predSqPx = g.predicted.rmsPx * g.predicted.rmsPx;
-    one.trueSqMm = e.rmsObserverMm * e.rmsObserverMm;
-    one.predSqMm = g.predicted.rmsObserverMm * g.predicted.rmsObserverMm;
+    const Coverage one = Coverage::ofModule(g, e, k);
     runCoverage.add(one);
     t->judged.add(one);
     if (accepted && !heldNominal) t->installed.add(one);
@@ -209,8 +190,8 @@ void runOne(const PictureSetup& s, std::uint64_t seed, const PictureSweepOptions
         "%sjudged %s, σ %.3f module px, %.0f s%s%s\n",
         s.name.c_str(), static_cast<unsigned long long>(seed), accepted ? "accepted" : "refused",
         runWorstPx, runWorstMm, runBoundPx, runBoundMm, furthest.c_str(),
-        runCoverage.text().c_str(), result.correspondenceSigmaPx, seconds, why.empty() ? "" : ": ",
-        why.empty() ? "" : why.front().c_str());
+        coverageText(runCoverage).c_str(), result.correspondenceSigmaPx, seconds,
+        why.empty() ? "" : ": ", why.empty() ? "" : why.front().c_str());
   }
   std::fflush(stdout);
 }
@@ -219,9 +200,9 @@ void printRow(const std::string& name, const SetupTally& t) {
   std::printf(
       "| %s | %d | %d / %d | %.3f / %.2f | %.3f / %.2f | %.2f | %s | %s | %.3f | %.0f | %s |\n",
       name.c_str(), t.runs, t.accepted, t.runs - t.accepted, t.worstPx, t.worstMm, t.boundPx,
-      t.boundMm, t.refusedWorstMm, t.installed.text().c_str(), t.judged.text().c_str(),
-      t.runs ? t.sigmaSum / t.runs : 0.0, t.runs ? t.seconds / t.runs : 0.0,
-      t.firstRefusal.c_str());
+      t.boundMm, t.refusedWorstMm, coverageText(t.installed).c_str(),
+      coverageText(t.judged).c_str(), t.runs ? t.sigmaSum / t.runs : 0.0,
+      t.runs ? t.seconds / t.runs : 0.0, t.firstRefusal.c_str());
   std::fflush(stdout);
 }
 
@@ -290,7 +271,7 @@ int pictureSetupSweep(const PictureSweepOptions& options) {
       "\nall: %d runs, %d accepted, %d refused; installed modules beyond the gate's limits: %d; "
       "installed modules within 3σ: %s\n",
       all.runs, all.accepted, all.runs - all.accepted, all.violations,
-      all.installed.text().c_str());
+      coverageText(all.installed).c_str());
   return all.violations;
 }
 

@@ -22,6 +22,7 @@
 #include "calibration/display/display_presets.h"
 #include "calibration/display/ray_error.h"
 #include "calibration/fit/display_fit.h"
+#include "calibration/fit/prediction_coverage.h"
 #include "calibration/simulation/ground_truth.h"
 #include "calibration/simulation/sweep_setups.h"
 #include "calibration/simulation/synthetic_observations.h"
@@ -32,27 +33,7 @@ namespace {
 std::vector<SweepSetup> setups() { return sweepSetups(); }
 
 // How well the predicted σ describes the true error, over a set of modules.
-struct Accuracy {
-  int modules = 0, covered = 0;  // covered: true worst within 3σ of the worst pixel, px and mm
-  double trueSumSqPx = 0.0, predictedSumSqPx = 0.0;
-  double trueSumSqMm = 0.0, predictedSumSqMm = 0.0;
-
-  void add(const Accuracy& o) {
-    modules += o.modules;
-    covered += o.covered;
-    trueSumSqPx += o.trueSumSqPx;
-    predictedSumSqPx += o.predictedSumSqPx;
-    trueSumSqMm += o.trueSumSqMm;
-    predictedSumSqMm += o.predictedSumSqMm;
-  }
-  double coverage() const { return modules ? static_cast<double>(covered) / modules : 1.0; }
-  double ratioPx() const {
-    return predictedSumSqPx > 0 ? std::sqrt(trueSumSqPx / predictedSumSqPx) : 0.0;
-  }
-  double ratioMm() const {
-    return predictedSumSqMm > 0 ? std::sqrt(trueSumSqMm / predictedSumSqMm) : 0.0;
-  }
-};
+using Accuracy = PredictionCoverage;
 
 struct Tally {
   int runs = 0, accepted = 0, violations = 0;
@@ -148,14 +129,7 @@ Tally runOne(const SweepSetup& s, std::uint64_t seed) {
           s.name.c_str(), static_cast<int>(seed), g.module, e.maxPx, e.maxObserverMm, e.rmsPx,
           e.rmsObserverMm, g.predicted.worstPx, g.predicted.worstObserverMm, g.predicted.rmsPx,
           g.predicted.rmsObserverMm);
-    Accuracy one;
-    one.modules = 1;
-    one.covered =
-        e.maxPx <= k * g.predicted.worstPx && e.maxObserverMm <= k * g.predicted.worstObserverMm;
-    one.trueSumSqPx = e.rmsPx * e.rmsPx;
-    one.predictedSumSqPx = g.predicted.rmsPx * g.predicted.rmsPx;
-    one.trueSumSqMm = e.rmsObserverMm * e.rmsObserverMm;
-    one.predictedSumSqMm = g.predicted.rmsObserverMm * g.predicted.rmsObserverMm;
+    const Accuracy one = Accuracy::ofModule(g, e, k);
     t.judged.add(one);
     if (accepted && !heldNominal) t.installed.add(one);
   }

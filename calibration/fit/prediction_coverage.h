@@ -22,8 +22,8 @@ struct PredictionCoverage {
     const RayUncertainty& p = gate.predicted;
     PredictionCoverage one;
     one.modules = 1;
-    one.covered = truth.maxPx <= sigmas * p.worstPx &&
-                  truth.maxObserverMm <= sigmas * p.worstObserverMm;
+    one.covered =
+        truth.maxPx <= sigmas * p.worstPx && truth.maxObserverMm <= sigmas * p.worstObserverMm;
     one.trueSumSqPx = truth.rmsPx * truth.rmsPx;
     one.predictedSumSqPx = p.rmsPx * p.rmsPx;
     one.trueSumSqMm = truth.rmsObserverMm * truth.rmsObserverMm;

@@ -97,7 +97,6 @@ void print(const std::string& value, const Row& r) {
   std::fflush(stdout);
 }
 
-
 // The decoder's own error, measured against the truth (true display, camera poses and
 // intrinsics), then the fit's true error against its predicted σ per module: where the picture
 // path's error comes from (issue 17). Outliers (stripes > 1 mm, correspondences > 0.5 px at the

@@ -19,7 +19,7 @@ namespace parallax {
 namespace {
 
 struct DepthErrors {
-  double meanMm = 0.0;      // signed: negative is nearer the screen than the truth
+  double meanMm = 0.0;       // signed: negative is nearer the screen than the truth
   double worstSigmas = 0.0;  // the largest |error| along the viewing axis over its σ
 };
 
@@ -31,9 +31,9 @@ DepthErrors depthErrors(const FitResult& fit, const CameraTruth& truth) {
     const Eigen::Vector3d axis = t.normalized();
     const double error = 1e3 * (cf.pose.centre - t).dot(axis);
     // σ along the axis from the per-axis σ (their correlations left out: an estimate).
-    const double sigma = std::sqrt(std::pow(cf.stdDev[3] * axis.x(), 2) +
-                                   std::pow(cf.stdDev[4] * axis.y(), 2) +
-                                   std::pow(cf.stdDev[5] * axis.z(), 2));
+    const double sigma =
+        std::sqrt(std::pow(cf.stdDev[3] * axis.x(), 2) + std::pow(cf.stdDev[4] * axis.y(), 2) +
+                  std::pow(cf.stdDev[5] * axis.z(), 2));
     out.meanMm += error / static_cast<double>(fit.cameras.size());
     out.worstSigmas = std::max(out.worstSigmas, std::abs(error) / sigma);
   }
@@ -71,9 +71,10 @@ TEST(LensBlur, StatedBlurKeepsTheCamerasAtTheirDistance) {
   const FitResult biased = fitDisplay(nominal, unstated, fit);
   const DepthErrors c = depthErrors(corrected, camera.truth);
   const DepthErrors b = depthErrors(biased, camera.truth);
-  std::printf("    cameras' distance error: stated blur %+.2f mm (worst %.1fσ), not stated %+.2f mm "
-              "(worst %.1fσ)\n",
-              c.meanMm, c.worstSigmas, b.meanMm, b.worstSigmas);
+  std::printf(
+      "    cameras' distance error: stated blur %+.2f mm (worst %.1fσ), not stated %+.2f mm "
+      "(worst %.1fσ)\n",
+      c.meanMm, c.worstSigmas, b.meanMm, b.worstSigmas);
   // Not stated: nearer, and beyond what its σ allow (this is what the test guards against).
   EXPECT_LT(b.meanMm, 0.0);
   EXPECT_GT(b.worstSigmas, 3.0);
@@ -83,7 +84,8 @@ TEST(LensBlur, StatedBlurKeepsTheCamerasAtTheirDistance) {
   // The report says which it was.
   EXPECT_NE(formatFitSummary(corrected).find("corrected for the lens blur"), std::string::npos);
   bool noted = false;
-  for (const std::string& n : biased.notes) noted |= n.find("lens_blur_sigma_px") != std::string::npos;
+  for (const std::string& n : biased.notes)
+    noted |= n.find("lens_blur_sigma_px") != std::string::npos;
   EXPECT_TRUE(noted);
 }
 

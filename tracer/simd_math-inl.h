@@ -13,6 +13,7 @@
 
 #include <hwy/highway.h>
 
+#include <Eigen/Core>
 #include <cmath>
 
 HWY_BEFORE_NAMESPACE();
@@ -51,6 +52,28 @@ HWY_INLINE V OffsetCoordinate(D d, V p, V n) {
       hn::BitCast(d, hn::Add(hn::BitCast(di, p), hn::IfThenElse(negative, hn::Neg(steps), steps)));
   const V near = hn::Add(p, hn::Mul(hn::Set(d, 1.0f / 65536.0f), n));
   return hn::IfThenElse(hn::Lt(hn::Abs(p), hn::Set(d, 1.0f / 32.0f)), near, moved);
+}
+
+// Lanes whose ray (from a along the unit l, for t in [0, tfar]) may meet `sphere`: false only
+// where it certainly passes it. The squared distance of the centre from the ray's line, |w|² −
+// (w · l)², loses a few ulps of |w|² to cancellation and to |l| being 1 only to a few ulps: the
+// allowance of 1e-5 |w|² covers both. NaN compares false: may meet.
+template <class D, class V = hwy::HWY_NAMESPACE::Vec<D>>
+HWY_INLINE auto MayMeetSphere(D d, V ax, V ay, V az, V lx, V ly, V lz, V tfar,
+                              const Eigen::Vector4f& sphere) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  const V wx = hn::Sub(hn::Set(d, sphere.x()), ax);
+  const V wy = hn::Sub(hn::Set(d, sphere.y()), ay);
+  const V wz = hn::Sub(hn::Set(d, sphere.z()), az);
+  const V along = Dot3(wx, wy, wz, lx, ly, lz);
+  const V square = Dot3(wx, wy, wz, wx, wy, wz);
+  const V radius = hn::Set(d, sphere.w());
+  const V off = hn::Sub(square, hn::Mul(along, along));
+  const auto passesBeside =
+      hn::Gt(off, hn::Add(hn::Mul(radius, radius), hn::Mul(hn::Set(d, 1e-5f), square)));
+  const auto behind = hn::Lt(hn::Add(along, radius), hn::Zero(d));
+  const auto beyond = hn::Gt(hn::Sub(along, radius), hn::Mul(tfar, hn::Set(d, 1.0f + 1e-5f)));
+  return hn::Not(hn::Or(passesBeside, hn::Or(behind, beyond)));
 }
 
 // The lanes of `v` that `keep` selects, written in order from `to` on, followed by whatever

@@ -22,6 +22,7 @@
 #include "tracer/ray_log.h"
 #include "tracer/ray_packets.h"
 #include "tracer/shadow_ray_kernel.h"
+#include "tracer/static_hit_kernel.h"
 
 namespace parallax {
 namespace {
@@ -80,32 +81,6 @@ struct ShadowBatch {
   }
 };
 
-// A primary ray's cached static hit, as this frame's PhysicalScene names it.
-struct CachedHit {
-  unsigned mesh = RTC_INVALID_GEOMETRY_ID;  // none: the ray meets no static geometry
-  unsigned prim = 0;
-  // The ray passes every dynamic object's bounds before its static hit: not traced (its lane is
-  // parked), and its distance to the hit is `t`.
-  bool past = false;
-  float t = 0.0f;
-};
-
-// Whether the segment from `origin` along the unit `dir` for t in [0, tfar] may meet one of the
-// spheres (PhysicalScene::dynamicSpheres): false only where it certainly passes them all. The
-// allowances are the shadow-ray kernel's (MayMeetSphere).
-bool mayMeetSpheres(const std::vector<Eigen::Vector4f>& spheres, const Eigen::Vector3f& origin,
-                    const Eigen::Vector3f& dir, float tfar) {
-  for (const Eigen::Vector4f& sphere : spheres) {
-    const Eigen::Vector3f w = sphere.head<3>() - origin;
-    const float along = w.dot(dir), square = w.dot(w), radius = sphere.w();
-    const bool passesBeside = square - along * along > radius * radius + 1e-5f * square;
-    const bool behind = along + radius < 0.0f;
-    const bool beyond = along - radius > tfar * (1.0f + 1e-5f);
-    if (!(passesBeside || behind || beyond)) return true;
-  }
-  return false;
-}
-
 // A worker thread's ray arrays, kept from frame to frame (thread_local below): after the first
 // frame a tile allocates nothing.
 struct TileBuffers {
@@ -120,7 +95,7 @@ struct TileBuffers {
   // And the rays of that batch that pass every dynamic object's bounds: not traced.
   StagedRays unblocked;
   // The frame cache, per primary ray: its static hit, and that hit's static-light answers.
-  std::vector<CachedHit> cachedHits;
+  CachedHits cachedHits;
   std::vector<std::uint8_t> primaryLights;
   StagedRays primary;  // the first generation as the kernel made it
 };
@@ -169,6 +144,7 @@ class TileRenderer {
   void recordStaticShadows(const ShadowBatch& batch, int lightIndex);
   // The frame cache around the first generation's intersection.
   RTCScene primaryScene() const;
+  StaticHitJob staticHitJob();
   void limitToStaticHits();
   std::uint8_t cachedStaticLights(size_t ray, int pixel);
   void takeStaticHits(RenderCounters* c);
@@ -199,7 +175,7 @@ class TileRenderer {
   ShadowBatch& shadows_;
   ShadowBatch& dynamicShadows_;
   StagedRays& unblocked_;
-  std::vector<CachedHit>& cachedHits_;
+  CachedHits& cachedHits_;
   std::vector<std::uint8_t>& primaryLights_;
   StagedRays& primaryStaged_;
   // The frame cache: null without one; build mode fills it from the static scene, else the
@@ -489,60 +465,33 @@ RTCScene TileRenderer::primaryScene() const {
   return cache_->build ? scene_.staticHandle() : scene_.dynamicHandle();
 }
 
+// The frame cache around the first generation's trace, by the SIMD kernel (static_hit_kernel.h).
+StaticHitJob TileRenderer::staticHitJob() {
+  StaticHitJob job;
+  job.view = cache_;
+  job.meshes = scene_.meshes().data();
+  job.spheres = scene_.dynamicSpheres().data();
+  job.sphereCount = scene_.dynamicSpheres().size();
+  job.pixels = primaryStaged_.pixels();  // the rays' pixels, in order (initialRays)
+  job.packets = rays_.packets();
+  job.rays = rays_.size();
+  job.hits = &cachedHits_;
+  return job;
+}
+
 // Before the first generation is traced: each ray with a cached static hit is traced only as
 // far as that hit, so the dynamic scene reports only what lies in front of it.
 void TileRenderer::limitToStaticHits() {
-  const StaticVisibilityView& view = *cache_;
-  cachedHits_.assign(rays_.size(), CachedHit{});
-  const std::uint32_t* baseEnd = view.triangleBase + view.staticMeshes + 1;
-  for (size_t i = 0; i < rays_.size(); ++i) {
-    const StaticHit& hit = view.hits[static_cast<size_t>(paths_[i].pixel)];
-    const std::uint32_t triangle = hit.triangle();
-    if (triangle == StaticHit::kNoTriangle) continue;
-    const size_t ordinal =
-        static_cast<size_t>(std::upper_bound(view.triangleBase, baseEnd, triangle) -
-                            view.triangleBase) -
-        1;
-    const int meshIndex = view.meshOfStatic[ordinal];
-    const unsigned prim = triangle - view.triangleBase[ordinal];
-    const PhysicalMesh& mesh = scene_.meshes()[static_cast<size_t>(meshIndex)];
-    const auto& tri = mesh.triangles[prim];
-    // The hit point as hitInfoOf computes it; its distance along the (unit) ray.
-    const Eigen::Vector3f p = (1.0f - hit.u - hit.v) * mesh.positions[tri[0]] +
-                              hit.u * mesh.positions[tri[1]] + hit.v * mesh.positions[tri[2]];
-    const Eigen::Vector3f origin = rays_.origin(i), direction = rays_.direction(i);
-    const float t = (p - origin).dot(direction);
-    CachedHit& cached = cachedHits_[i];
-    cached = {static_cast<unsigned>(meshIndex), prim, false, t};
-    if (!mayMeetSpheres(scene_.dynamicSpheres(), origin, direction, t)) {
-      // Nothing dynamic lies in front of the static hit: the lane is parked (tnear > tfar, as
-      // the stream traversal parks unused lanes), and a packet of such lanes costs Embree next
-      // to nothing.
-      cached.past = true;
-      rays_.park(i);
-    } else {
-      rays_.setTfar(i, t);
-    }
-  }
+  cachedHits_.reserve(rays_.size());
+  parallax::limitToStaticHits(staticHitJob());
 }
 
 // After it: where the dynamic scene found nothing nearer, the static hit is the ray's hit.
 void TileRenderer::takeStaticHits(RenderCounters* c) {
-  primaryLights_.assign(rays_.size(), 0);
-  long passed = 0;
-  for (size_t i = 0; i < rays_.size(); ++i) {
-    const CachedHit& cached = cachedHits_[i];
-    if (cached.past) {
-      rays_.unpark(i, cached.t);
-      ++passed;
-    }
-    if (cached.mesh == RTC_INVALID_GEOMETRY_ID || rays_.geomID(i) != RTC_INVALID_GEOMETRY_ID)
-      continue;
-    const StaticHit& hit = cache_->hits[static_cast<size_t>(paths_[i].pixel)];
-    rays_.setHit(i, cached.mesh, cached.prim, hit.u, hit.v);
-    primaryLights_[i] = hit.lights();
-    ++c->cache.pixelsReused;
-  }
+  primaryLights_.resize(std::max(primaryLights_.size(), (rays_.size() + 15) / 16 * 16));
+  long reused = 0;
+  const long passed = parallax::takeStaticHits(staticHitJob(), primaryLights_.data(), &reused);
+  c->cache.pixelsReused += reused;
   c->cache.primaryDynamicOnly += static_cast<long>(rays_.size()) - passed;
   c->cache.primaryPassedDynamic += passed;
 }

@@ -7,8 +7,10 @@
 #include "tracer/frame_cache.h"
 
 #include <gtest/gtest.h>
+#include <hwy/targets.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <cstdlib>
 #include <memory>
 #include <string>
@@ -261,6 +263,47 @@ TEST(FrameCache, AReloadWithOtherGeometryRebuildsIt) {
   expectSameImages(c);
   expectSameImages(resized);
   expectSameImages(added);
+}
+
+// The cached frame's SIMD kernels (static_hit_kernel.h: the static hits turned back into
+// distances, the sphere tests, the hits written back) give every instruction set the same
+// frames, bit for bit: each target this machine supports is forced in turn.
+TEST(FrameCache, EveryInstructionSetDrawsTheSameCachedFrames) {
+  const std::vector<int64_t> targets = hwy::SupportedAndGeneratedTargets();
+  ASSERT_GE(targets.size(), 2u);
+  struct TargetGuard {
+    ~TargetGuard() { hwy::SetSupportedTargetsForTest(0); }  // back to what the CPU has
+  } guard;
+  ScriptedScene script(testing::sceneLibrary() + "/orbit.lua", scriptOptions());
+  FrameCache cache;
+  const Display& display = smallDisplay();
+  const RenderOptions options;
+  for (double time : {0.0, 0.7, 1.9}) {
+    ASSERT_TRUE(script.setTime(time)) << script.lastError();
+    PhysicalScene split(script.scene(), display.model.displayableBox,
+                        &cache.dynamicInstances(script.scene()));
+    ASSERT_TRUE(cache.prepare(split, display.textures, 1, options));
+    for (size_t m = 0; m < display.textures.size(); ++m) {
+      std::vector<Frame> frames;
+      for (int64_t target : targets) {
+        hwy::SetSupportedTargetsForTest(target);
+        Frame frame;
+        RenderCounters counters;
+        renderFrameInto(split, display.textures[m], options, cache.view(m), &frame, &counters);
+        EXPECT_GT(counters.cache.pixelsReused, 0) << hwy::TargetName(target);
+        EXPECT_GT(counters.cache.primaryPassedDynamic, 0) << hwy::TargetName(target);
+        frames.push_back(std::move(frame));
+      }
+      for (size_t t = 1; t < frames.size(); ++t) {
+        long differing = 0;
+        for (size_t p = 0; p < frames[0].pixels.size(); ++p)
+          differing += frames[t].pixels[p] == frames[0].pixels[p] ? 0 : 1;
+        EXPECT_EQ(differing, 0) << hwy::TargetName(targets[t]) << " against "
+                                << hwy::TargetName(targets[0]) << ", t " << time << ", module "
+                                << m;
+      }
+    }
+  }
 }
 
 // orbit.lua's cache saves next to nothing (its key light turns, its moving objects are most of

@@ -126,8 +126,7 @@ void runOne(const PictureSetup& s, std::uint64_t seed, const PictureSweepOptions
   if (!result.gate.heldNominal.empty()) {
     DisplayModel model = result.model;
     for (size_t i = 0; i < result.gate.heldNominal.size(); ++i)
-      model.modules[static_cast<size_t>(result.gate.heldNominal[i])] =
-          result.gate.heldEstimates[i];
+      model.modules[static_cast<size_t>(result.gate.heldNominal[i])] = result.gate.heldEstimates[i];
     estimated = compareRays(session.truth, model);
   }
   const bool accepted = result.passesQualityChecks();

@@ -45,6 +45,7 @@ PictureSession renderPictureSession(const DisplayModel& nominal, std::uint64_t s
     captures.camera.intrinsicsKnown = false;
     out.checkerboard = calibrateCapturesCamera(&captures);
   }
+  if (!options.lensBlurStated) captures.camera.lensBlurSigmaPx.reset();
   out.intrinsicsUsed = captures.camera.intrinsics;
   CaptureDecoderOptions decoder;
   decoder.pixelStep = 6;
@@ -217,6 +218,7 @@ bool pictureSetupByName(const std::string& name, DisplayModel* nominal,
     const PictureSessionOptions chosen = *options;
     *options = sessionOptionsOf(s);
     options->trueIntrinsics = chosen.trueIntrinsics;
+    options->lensBlurStated = chosen.lensBlurStated;
     if (chosen.blurSigmaPx) options->blurSigmaPx = chosen.blurSigmaPx;
     return true;
   }

@@ -26,6 +26,7 @@ struct PictureSessionOptions {
   std::optional<ScreenTransfer> truthTransfer;  // default: the nominal's
   std::vector<int> darkModules;                 // modules that show nothing (never seen)
   bool trueIntrinsics = false;                  // else from simulated checkerboard pictures
+  bool lensBlurStated = true;  // camera.json states the lens blur (else the decoder keeps its bias)
 };
 
 struct PictureSession {

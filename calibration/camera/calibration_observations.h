@@ -49,6 +49,9 @@ struct CalibrationObservations {
   std::vector<StripeCentre> stripes;
   std::vector<FiducialSighting> fiducialSightings;
   std::optional<CameraResponseCheck> cameraResponse;  // decoded from pictures only
+  // Decoded from pictures: the lens blur the decoder undid (capture_decoder.h), nullopt when
+  // camera.json did not state one.
+  std::optional<double> lensBlurSigmaPx;
 };
 
 }  // namespace parallax

@@ -269,6 +269,7 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
   captures.validate(nominal);
   CaptureDecoderOptions decoder = options;
   decoder.patterns = captures.patterns;
+  if (captures.camera.lensBlurSigmaPx) decoder.lensBlurSigmaPx = *captures.camera.lensBlurSigmaPx;
   // The response measured (camera_response.h): when camera.json gives none, each set's pictures
   // are re-linearized with the measured one before anything is decoded from them.
   CameraResponseCheck response = checkCameraResponse(captures);
@@ -296,6 +297,7 @@ CalibrationObservations decodeCaptures(const CalibrationCaptures& captures,
   };
   CalibrationObservations obs = observationsFrame(captures.camera);
   obs.cameraResponse = response;
+  obs.lensBlurSigmaPx = captures.camera.lensBlurSigmaPx;
   // Fiducials first (from each station's first black reference picture): the pose they give
   // is what the decoder predicts the stripes from.
   std::vector<std::optional<CameraPose>> poses(captures.camera.stations.size());
@@ -356,6 +358,7 @@ void saveCameraMetadata(const CameraMetadata& camera, const std::string& path) {
     for (const char* key : {"focal_px", "principal_px", "distortion"}) j["intrinsics"].erase(key);
   }
   if (camera.responseGammaStated) j["response_gamma"] = camera.responseGamma;
+  if (camera.lensBlurSigmaPx) j["lens_blur_sigma_px"] = *camera.lensBlurSigmaPx;
   writeFileAtomically(path, j.dump(2) + "\n");
 }
 
@@ -374,6 +377,12 @@ CameraMetadata loadCameraMetadata(const std::string& path) {
       camera.responseGammaStated = true;
       if (!(camera.responseGamma >= 0.2 && camera.responseGamma <= 5.0))
         fail("response_gamma", "must be 0.2..5");
+    }
+    if (j.contains("lens_blur_sigma_px")) {
+      const double blur = number(j["lens_blur_sigma_px"], "lens_blur_sigma_px");
+      if (!(blur >= 0.0 && blur <= kMaxLensBlurSigmaPx))
+        fail("lens_blur_sigma_px", fmt::format("must be 0..{}", kMaxLensBlurSigmaPx));
+      camera.lensBlurSigmaPx = blur;
     }
     return camera;
   } catch (const InputError& e) {

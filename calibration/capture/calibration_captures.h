@@ -7,7 +7,8 @@
 // A captures folder on disk (written by `parallax simulate` and by a session over the link,
 // read by `parallax calibrate --captures DIR`):
 //   camera.json     observations_json.h's camera file, plus "response_gamma" (recorded
-//                   value = linear^(1/gamma); 1 = linear)
+//                   value = linear^(1/gamma); 1 = linear) and "lens_blur_sigma_px" (optional:
+//                   the σ of the lens's point spread in camera px, pixel area included)
 //   patterns.json   {"format": "parallax-patterns", "version": 1, period_px, phase_steps,
 //                    min_contrast, module_width, module_height,
 //                    stations: [{station, group: [modules], columns: [file, ...], rows: [file,
@@ -42,6 +43,11 @@ struct CameraMetadata {
   // camera.json gave response_gamma (a simulated rig knows its sensor's). When it did not, the
   // decoder uses the response it measures from the phase pictures (camera_response.h).
   bool responseGammaStated = false;
+  // The lens's blur (σ of its point spread, camera px), when camera.json states it
+  // ("lens_blur_sigma_px"; a simulated rig knows its own): the decoder undoes the shift it gives
+  // the phase patterns inside a lobe (capture_decoder.h). Not stated: the correspondences keep
+  // that bias, and the fit's report says so.
+  std::optional<double> lensBlurSigmaPx;
   std::vector<CameraStation> stations;     // tape-measured centres (cm accuracy)
   std::vector<Eigen::Vector2d> fiducials;  // marker places on the screen frame (x, y)
 };

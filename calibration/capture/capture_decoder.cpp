@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 
 #include "calibration/camera/calibration_geometry.h"
 #include "calibration/capture/stripe_curve.h"
@@ -17,6 +18,8 @@ void CaptureDecoderOptions::validate() const {
   if (!(minContrastFraction > 0.0 && minContrastFraction < 1.0)) {
     throw InputError({"", "min_contrast_fraction", 0}, "must be in (0, 1)");
   }
+  if (!(lensBlurSigmaPx >= 0.0 && lensBlurSigmaPx <= kMaxLensBlurSigmaPx))
+    throw InputError({"", "lens_blur_sigma_px", 0}, "must be 0..5");
   if (pixelStep < 1 || pixelStep > 64) throw InputError({"", "pixel_step", 0}, "must be 1..64");
   if (minStripePixels < 1) throw InputError({"", "min_stripe_pixels", 0}, "must be >= 1");
   if (!(lobeWidthTolerance > 1.0)) throw InputError({"", "lobe_width_tolerance", 0}, "must be > 1");
@@ -29,6 +32,39 @@ void CaptureDecoderOptions::validate() const {
   if (!(saturatedLinear > 0.0 && saturatedLinear <= 1.0))
     throw InputError({"", "saturated_linear", 0}, "must be in (0, 1]");
 }
+
+namespace {
+
+// Where a phase pattern's decoded position at camera pixel (x, y) really lies when the lens
+// blurred it (Gaussian, σ px) after the lobe shaped its brightness I: blurring I·cos(kx)
+// gives I·cos(k(x + σ² ∂x ln I)) to first order, so the column code read at x is the one at
+// x + σ² ∂x ln I, the row code likewise along y. ∂ ln I comes from the blurred white − black
+// reference (the lobe's own width dwarfs σ: its blur changes the slope by σ²/width², second
+// order). nullopt where the shift is beyond half a pixel: a cut edge of the lobe, where the
+// first-order shift no longer holds.
+std::optional<Eigen::Vector2d> blurShift(const std::vector<cv::Mat>& columnFrames,
+                                         const std::vector<cv::Mat>& rowFrames, int x, int y,
+                                         double sigmaPx) {
+  const auto logSlope = [](const std::vector<cv::Mat>& frames, int x0, int y0, int dx,
+                           int dy) -> std::optional<double> {
+    const cv::Mat& w = frames[0];
+    const cv::Mat& b = frames[1];
+    const int xa = x0 - dx, ya = y0 - dy, xb = x0 + dx, yb = y0 + dy;
+    if (xa < 0 || ya < 0 || xb >= w.cols || yb >= w.rows) return std::nullopt;
+    const double ia = w.at<float>(ya, xa) - b.at<float>(ya, xa);
+    const double ib = w.at<float>(yb, xb) - b.at<float>(yb, xb);
+    if (!(ia > 0.0 && ib > 0.0)) return std::nullopt;
+    return 0.5 * (std::log(ib) - std::log(ia));
+  };
+  const auto gx = logSlope(columnFrames, x, y, 1, 0);
+  const auto gy = logSlope(rowFrames, x, y, 0, 1);
+  if (!gx || !gy) return std::nullopt;
+  const Eigen::Vector2d shift = sigmaPx * sigmaPx * Eigen::Vector2d(*gx, *gy);
+  if (!(shift.norm() <= 0.5)) return std::nullopt;
+  return shift;
+}
+
+}  // namespace
 
 void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<cv::Mat>& rowFrames,
                    const std::vector<int>& group, const DisplayModel& nominal, int station,
@@ -103,7 +139,13 @@ void decodeStation(const std::vector<cv::Mat>& columnFrames, const std::vector<c
       const auto u = decodePixel(ic, mw, options.patterns);
       const auto v = decodePixel(ir, mh, options.patterns);
       if (!u || !v) continue;
-      obs->correspondences.push_back({station, label, {x + 0.5, y + 0.5}, {*u, *v}});
+      Eigen::Vector2d at(x + 0.5, y + 0.5);
+      if (options.lensBlurSigmaPx > 0.0) {
+        const auto shift = blurShift(columnFrames, rowFrames, x, y, options.lensBlurSigmaPx);
+        if (!shift) continue;
+        at += *shift;
+      }
+      obs->correspondences.push_back({station, label, at, {*u, *v}});
     }
     std::vector<int> pixels(group.size(), 0);
     for (const StripeRowSample& p : lit) ++pixels[static_cast<size_t>(p.owner)];

@@ -24,12 +24,20 @@
 
 namespace parallax {
 
+inline constexpr double kMaxLensBlurSigmaPx = 5.0;
+
 struct CaptureDecoderOptions {
   StructuredLightOptions patterns;
   double minContrastFraction = 0.25;  // of the row's brightest contrast, for a correspondence
   int pixelStep = 2;                  // decode every n-th camera pixel in x and y (and
                                       // find stripe centres on every n-th row)
   int minStripePixels = 3;            // per row, for a stripe centre
+  // The camera lens's blur (σ of its Gaussian spread, camera px; 0 = none). The lens blurs
+  // the pattern after the screen's lobe has shaped its brightness I, which moves a phase
+  // pattern's apparent position by σ² ∂ln I toward the brighter side: inside a lobe the
+  // decoded module coordinates are compressed about the lobe's peak, and the fit reads that
+  // as a camera nearer the screen. The decoder moves each correspondence's camera pixel back.
+  double lensBlurSigmaPx = 0.0;  // 0..kMaxLensBlurSigmaPx
   // A stripe centre is kept when its lobe's fitted width is within this factor of the picture
   // set's median lobe width.
   double lobeWidthTolerance = 1.5;

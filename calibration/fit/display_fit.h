@@ -141,6 +141,9 @@ struct FitResult {
   // The σ include the camera intrinsics' uncertainty (CalibrationObservations::
   // intrinsicsCovariance, the checkerboard's), carried through the fit (fit_uncertainty.h).
   bool intrinsicsCarried = false;
+  // Decoded from pictures: the lens blur the decoder undid (CalibrationObservations::
+  // lensBlurSigmaPx), nullopt when none was stated.
+  std::optional<double> lensBlurSigmaPx;
   // Set when the transfer cannot be decided and the choice matters (transfer_selection.h).
   bool transferMismatch = false;
   // Set when camera.json gives no response, the pictures bend, and the decoder cannot tell

@@ -74,6 +74,10 @@ std::string formatFitSummary(const FitResult& r) {
       r.correspondenceSigmaPx, r.correspondenceSigmaMm, r.stripeRmsMm, r.fiducialRmsPx, r.outliers);
   if (r.intrinsicsCarried)
     out += "σ include the camera intrinsics' uncertainty (their checkerboard covariance)\n";
+  if (r.lensBlurSigmaPx && *r.lensBlurSigmaPx > 0.0)
+    out += fmt::format(
+        "correspondences corrected for the lens blur (σ {:.2f} camera px, camera.json)\n",
+        *r.lensBlurSigmaPx);
   const auto& se = r.sharedErrors;
   if (se[3] > 0.0 || se[4] > 0.0 || se[5] > 0.0) {
     out += fmt::format(

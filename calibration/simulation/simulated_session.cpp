@@ -108,6 +108,9 @@ SimulatedRig makeSimulatedRig(const DisplayModel& truth, const CameraRigOptions&
   out.metadata.fiducials = session.observations.fiducials;
   out.metadata.responseGamma = sensor.gamma;
   out.metadata.responseGammaStated = true;
+  // The screen's pictures are sampled at pixel centres, then blurred: the point spread is the
+  // blur alone.
+  out.metadata.lensBlurSigmaPx = sensor.blurSigmaPx;
   out.truth.intrinsics = session.observations.intrinsics;
   out.truth.poses = session.truePoses;
   out.truth.sensor = sensor;

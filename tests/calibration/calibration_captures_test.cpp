@@ -57,6 +57,9 @@ TEST(CalibrationCaptures, FolderRoundTripKeepsPicturesAndDecodesTheSame) {
   saveCaptures(s.captures, dir.string());
   const CalibrationCaptures loaded = loadCaptures(dir.string());
   EXPECT_EQ(loaded.camera.responseGamma, s.captures.camera.responseGamma);
+  ASSERT_TRUE(s.captures.camera.lensBlurSigmaPx);  // the simulated rig states its lens blur
+  ASSERT_TRUE(loaded.camera.lensBlurSigmaPx);
+  EXPECT_EQ(*loaded.camera.lensBlurSigmaPx, *s.captures.camera.lensBlurSigmaPx);
   EXPECT_EQ(loaded.camera.stations.size(), 2u);
   ASSERT_EQ(loaded.stations.size(), s.captures.stations.size());
   for (size_t i = 0; i < loaded.stations.size(); ++i) {
@@ -155,6 +158,25 @@ TEST(CalibrationCaptures, BadFoldersNameTheFileAndField) {
   EXPECT_NE(error.find("stations[0].station"), std::string::npos) << error;
   error = withPatterns("\"period_px\": 16", "\"period_px\": \"x\"");
   EXPECT_NE(error.find("period_px"), std::string::npos) << error;
+  std::ofstream(dir / "patterns.json") << original;
+
+  // A lens blur that is not a number, negative, or beyond any camera's.
+  std::ifstream cameraIn(dir / "camera.json");
+  const std::string camera((std::istreambuf_iterator<char>(cameraIn)),
+                           std::istreambuf_iterator<char>());
+  const size_t blurAt = camera.find("\"lens_blur_sigma_px\"");
+  ASSERT_NE(blurAt, std::string::npos);
+  for (const char* bad : {"\"lens_blur_sigma_px\": \"soft\",", "\"lens_blur_sigma_px\": -0.5,",
+                          "\"lens_blur_sigma_px\": 40,"}) {
+    std::string text = camera;
+    text.replace(blurAt, text.find('\n', blurAt) - blurAt, bad);
+    std::ofstream(dir / "camera.json") << text;
+    error = errorOf(dir.string());
+    EXPECT_NE(error.find("camera.json"), std::string::npos) << error;
+    EXPECT_NE(error.find("lens_blur_sigma_px"), std::string::npos) << error;
+  }
+  std::ofstream(dir / "camera.json") << camera;
+  EXPECT_EQ(errorOf(dir.string()), "");
   fs::remove_all(dir);
 }
 

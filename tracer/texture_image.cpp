@@ -18,14 +18,13 @@ int wrap(int i, int n) {
   return m < 0 ? m + n : m;
 }
 
-// floor(f) wrapped into [0, n); f may be any finite float (huge uvs included).
+}  // namespace
+
 int wrapFloor(float f, int n) {
   // Within ±2^24 an int holds f exactly; beyond, reduce with fmod first.
   if (std::abs(f) < 16777216.0f) return wrap(static_cast<int>(f), n);
   return wrap(static_cast<int>(std::fmod(f, static_cast<float>(n))), n);
 }
-
-}  // namespace
 
 TextureImage::TextureImage(int width, int height, std::vector<float> rgb) {
   PARALLAX_CHECK(width > 0 && height > 0);

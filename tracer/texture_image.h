@@ -11,6 +11,10 @@
 
 namespace parallax {
 
+// floor(f) wrapped into [0, n) (a texel column or row); f may be any finite float (huge uvs
+// included).
+int wrapFloor(float f, int n);
+
 class TextureImage {
  public:
   TextureImage() = default;
@@ -32,6 +36,17 @@ class TextureImage {
   Rgb bilinear(int level, float u, float v) const;
   // Trilinear: `lod` = log2 of the footprint in level-0 texels (≤ 0: bilinear on level 0).
   Rgb lookup(float u, float v, float lod) const;
+
+  // A level's size and texels (row-major RGB, row 0 at the top), for the SIMD lookup
+  // (texture_lookup_kernel.h).
+  struct LevelView {
+    int width = 0, height = 0;
+    const float* rgb = nullptr;
+  };
+  LevelView level(int i) const {
+    const Level& l = levels_[static_cast<size_t>(i)];
+    return {l.width, l.height, l.rgb.data()};
+  }
 
  private:
   struct Level {

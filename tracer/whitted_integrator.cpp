@@ -23,6 +23,7 @@
 #include "tracer/ray_packets.h"
 #include "tracer/shadow_ray_kernel.h"
 #include "tracer/static_hit_kernel.h"
+#include "tracer/texture_lookup_kernel.h"
 
 namespace parallax {
 namespace {
@@ -773,26 +774,62 @@ bool TileRenderer::shadeDiffusePacket(size_t packet, RenderCounters* c) {
 }
 
 // The lanes of a textured mesh after the kernel: each one's texture colour (hitInfoOf's uv and
-// texel density, the pixel's footprint, the filtered lookup: textureColor, as shade() does) times
-// the material's colour, into the lit surface's albedo and, with the ambient light, the pixel.
+// texel density, the pixel's footprint, the filtered lookup: textureColor, as shade() does, by
+// the SIMD kernel of texture_lookup_kernel.h) times the material's colour, into the lit
+// surface's albedo and, with the ambient light, the pixel.
 void TileRenderer::textureDiffusePacket(size_t packet, unsigned geomID, const PhysicalMesh& mesh,
                                         const Material& m, size_t first, RenderCounters* c) {
   float* albedo[3] = {lit_.mutableField(LitSurfaces::kDr) + first,
                       lit_.mutableField(LitSurfaces::kDg) + first,
                       lit_.mutableField(LitSurfaces::kDb) + first};
+  const TextureImage& image = scene_.textures()[static_cast<size_t>(m.diffuseTexture)];
+  if (image.levelCount() == 0 || mesh.uvs.empty()) {
+    // Left out (a mesh without uvs): textureColor's white, lane by lane.
+    for (size_t lane = 0; lane < 16; ++lane) {
+      const size_t i = 16 * packet + lane;
+      if (rays_.geomID(i) != geomID) continue;
+      Path& path = paths_[i];
+      const unsigned prim = rays_.primID(i);
+      HitInfo h;
+      h.geometricNormal = mesh.faceNormals[prim];  // toward the ray or not: only |d · n| is used
+      textureCoordinatesOf(mesh, prim, rays_.u(i), rays_.v(i), &h);
+      if (path.coneSpread == kConeUnknown && texturesUsed_) cone(path.pixel, &path);
+      const Rgb weightedAlbedo =
+          m.diffuse.cwiseProduct(textureColor(m, h, path, rays_.tfar(i), rays_.direction(i), c));
+      for (int k = 0; k < 3; ++k) albedo[k][lane] = weightedAlbedo[k];
+      frame_->pixels[static_cast<size_t>(path.pixel)] +=
+          weightedAlbedo.cwiseProduct(scene_.ambient());
+    }
+    return;
+  }
+  // The footprints first (the kernel reads them as vectors), then the lookups.
+  alignas(64) float coneWidth[16], coneSpread[16], colour[3][16];
+  for (size_t lane = 0; lane < 16; ++lane) {
+    const size_t i = 16 * packet + lane;
+    Path& path = paths_[i];
+    if (rays_.geomID(i) == geomID && path.coneSpread == kConeUnknown && texturesUsed_)
+      cone(path.pixel, &path);
+    coneWidth[lane] = path.coneWidth;
+    coneSpread[lane] = path.coneSpread;
+  }
+  TextureLanes job;
+  job.packet = &rays_.packets()[packet];
+  job.geomID = geomID;
+  job.mesh = &mesh;
+  job.image = &image;
+  job.filtering = options_.textureFiltering;
+  job.coneWidth = coneWidth;
+  job.coneSpread = coneSpread;
+  for (int k = 0; k < 3; ++k) job.color[k] = colour[k];
+  lookUpTextures(job);
   for (size_t lane = 0; lane < 16; ++lane) {
     const size_t i = 16 * packet + lane;
     if (rays_.geomID(i) != geomID) continue;
-    Path& path = paths_[i];
-    const unsigned prim = rays_.primID(i);
-    HitInfo h;
-    h.geometricNormal = mesh.faceNormals[prim];  // toward the ray or not: only |d · n| is used
-    textureCoordinatesOf(mesh, prim, rays_.u(i), rays_.v(i), &h);
-    if (path.coneSpread == kConeUnknown && texturesUsed_) cone(path.pixel, &path);
+    ++c->textureLookups;
     const Rgb weightedAlbedo =
-        m.diffuse.cwiseProduct(textureColor(m, h, path, rays_.tfar(i), rays_.direction(i), c));
+        m.diffuse.cwiseProduct(Rgb(colour[0][lane], colour[1][lane], colour[2][lane]));
     for (int k = 0; k < 3; ++k) albedo[k][lane] = weightedAlbedo[k];
-    frame_->pixels[static_cast<size_t>(path.pixel)] +=
+    frame_->pixels[static_cast<size_t>(paths_[i].pixel)] +=
         weightedAlbedo.cwiseProduct(scene_.ambient());
   }
 }

@@ -5,7 +5,7 @@
 // printed, and the fit's CPU time beside its wall time). "fit" is the solves; "diag" the
 // residual statistics, covariance and conditioning that follow them.
 //
-//   calibration_fit_bench [default|demo] [--quick] [--experiment]
+//   calibration_fit_bench [default|demo] [--quick] [--experiment] [--seeds N [--first-seed S]]
 //   calibration_fit_bench [--display NAME|FILE] --pictures N [--true-intrinsics]
 //   calibration_fit_bench [--display NAME|FILE] --decoder-error SEED [--true-intrinsics]
 //   calibration_fit_bench --setup NAME|all [--seeds N] [--first-seed S] [--threads T] [--verbose]
@@ -13,7 +13,9 @@
 //   calibration_fit_bench --setup NAME --decoder-error SEED [--true-intrinsics]
 //   (--decoder-error also takes --blur PX: the camera's lens blur, σ in px, 0.6 by default;
 //    --decoder-error and --pictures take --blur-not-stated: camera.json does not state the
-//    blur, so the decoder leaves the shift it gives the phase patterns, capture_decoder.h)
+//    blur, so the decoder leaves the shift it gives the phase patterns, capture_decoder.h;
+//    --decoder-error takes --white-noise PX: the correspondences replaced by the truth plus
+//    independent noise of that σ, module px)
 //                         [--module-px-residual]
 //   calibration_fit_bench --noise-map
 // --experiment: only the errors-in-variables comparison (where the correspondences' noise sits:
@@ -39,6 +41,8 @@
 #include <cstring>
 #include <ctime>
 #include <map>
+#include <optional>
+#include <random>
 #include <string>
 
 #include "bench/picture_sessions.h"
@@ -102,8 +106,8 @@ void print(const std::string& value, const Row& r) {
 // path's error comes from (issue 17). Outliers (stripes > 1 mm, correspondences > 0.5 px at the
 // truth) are counted apart; the means of the rest are the decoder's biases.
 int decoderError(const DisplayModel& nominal, const std::string& display,
-                 const PictureSessionOptions& options, std::uint64_t seed,
-                 bool residualInModulePx) {
+                 const PictureSessionOptions& options, std::uint64_t seed, bool residualInModulePx,
+                 std::optional<double> whiteNoisePx) {
   const bool trueIntrinsics = options.trueIntrinsics;
   const PictureSession session = renderPictureSession(nominal, seed, options);
   const CalibrationObservations& obs = session.obs;
@@ -287,12 +291,34 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
   // A decoded correspondence's noise is on its module pixel (the camera pixel is a grid point):
   // --module-px-residual fits it where it sits (FitOptions::residualInCameraPx false).
   fit.residualInCameraPx = !residualInModulePx;
-  const FitResult result = fitDisplay(nominal, obs, fit);
+  // --white-noise: the decoded correspondences replaced by the truth plus independent noise,
+  // which the σ must describe whatever the decoder does (it showed the fixed fiducial σ).
+  CalibrationObservations kept = obs;
+  if (whiteNoisePx) {
+    std::mt19937 rng(static_cast<unsigned>(seed));
+    std::normal_distribution<double> nd(0.0, *whiteNoisePx);
+    kept.correspondences.clear();
+    for (const Correspondence& c : obs.correspondences) {
+      Eigen::Vector3d sp;
+      const OpticalModule& tm = session.truth.modules[static_cast<size_t>(c.module)];
+      const auto mb = packModule(tm);
+      double uv[2];
+      if (!screenPoint(c.camera, c.cameraPx, &sp) ||
+          !projectIntoModule(mb.data(), tm.width, tm.mirror ? -1.0 : 1.0, sp, uv))
+        continue;
+      Correspondence e = c;
+      e.modulePx = {uv[0] + nd(rng), uv[1] + nd(rng)};
+      kept.correspondences.push_back(e);
+    }
+  }
+  const FitResult result = fitDisplay(nominal, kept, fit);
   const std::vector<RayErrorStats> rays = compareRays(session.truth, result.model);
   std::printf("fit (%s residual): k", residualInModulePx ? "module px" : "camera px (two-stage)");
-  std::printf(" %.5f (true %.5f, σ %.5f); σ correspondences %.3f px, stripes %.3f mm\n",
-              result.model.screen.curvature, k, result.curvatureStdDev,
-              result.correspondenceSigmaPx, result.stripeSigmaMm);
+  std::printf(
+      " %.5f (true %.5f, σ %.5f); σ correspondences %.3f px, stripes %.3f mm; fiducials %.4f "
+      "camera px RMS\n",
+      result.model.screen.curvature, k, result.curvatureStdDev, result.correspondenceSigmaPx,
+      result.stripeSigmaMm, result.fiducialRmsPx);
   const auto& se = result.sharedErrors;
   std::printf(
       "rows within a (station, module) group, in σ: u %.2f v %.2f stripes %.2f; their "
@@ -381,7 +407,7 @@ int pictureSweep(const std::string& display, int seeds, const PictureSessionOpti
 
 int main(int argc, char** argv) {
   std::string preset = "default", pictureDisplay = "demo";
-  bool quick = false, experiment = false;
+  bool quick = false, experiment = false, baseSeeds = false;
   PictureSweepOptions sweep;
   bool setupSweep = false;
   for (int i = 1; i < argc; ++i) {
@@ -398,6 +424,7 @@ int main(int argc, char** argv) {
     }
     if (std::strcmp(argv[i], "--seeds") == 0 && hasValue) {
       sweep.seeds = std::max(1, std::atoi(argv[++i]));
+      baseSeeds = true;
       continue;
     }
     if (std::strcmp(argv[i], "--first-seed") == 0 && hasValue) {
@@ -432,7 +459,10 @@ int main(int argc, char** argv) {
       const auto seed = static_cast<std::uint64_t>(std::atoll(argv[++i]));
       PictureSessionOptions options;
       bool modulePx = false;
+      std::optional<double> whiteNoise;
       for (int j = i + 1; j < argc; ++j) {
+        if (std::strcmp(argv[j], "--white-noise") == 0 && j + 1 < argc)
+          whiteNoise = std::atof(argv[j + 1]);
         options.trueIntrinsics |= std::strcmp(argv[j], "--true-intrinsics") == 0;
         if (std::strcmp(argv[j], "--blur-not-stated") == 0) options.lensBlurStated = false;
         modulePx |= std::strcmp(argv[j], "--module-px-residual") == 0;
@@ -440,14 +470,14 @@ int main(int argc, char** argv) {
           options.blurSigmaPx = std::atof(argv[j + 1]);
       }
       if (!setupSweep)
-        return decoderError(resolveDisplay(pictureDisplay), pictureDisplay, options, seed,
-                            modulePx);
+        return decoderError(resolveDisplay(pictureDisplay), pictureDisplay, options, seed, modulePx,
+                            whiteNoise);
       DisplayModel nominal;
       if (!pictureSetupByName(sweep.setup, &nominal, &options)) {
         std::fprintf(stderr, "unknown setup \"%s\"\n", sweep.setup.c_str());
         return 2;
       }
-      return decoderError(nominal, sweep.setup, options, seed, modulePx);
+      return decoderError(nominal, sweep.setup, options, seed, modulePx, whiteNoise);
     } else if (std::strcmp(argv[i], "--pictures") == 0 && i + 1 < argc) {
       const int seeds = std::max(1, std::atoi(argv[++i]));
       PictureSessionOptions options;
@@ -496,6 +526,19 @@ int main(int argc, char** argv) {
       "stripe\n",
       static_cast<int>(base.rowStepPx), base.samplesAcrossStripe);
 
+  if (baseSeeds && !setupSweep) {
+    // The base setup on other truths: the error a seed does not choose (issue 17's 72-module
+    // target, ≤ 0.05 px RMS on any seed, was met on seed 2026 alone).
+    header("truth seed (base setup, noise seed = truth seed)");
+    for (int i = 0; i < sweep.seeds; ++i) {
+      GroundTruthOptions t;
+      t.seed = static_cast<std::uint64_t>(sweep.firstSeed + i);
+      SyntheticOptions s = base;
+      s.seed = t.seed;
+      print(std::to_string(t.seed), runOnce(nominal, makeGroundTruth(nominal, t), s, fit));
+    }
+    return 0;
+  }
   if (experiment) {
     header("noise (px) on / residual / sampling");
     struct Case {

@@ -121,6 +121,14 @@ void runOne(const PictureSetup& s, std::uint64_t seed, const PictureSweepOptions
   fit.gate.allowPartial = sweep.allowPartial;
   const FitResult result = fitDisplay(nominal, session.obs, fit);
   const std::vector<RayErrorStats> rays = compareRays(session.truth, result.model);
+  // The σ are judged by the fit's estimates, also of the modules --allow-partial held nominal.
+  std::vector<RayErrorStats> estimated = rays;
+  if (!result.gate.heldNominal.empty()) {
+    DisplayModel model = result.model;
+    for (size_t i = 0; i < result.gate.heldNominal.size(); ++i)
+      model.modules[static_cast<size_t>(result.gate.heldNominal[i])] = result.gate.heldEstimates[i];
+    estimated = compareRays(session.truth, model);
+  }
   const bool accepted = result.passesQualityChecks();
   ++t->runs;
   t->accepted += accepted;
@@ -160,7 +168,7 @@ void runOne(const PictureSetup& s, std::uint64_t seed, const PictureSweepOptions
         g.held || e.samples == 0)
       continue;
     const double k = fit.gate.sigmas;
-    const Coverage one = Coverage::ofModule(g, e, k);
+    const Coverage one = Coverage::ofModule(g, estimated[static_cast<size_t>(g.module)], k);
     runCoverage.add(one);
     t->judged.add(one);
     if (accepted && !heldNominal) t->installed.add(one);

@@ -133,6 +133,7 @@ void applyGate(const DisplayModel& nominal, const GateLimits& limits,
     for (const ModuleGate& g : gate.modules) {
       if (g.passes) continue;
       gate.heldNominal.push_back(g.module);
+      gate.heldEstimates.push_back(result->model.modules[static_cast<size_t>(g.module)]);
       result->model.modules[static_cast<size_t>(g.module)] =
           nominal.modules[static_cast<size_t>(g.module)];
       names += fmt::format("{}{}", names.empty() ? "" : ", ", g.module);

@@ -57,6 +57,8 @@ struct GateResult {
   std::vector<ModuleGate> modules;
   // Modules failing the gate that --allow-partial held at their nominal calibration.
   std::vector<int> heldNominal;
+  // The fit's own estimate of each, in heldNominal's order: what a truth judges the σ by.
+  std::vector<OpticalModule> heldEstimates;
 
   int failingModules() const;
   // One line per failure, for the summary.

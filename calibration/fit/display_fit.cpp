@@ -124,7 +124,8 @@ FitResult runStages(const DisplayModel& nominal, const CalibrationObservations& 
   fit::FitProblem problem = fit::buildProblem(in, sigmas, stage1, &state);
   solve(problem, finalFollows ? fit::kStartCostTolerance : fit::kFinalCostTolerance);
   if (result.stopped) return result;
-  if (options.reestimateNoise) sigmas = fit::reestimateNoise(in, state, form, sigmas);
+  if (options.reestimateNoise)
+    sigmas = fit::reestimateNoise(in, state, form, sigmas, /*fiducials=*/true);
 
   // Stage 2, the final solve with every correspondence: in camera px from that start,
   // without the gross outliers (fit::cameraPxForm), or again in module px with the

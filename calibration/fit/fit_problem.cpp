@@ -282,7 +282,8 @@ double mmPerModulePx(const FitInputs& in, const FitState& state) {
 }
 
 NoiseLevels reestimateNoise(const FitInputs& in, const FitState& state,
-                            const CorrespondenceForm& form, const NoiseLevels& sigmas) {
+                            const CorrespondenceForm& form, const NoiseLevels& sigmas,
+                            bool fiducials) {
   std::vector<double> corr, stripe;
   for (size_t i = 0; i < in.obs.correspondences.size(); ++i) {
     Eigen::Vector2d r;
@@ -302,6 +303,22 @@ NoiseLevels reestimateNoise(const FitInputs& in, const FitState& state,
   if (!corr.empty()) out.correspondencePx = std::max(robustSigma(corr), 1e-3);
   const double corrMm = out.correspondencePx * mmPerModulePx(in, state);
   if (!stripe.empty()) out.stripeMm = std::max(robustSigma(stripe), std::max(0.5 * corrMm, 1e-3));
+  if (fiducials) {
+    std::vector<double> fid;
+    for (size_t i = 0; i < in.obs.fiducialSightings.size(); ++i) {
+      Eigen::Vector2d r;
+      if (fiducialResidualPx(in, state, i, &r)) {
+        fid.push_back(std::abs(r.x()));
+        fid.push_back(std::abs(r.y()));
+      }
+    }
+    // A handful of sightings says little of their spread: the a-priori σ stays.
+    constexpr size_t kMinFiducialResiduals = 16;
+    // Below a hundredth of a pixel a marker's centre is not measured, whatever the residuals.
+    constexpr double kFiducialFloorPx = 0.01;
+    if (fid.size() >= kMinFiducialResiduals)
+      out.fiducialPx = std::max(robustSigma(fid), kFiducialFloorPx);
+  }
   return out;
 }
 

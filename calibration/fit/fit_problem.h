@@ -132,9 +132,16 @@ std::vector<bool> findFiducialOutliers(const FitInputs& in, const FitState& stat
 // The camera-px form from the module-px answer: scales and gross outliers.
 CorrespondenceForm cameraPxForm(const FitInputs& in, const FitState& state,
                                 const NoiseLevels& sigmas);
-// σ from the residuals (median absolute deviation), floored.
+// σ from the residuals (median absolute deviation), floored. With `fiducials`, theirs too:
+// only from the first solve's answer, where their a-priori σ (FitOptions::fiducialSigmaPx)
+// lets them barely pull the cameras, so their residuals hold their noise and what the other
+// data say of the cameras (an upper bound on the noise, not the smaller residuals of a solve
+// that follows them). The fixed 0.2 px, 6–20× the decoded fiducials' error, put that much
+// noise into every camera's σ and through it into every module's (demo, exact intrinsics:
+// modules' true px error 0.21× the predicted; 0.76× with 0.02 px).
 NoiseLevels reestimateNoise(const FitInputs& in, const FitState& state,
-                            const CorrespondenceForm& form, const NoiseLevels& sigmas);
+                            const CorrespondenceForm& form, const NoiseLevels& sigmas,
+                            bool fiducials = false);
 // Size of a module pixel on the screen (mm), for expressing module-px noise on the screen.
 double mmPerModulePx(const FitInputs& in, const FitState& state);
 

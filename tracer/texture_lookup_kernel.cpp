@@ -69,6 +69,75 @@ HWY_INLINE void Bilinear(D d, DI di, const TextureImage::LevelView& level, V u, 
   }
 }
 
+// The integrator's cone() for the lanes of `lanes`: the footprint from the neighbouring pixels'
+// rays (a ray differential: the width is the offset between neighbouring origins, the spread
+// the angle between neighbouring directions), each ray expanded as RayFrame does it.
+template <class D, class DI, class V = hn::Vec<D>, class M>
+HWY_INLINE void Cone(D d, DI di, const RayTextures& textures, hn::Vec<DI> pixel, M lanes,
+                     V* coneWidth, V* coneSpread) {
+  const RayFrame& f = textures.frame();
+  const auto* rays = reinterpret_cast<const float*>(&textures.at(0, 0));
+  const int w = textures.width(), h = textures.height();
+  const auto three = hn::Set(di, 3);
+  const V zero = hn::Zero(d), one = hn::Set(d, 1.0f);
+  const V observerY = hn::Set(d, f.observerY), observerZ = hn::Set(d, f.observerZ);
+  // o and s − o (expand()); a flat screen has no sag.
+  const auto expand = [&](auto index, V* originX, V toScreen[3]) {
+    const auto at = hn::Mul(index, three);
+    *originX = hn::GatherIndex(d, rays, at);
+    const V screenX = hn::GatherIndex(d, rays, hn::Add(at, hn::Set(di, 1)));
+    const V screenY = hn::GatherIndex(d, rays, hn::Add(at, hn::Set(di, 2)));
+    V sag = zero;
+    if (f.curvature != 0.0f) {
+      const V k = hn::Set(d, f.curvature);
+      const V kxx = hn::Mul(hn::Mul(k, screenX), screenX);
+      const V root = hn::Sqrt(hn::Sub(one, hn::Mul(hn::Mul(hn::Mul(k, k), screenX), screenX)));
+      sag = hn::Div(kxx, hn::Add(one, root));
+    }
+    toScreen[0] = hn::Sub(screenX, *originX);
+    toScreen[1] = hn::Sub(screenY, observerY);
+    toScreen[2] = hn::Sub(sag, observerZ);
+  };
+  // column and row of the pixel: the quotient in float is exact to the integer below 2^24.
+  const auto safe = hn::IfThenElseZero(lanes, pixel);
+  const auto row = hn::ConvertTo(
+      di, hn::Floor(hn::Div(hn::ConvertTo(d, safe), hn::Set(d, static_cast<float>(w)))));
+  const auto column = hn::Sub(safe, hn::Mul(row, hn::Set(di, w)));
+  V selfX, self[3];
+  expand(safe, &selfX, self);
+  const V inverseLength =
+      hn::Div(one, hn::Sqrt(Dot3(self[0], self[1], self[2], self[0], self[1], self[2])));
+  // The next column or row, or the previous one at the edge; none where there is none.
+  const auto neighbour = [&](auto i, int n) {
+    const auto next = hn::Add(i, hn::Set(di, 1));
+    return hn::IfThenElse(hn::Lt(next, hn::Set(di, n)), next, hn::Sub(i, hn::Set(di, 1)));
+  };
+  const auto nx = neighbour(column, w), ny = neighbour(row, h);
+  const auto indices = {hn::Add(hn::Mul(row, hn::Set(di, w)), nx),
+                        hn::Add(hn::Mul(ny, hn::Set(di, w)), column)};
+  const auto exists = {hn::Gt(nx, hn::Set(di, -1)), hn::Gt(ny, hn::Set(di, -1))};
+  V width = zero, spread = zero;
+  auto present = exists.begin();
+  for (const auto& index : indices) {
+    const auto use = hn::And(lanes, *present++);
+    V originX, toScreen[3];
+    expand(hn::IfThenElseZero(use, index), &originX, toScreen);
+    // Masked rays (NaN origin) are skipped, as cone() skips them.
+    const auto counted = hn::And(hn::RebindMask(d, use), hn::Not(hn::IsNaN(originX)));
+    V diff[3];
+    for (int c = 0; c < 3; ++c) diff[c] = hn::Sub(toScreen[c], self[c]);
+    const V across = hn::Abs(hn::Sub(originX, selfX));
+    const V angle = hn::Mul(hn::Sqrt(Dot3(diff[0], diff[1], diff[2], diff[0], diff[1], diff[2])),
+                            inverseLength);
+    width = hn::IfThenElse(counted, StdMax(width, across), width);
+    spread = hn::IfThenElse(counted, StdMax(spread, angle), spread);
+  }
+  // coneWidth held the distance the origin was advanced, which the footprint grows over.
+  const auto lanesF = hn::RebindMask(d, lanes);
+  *coneWidth = hn::IfThenElse(lanesF, hn::Add(width, hn::Mul(*coneWidth, spread)), *coneWidth);
+  *coneSpread = hn::IfThenElse(lanesF, spread, *coneSpread);
+}
+
 void LookUpTextures(const TextureLanes& job) {
   const hn::ScalableTag<float> d;
   const hn::RebindToSigned<decltype(d)> di;
@@ -92,6 +161,15 @@ void LookUpTextures(const TextureLanes& job) {
     const auto mine = hn::RebindMask(d, mineI);
     const auto prim = hn::IfThenElseZero(
         mineI, hn::LoadU(di, reinterpret_cast<const std::int32_t*>(packet.hit.primID + j)));
+    if (job.coneUnknown) {
+      const auto unknown = hn::And(mineI, hn::Ne(hn::LoadU(di, job.coneUnknown + j), hn::Zero(di)));
+      if (!hn::AllFalse(di, unknown)) {
+        V width = hn::LoadU(d, job.coneWidth + j), spread = hn::LoadU(d, job.coneSpread + j);
+        Cone(d, di, *job.textures, hn::LoadU(di, job.pixel + j), unknown, &width, &spread);
+        hn::StoreU(width, d, job.coneWidth + j);
+        hn::StoreU(spread, d, job.coneSpread + j);
+      }
+    }
     // The uv (textureCoordinatesOf): w t0 + u t1 + v t2, and the uv area per physical area.
     const V u = hn::LoadU(d, packet.hit.u + j), v = hn::LoadU(d, packet.hit.v + j);
     const V w = hn::Sub(hn::Sub(one, u), v);

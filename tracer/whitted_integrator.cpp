@@ -802,15 +802,15 @@ void TileRenderer::textureDiffusePacket(size_t packet, unsigned geomID, const Ph
     }
     return;
   }
-  // The footprints first (the kernel reads them as vectors), then the lookups.
+  // The footprints as vectors (the kernel computes those not known yet, as cone() does).
   alignas(64) float coneWidth[16], coneSpread[16], colour[3][16];
+  alignas(64) std::int32_t coneUnknown[16], pixel[16];
   for (size_t lane = 0; lane < 16; ++lane) {
-    const size_t i = 16 * packet + lane;
-    Path& path = paths_[i];
-    if (rays_.geomID(i) == geomID && path.coneSpread == kConeUnknown && texturesUsed_)
-      cone(path.pixel, &path);
+    const Path& path = paths_[16 * packet + lane];
     coneWidth[lane] = path.coneWidth;
     coneSpread[lane] = path.coneSpread;
+    coneUnknown[lane] = path.coneSpread == kConeUnknown && texturesUsed_ ? 1 : 0;
+    pixel[lane] = path.pixel;
   }
   TextureLanes job;
   job.packet = &rays_.packets()[packet];
@@ -820,11 +820,16 @@ void TileRenderer::textureDiffusePacket(size_t packet, unsigned geomID, const Ph
   job.filtering = options_.textureFiltering;
   job.coneWidth = coneWidth;
   job.coneSpread = coneSpread;
+  job.coneUnknown = coneUnknown;
+  job.pixel = pixel;
+  job.textures = &textures_;
   for (int k = 0; k < 3; ++k) job.color[k] = colour[k];
   lookUpTextures(job);
   for (size_t lane = 0; lane < 16; ++lane) {
     const size_t i = 16 * packet + lane;
     if (rays_.geomID(i) != geomID) continue;
+    paths_[i].coneWidth = coneWidth[lane];
+    paths_[i].coneSpread = coneSpread[lane];
     ++c->textureLookups;
     const Rgb weightedAlbedo =
         m.diffuse.cwiseProduct(Rgb(colour[0][lane], colour[1][lane], colour[2][lane]));

@@ -35,12 +35,18 @@ Scene kernelScene() {
     }
   }
   EXPECT_TRUE(fractional);
-  // A checkered floor: textured diffuse packets (the texture looked up lane by lane).
-  Texture checker;
-  checker.width = checker.height = 8;
-  for (int i = 0; i < 64; ++i)
-    for (int c = 0; c < 3; ++c) checker.pixels.push_back((i + i / 8) % 2 == 0 ? 0.8f : 0.15f);
-  const int texture = scene.addTexture(checker);
+  // A finely textured floor: textured diffuse packets (uv, ray cone, mip level and trilinear
+  // lookup in the kernel), with texels small enough that the footprint picks and blends mip
+  // levels above the finest (a coarse texture would clamp every lookup to level 0, and the
+  // cone would not show in the frame).
+  Texture fine;
+  fine.width = fine.height = 512;
+  for (int i = 0; i < 512 * 512; ++i) {
+    const std::uint32_t hash = static_cast<std::uint32_t>(i) * 2654435761u;
+    for (int c = 0; c < 3; ++c)
+      fine.pixels.push_back(0.1f + 0.8f * static_cast<float>((hash >> (8 * c)) & 255u) / 255.0f);
+  }
+  const int texture = scene.addTexture(fine);
   bool textured = false;
   for (const Mesh& mesh : scene.meshes) {
     if (mesh.name == "floor") {

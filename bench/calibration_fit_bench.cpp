@@ -118,6 +118,14 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
     const Eigen::Vector2d n = ti.normalized(px);
     return screenPointOfCameraRay(k, block.data(), n.x(), n.y(), s);
   };
+  // The module pixel that truly lights the screen point a correspondence's camera pixel sees.
+  const auto trueModulePx = [&](const Correspondence& c, double uv[2]) {
+    Eigen::Vector3d sp;
+    const OpticalModule& tm = session.truth.modules[static_cast<size_t>(c.module)];
+    const auto mb = packModule(tm);
+    return screenPoint(c.camera, c.cameraPx, &sp) &&
+           projectIntoModule(mb.data(), tm.width, tm.mirror ? -1.0 : 1.0, sp, uv);
+  };
   std::printf(
       "# decoder error at the truth: %s seed %llu, %s intrinsics (f %.2f, k1 %.4f; "
       "true f %.2f, k1 %.4f)\n",
@@ -216,13 +224,9 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
     double scale[6] = {};
     int cCount = 0, cOut = 0;
     for (const Correspondence& c : obs.correspondences) {
-      Eigen::Vector3d sp;
       const OpticalModule& tm = session.truth.modules[static_cast<size_t>(c.module)];
-      const auto mb = packModule(tm);
       double uv[2];
-      if (!screenPoint(c.camera, c.cameraPx, &sp) ||
-          !projectIntoModule(mb.data(), tm.width, tm.mirror ? -1.0 : 1.0, sp, uv))
-        continue;
+      if (!trueModulePx(c, uv)) continue;
       const double edge = std::min(
           {c.modulePx.x(), tm.width - c.modulePx.x(), c.modulePx.y(), tm.height - c.modulePx.y()});
       int b = 0;
@@ -299,13 +303,8 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
     std::normal_distribution<double> nd(0.0, *whiteNoisePx);
     kept.correspondences.clear();
     for (const Correspondence& c : obs.correspondences) {
-      Eigen::Vector3d sp;
-      const OpticalModule& tm = session.truth.modules[static_cast<size_t>(c.module)];
-      const auto mb = packModule(tm);
       double uv[2];
-      if (!screenPoint(c.camera, c.cameraPx, &sp) ||
-          !projectIntoModule(mb.data(), tm.width, tm.mirror ? -1.0 : 1.0, sp, uv))
-        continue;
+      if (!trueModulePx(c, uv)) continue;
       Correspondence e = c;
       e.modulePx = {uv[0] + nd(rng), uv[1] + nd(rng)};
       kept.correspondences.push_back(e);

@@ -63,25 +63,8 @@ namespace {
 // camera (f 700) sees the same angles with 3× larger pixels: p is p/3 of its own px.
 constexpr double kSensorNoisePerSyntheticPx = 0.0375;
 
-// The synthetic sweep's setups (sweep_setups.h), rendered as pictures.
-using PictureSetup = SweepSetup;
-std::vector<PictureSetup> pictureSetups() { return sweepSetups(); }
-
-DisplayModel nominalOf(const PictureSetup& s) {
-  NominalDisplayOptions options;
-  options.preset = s.modules == 16 ? "demo" : "default";
-  if (s.modules != 16) {
-    options.modules = s.modules;
-    options.width = 256;
-    options.height = 192;
-  }
-  options.transfer = s.nominal;
-  DisplayModel model = makeNominalDisplay(options);
-  model.observer.z = s.observerM;
-  return model;
-}
-
-PictureSessionOptions sessionOptionsOf(const PictureSetup& s) {
+// A sweep setup (sweep_setups.h) as a picture session's options.
+PictureSessionOptions sessionOptionsOf(const SweepSetup& s) {
   PictureSessionOptions options;
   options.stations = s.stations;
   options.spanM = s.spanM;
@@ -111,10 +94,10 @@ struct SetupTally {
   std::string firstRefusal;
 };
 
-void runOne(const PictureSetup& s, std::uint64_t seed, const PictureSweepOptions& sweep,
+void runOne(const SweepSetup& s, std::uint64_t seed, const PictureSweepOptions& sweep,
             SetupTally* t) {
   const auto start = std::chrono::steady_clock::now();
-  const DisplayModel nominal = nominalOf(s);
+  const DisplayModel nominal = sweepNominal(s);
   const PictureSession session = renderPictureSession(nominal, seed, sessionOptionsOf(s));
   FitOptions fit;
   fit.threads = sweep.threads;
@@ -219,9 +202,9 @@ void printRow(const std::string& name, const SetupTally& t) {
 
 bool pictureSetupByName(const std::string& name, DisplayModel* nominal,
                         PictureSessionOptions* options) {
-  for (const PictureSetup& s : pictureSetups()) {
+  for (const SweepSetup& s : sweepSetups()) {
     if (s.name != name) continue;
-    *nominal = nominalOf(s);
+    *nominal = sweepNominal(s);
     // The setup's own options; what the command line chose beyond them stays.
     const PictureSessionOptions chosen = *options;
     *options = sessionOptionsOf(s);
@@ -234,12 +217,12 @@ bool pictureSetupByName(const std::string& name, DisplayModel* nominal,
 }
 
 int pictureSetupSweep(const PictureSweepOptions& options) {
-  std::vector<PictureSetup> chosen;
-  for (const PictureSetup& s : pictureSetups())
+  std::vector<SweepSetup> chosen;
+  for (const SweepSetup& s : sweepSetups())
     if (options.setup == "all" || options.setup == s.name) chosen.push_back(s);
   if (chosen.empty()) {
     std::fprintf(stderr, "unknown setup \"%s\"; the setups:\n", options.setup.c_str());
-    for (const PictureSetup& s : pictureSetups()) std::fprintf(stderr, "  %s\n", s.name.c_str());
+    for (const SweepSetup& s : sweepSetups()) std::fprintf(stderr, "  %s\n", s.name.c_str());
     return -1;
   }
   double load[1] = {-1.0};
@@ -257,7 +240,7 @@ int pictureSetupSweep(const PictureSweepOptions& options) {
       options.allowPartial ? " --allow-partial;" : "", load[0]);
   std::fflush(stdout);
   SetupTally all;
-  for (const PictureSetup& s : chosen) {
+  for (const SweepSetup& s : chosen) {
     SetupTally t;
     for (int i = 0; i < options.seeds; ++i)
       runOne(s, static_cast<std::uint64_t>(options.firstSeed + i), options, &t);
@@ -286,8 +269,8 @@ int pictureSetupSweep(const PictureSweepOptions& options) {
 }
 
 void pictureNoiseMap(int threads) {
-  const PictureSetup base;
-  const DisplayModel nominal = nominalOf(base);
+  const SweepSetup base;
+  const DisplayModel nominal = sweepNominal(base);
   const std::uint64_t seed = 1000;
   std::printf(
       "# camera noise: the fit's correspondence σ (module px) and stripe σ (mm), %s "

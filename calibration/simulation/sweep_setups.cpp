@@ -2,6 +2,8 @@
 
 #include <utility>
 
+#include "calibration/display/display_presets.h"
+
 namespace parallax {
 
 std::vector<SweepSetup> sweepSetups() {
@@ -36,6 +38,20 @@ std::vector<SweepSetup> sweepSetups() {
   add("2 modules unseen", [](SweepSetup& s) { s.unseen = {3, 12}; });
   add("72 modules", [](SweepSetup& s) { s.modules = 72; });
   return out;
+}
+
+DisplayModel sweepNominal(const SweepSetup& setup) {
+  NominalDisplayOptions options;
+  options.preset = setup.modules == 16 ? "demo" : "default";
+  if (setup.modules != 16) {
+    options.modules = setup.modules;
+    options.width = 256;
+    options.height = 192;
+  }
+  options.transfer = setup.nominal;
+  DisplayModel model = makeNominalDisplay(options);
+  model.observer.z = setup.observerM;
+  return model;
 }
 
 }  // namespace parallax

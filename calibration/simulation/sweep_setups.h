@@ -26,4 +26,9 @@ struct SweepSetup {
 
 std::vector<SweepSetup> sweepSetups();
 
+// A setup's nominal display: demo for 16 modules; otherwise the default layout with that many
+// modules of 256 × 192 (the default's geometry; small images keep the sweep affordable), the
+// setup's transfer and observer line.
+DisplayModel sweepNominal(const SweepSetup& setup);
+
 }  // namespace parallax

@@ -57,22 +57,8 @@ struct Tally {
   }
 };
 
-DisplayModel nominalOf(const SweepSetup& s) {
-  NominalDisplayOptions options;
-  options.preset = s.modules == 16 ? "demo" : "default";
-  if (s.modules != 16) {
-    options.modules = s.modules;
-    options.width = 256;  // the default's geometry; small images keep the sweep affordable
-    options.height = 192;
-  }
-  options.transfer = s.nominal;
-  DisplayModel model = makeNominalDisplay(options);
-  model.observer.z = s.observerM;
-  return model;
-}
-
 Tally runOne(const SweepSetup& s, std::uint64_t seed) {
-  const DisplayModel nominal = nominalOf(s);
+  const DisplayModel nominal = sweepNominal(s);
   GroundTruthOptions gt;
   gt.seed = seed;
   gt.transfer = s.truth;

@@ -220,6 +220,7 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
     double su = 0, sv = 0, sq = 0;
   };
   std::vector<ModuleDecode> perModule(session.truth.modules.size());
+  std::map<std::pair<int, int>, ModuleDecode> perDecode;  // (station, module)
   {
     const double edges[] = {0, 4, 8, 16, 32, 64, 1e9};
     std::vector<double> su(stations), sv(stations), mu(stations), mv(stations);
@@ -240,14 +241,16 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
       while (b + 1 < kBins && edge >= edges[b + 1]) ++b;
       const double du = c.modulePx.x() - uv[0], dv = c.modulePx.y() - uv[1];
       const auto st = static_cast<size_t>(c.camera);
-      ModuleDecode& md = perModule[static_cast<size_t>(c.module)];
-      if (std::hypot(du, dv) > 0.5) {
-        ++md.beyond;
-      } else {
-        ++md.n;
-        md.su += du;
-        md.sv += dv;
-        md.sq += du * du + dv * dv;
+      for (ModuleDecode* md :
+           {&perModule[static_cast<size_t>(c.module)], &perDecode[{c.camera, c.module}]}) {
+        if (std::hypot(du, dv) > 0.5) {
+          ++md->beyond;
+        } else {
+          ++md->n;
+          md->su += du;
+          md->sv += dv;
+          md->sq += du * du + dv * dv;
+        }
       }
       ou[st] += std::abs(du) > 0.5;
       ov[st] += std::abs(dv) > 0.5;
@@ -295,6 +298,29 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
           "  %3.0f-%3.0f px from the edge: %6d, mean du %+.4f dv %+.4f, RMS %.3f; %d beyond\n",
           edges[b], std::min(edges[b + 1], 999.0), bn[b], bn[b] ? bu[b] / bn[b] : 0.0,
           bn[b] ? bv[b] / bn[b] : 0.0, bn[b] ? std::sqrt(bsq[b] / (2 * bn[b])) : 0.0, bout[b]);
+    }
+    {
+      // The decodes by their share of gross errors (beyond 0.5 px): how far their inliers'
+      // mean is off, against what their noise alone gives (FitOptions::unreliableDecodeTail).
+      const double shares[] = {0.0, 0.02, 0.05, 0.1, 0.2, 1.01};
+      for (int b = 0; b + 1 < static_cast<int>(std::size(shares)); ++b) {
+        int groups = 0;
+        double meanSq = 0.0, noiseSq = 0.0;
+        for (const auto& [key, d] : perDecode) {
+          const double share = static_cast<double>(d.beyond) / (d.n + d.beyond);
+          if (d.n < 10 || share < shares[b] || share >= shares[b + 1]) continue;
+          const double mu = d.su / d.n, mv = d.sv / d.n;
+          ++groups;
+          meanSq += mu * mu + mv * mv;
+          noiseSq += (d.sq / d.n - mu * mu - mv * mv) / d.n;
+        }
+        if (groups)
+          std::printf(
+              "  decodes with %2.0f-%3.0f%% gross errors: %3d, their inliers' mean off %.4f px "
+              "RMS, noise alone %.4f\n",
+              100 * shares[b], std::min(100.0, 100 * shares[b + 1]), groups,
+              std::sqrt(meanSq / groups), std::sqrt(noiseSq / groups));
+      }
     }
     for (size_t st = 0; st < stations; ++st) {
       if (sn[st] == 0) continue;

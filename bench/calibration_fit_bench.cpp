@@ -6,6 +6,7 @@
 // residual statistics, covariance and conditioning that follow them.
 //
 //   calibration_fit_bench [default|demo] [--quick] [--experiment] [--seeds N [--first-seed S]]
+//                         [--rows PX]
 //   calibration_fit_bench [--display NAME|FILE] --pictures N [--true-intrinsics]
 //   calibration_fit_bench [--display NAME|FILE] --decoder-error SEED [--true-intrinsics]
 //   calibration_fit_bench --setup NAME|all [--seeds N] [--first-seed S] [--threads T] [--verbose]
@@ -212,7 +213,13 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
                   sx / n, sy / n, sr / n);
   }
   // The correspondences against the module pixel the truth gives for their camera pixel: all,
-  // by the module pixel's distance to its image's nearest edge (module px), and by station.
+  // by the module pixel's distance to its image's nearest edge (module px), by station, and
+  // per module (in the fit's table below: a module whose decode errs together shows there).
+  struct ModuleDecode {
+    int n = 0, beyond = 0;
+    double su = 0, sv = 0, sq = 0;
+  };
+  std::vector<ModuleDecode> perModule(session.truth.modules.size());
   {
     const double edges[] = {0, 4, 8, 16, 32, 64, 1e9};
     std::vector<double> su(stations), sv(stations), mu(stations), mv(stations);
@@ -233,6 +240,15 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
       while (b + 1 < kBins && edge >= edges[b + 1]) ++b;
       const double du = c.modulePx.x() - uv[0], dv = c.modulePx.y() - uv[1];
       const auto st = static_cast<size_t>(c.camera);
+      ModuleDecode& md = perModule[static_cast<size_t>(c.module)];
+      if (std::hypot(du, dv) > 0.5) {
+        ++md.beyond;
+      } else {
+        ++md.n;
+        md.su += du;
+        md.sv += dv;
+        md.sq += du * du + dv * dv;
+      }
       ou[st] += std::abs(du) > 0.5;
       ov[st] += std::abs(dv) > 0.5;
       if (std::hypot(du, dv) > 0.5) {
@@ -318,6 +334,10 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
       "camera px RMS\n",
       result.model.screen.curvature, k, result.curvatureStdDev, result.correspondenceSigmaPx,
       result.stripeSigmaMm, result.fiducialRmsPx);
+  for (const UnreliableDecode& d : result.unreliableDecodes) {
+    std::printf("decode left out: station %d module %d, %d of %d gross errors (typical %.1f%%)\n",
+                d.station, d.module, d.grossErrors, d.correspondences, 100.0 * d.typicalShare);
+  }
   const auto& se = result.sharedErrors;
   std::printf(
       "rows within a (station, module) group, in σ: u %.2f v %.2f stripes %.2f; their "
@@ -332,7 +352,8 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
   }
   std::printf(
       "| module | Δx, Δy, Δz mm (σ) | Δfx px (σ) | true RMS px / observer mm | predicted | true "
-      "worst px / mm | 3σ worst |\n|---|---|---|---|---|---|---|\n");
+      "worst px / mm | 3σ worst | decoded: within 0.5 px, mean du dv, RMS px; beyond "
+      "|\n|---|---|---|---|---|---|---|---|\n");
   for (const ModuleGate& g : result.gate.modules) {
     const auto m = static_cast<size_t>(g.module);
     const OpticalModule &t = session.truth.modules[m], &f = result.model.modules[m];
@@ -340,10 +361,14 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
     const auto& sd = result.modules[m].stdDev;
     std::printf(
         "| %zu | %+.2f (%.2f), %+.2f (%.2f), %+.2f (%.2f) | %+.2f (%.2f) | %.3f / %.2f | "
-        "%.3f / %.2f | %.3f / %.2f | %.3f / %.2f%s |\n",
+        "%.3f / %.2f | %.3f / %.2f | %.3f / %.2f%s | %d, %+.4f %+.4f, %.3f; %d |\n",
         m, d.x(), sd[3], d.y(), sd[4], d.z(), sd[5], f.fx - t.fx, sd[6], rays[m].rmsPx,
         rays[m].rmsObserverMm, g.predicted.rmsPx, g.predicted.rmsObserverMm, rays[m].maxPx,
-        rays[m].maxObserverMm, g.boundPx, g.boundObserverMm, g.passes ? "" : " (fails)");
+        rays[m].maxObserverMm, g.boundPx, g.boundObserverMm, g.passes ? "" : " (fails)",
+        perModule[m].n, perModule[m].n ? perModule[m].su / perModule[m].n : 0.0,
+        perModule[m].n ? perModule[m].sv / perModule[m].n : 0.0,
+        perModule[m].n ? std::sqrt(perModule[m].sq / (2 * perModule[m].n)) : 0.0,
+        perModule[m].beyond);
   }
   return 0;
 }
@@ -407,6 +432,7 @@ int pictureSweep(const std::string& display, int seeds, const PictureSessionOpti
 int main(int argc, char** argv) {
   std::string preset = "default", pictureDisplay = "demo";
   bool quick = false, experiment = false, baseSeeds = false;
+  int baseRows = 10;  // --rows: the synthetic base's module rows, every this many px
   PictureSweepOptions sweep;
   bool setupSweep = false;
   for (int i = 1; i < argc; ++i) {
@@ -424,6 +450,10 @@ int main(int argc, char** argv) {
     if (std::strcmp(argv[i], "--seeds") == 0 && hasValue) {
       sweep.seeds = std::max(1, std::atoi(argv[++i]));
       baseSeeds = true;
+      continue;
+    }
+    if (std::strcmp(argv[i], "--rows") == 0 && hasValue) {
+      baseRows = std::clamp(std::atoi(argv[++i]), 1, 64);
       continue;
     }
     if (std::strcmp(argv[i], "--first-seed") == 0 && hasValue) {
@@ -506,7 +536,8 @@ int main(int argc, char** argv) {
   // still sparser than the decoder gives at pixelStep 6 with the 1920×1080 camera (a module
   // row every ~4 px, ~7 samples across). Rows every 16 px / 5 across (the base until the
   // camera-px residual) left the fit noise-limited at 0.06–0.08 px over three seeds.
-  base.rowStepPx = 10;
+  // --rows: another density (4 is the decoder's on default).
+  base.rowStepPx = baseRows;
   base.samplesAcrossStripe = 11;
   FitOptions fit;
   fit.threads = 2;

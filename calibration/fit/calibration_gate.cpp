@@ -53,10 +53,19 @@ ModuleGate judgeModule(const DisplayModel& fitted, const ModuleFit& fit, bool he
     g.reason = "no camera saw it: its rays are unknown";
     return g;
   }
+  // Why its data may be thin: stations whose view of it decoded badly (a station that sees it
+  // less steeply may serve it better).
+  const std::string leftOut =
+      fit.decodesLeftOut > 0
+          ? fmt::format(
+                "; {} station(s)' decodes of it left out (far more gross errors than "
+                "the typical decode)",
+                fit.decodesLeftOut)
+          : "";
   if (fit.conditioning.state == Conditioning::kRankDeficient || fit.rayCovariance.size() == 0) {
     g.boundPx = g.boundObserverMm = kInf;
     g.predicted.bounded = false;
-    g.reason = "rank deficient: the data cannot bound its rays";
+    g.reason = "rank deficient: the data cannot bound its rays" + leftOut;
     return g;
   }
   g.predicted = predictRayUncertainty(fitted, fit.module, fit.rayCovariance, grid);
@@ -79,7 +88,7 @@ ModuleGate judgeModule(const DisplayModel& fitted, const ModuleFit& fit, bool he
   }
   g.passes = why.empty();
   if (!g.passes) why += fmt::format(" ({:.0f}σ at its worst pixel)", limits.sigmas);
-  g.reason = why;
+  g.reason = g.passes ? why : why + leftOut;
   return g;
 }
 

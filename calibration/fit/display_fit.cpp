@@ -174,6 +174,9 @@ void FitOptions::validate() const {
   positive(tapeSigmaM, "tape_sigma_m");
   positive(robustScale, "robust_scale");
   positive(transferMismatchRatio, "transfer_mismatch_ratio");
+  if (!(unreliableDecodeTail >= 0.0 && unreliableDecodeTail < 1.0))
+    throw InputError({"", "unreliable_decode_tail", 0},
+                     fmt::format("must be in [0, 1), got {}", unreliableDecodeTail));
   gate.validate();
   rayGrid.validate();
   if (maxIterations < 1 || maxIterations > 10000)

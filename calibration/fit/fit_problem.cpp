@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <utility>
 
 #include "calibration/fit/fit_residuals.h"
 
@@ -267,6 +269,36 @@ CorrespondenceForm cameraPxForm(const FitInputs& in, const FitState& state,
     form.excluded[i] = !correspondenceResidual(in, state, modulePx, i, &r) ||
                        r.norm() > kOutlierSigmas * sigmas.correspondencePx;
   }
+  // Each (station, module) decode's gross errors against the typical decode's share; those
+  // far above it go whole.
+  struct Decode {
+    UnreliableDecode counts;
+    bool unreliable = false;
+  };
+  std::map<std::pair<int, int>, Decode> decodes;
+  for (size_t i = 0; i < n; ++i) {
+    const Correspondence& c = in.obs.correspondences[i];
+    UnreliableDecode& d = decodes[{c.camera, c.module}].counts;
+    d.station = c.camera;
+    d.module = c.module;
+    ++d.correspondences;
+    d.grossErrors += form.excluded[i] ? 1 : 0;
+  }
+  if (in.options.unreliableDecodeTail <= 0.0 || decodes.empty()) return form;
+  std::vector<double> shares;
+  for (const auto& [key, d] : decodes)
+    shares.push_back(static_cast<double>(d.counts.grossErrors) / d.counts.correspondences);
+  const double typical = std::max(median(shares), kTypicalGrossErrorShare);
+  for (auto& [key, d] : decodes) {
+    d.counts.typicalShare = typical;
+    d.unreliable = binomialUpperTail(d.counts.correspondences, d.counts.grossErrors, typical) <
+                   in.options.unreliableDecodeTail;
+    if (d.unreliable) form.unreliable.push_back(d.counts);
+  }
+  for (size_t i = 0; i < n; ++i) {
+    const Correspondence& c = in.obs.correspondences[i];
+    if (decodes[{c.camera, c.module}].unreliable) form.excluded[i] = true;
+  }
   return form;
 }
 
@@ -320,6 +352,20 @@ NoiseLevels reestimateNoise(const FitInputs& in, const FitState& state,
       out.fiducialPx = std::max(robustSigma(fid), kFiducialFloorPx);
   }
   return out;
+}
+
+double binomialUpperTail(int n, int k, double p) {
+  if (k <= 0) return 1.0;
+  if (k > n) return 0.0;
+  if (p <= 0.0) return 0.0;
+  if (p >= 1.0) return 1.0;
+  double tail = 0.0;
+  const double logP = std::log(p), logQ = std::log1p(-p);
+  for (int j = k; j <= n; ++j) {
+    tail += std::exp(std::lgamma(n + 1.0) - std::lgamma(j + 1.0) - std::lgamma(n - j + 1.0) +
+                     j * logP + (n - j) * logQ);
+  }
+  return std::min(1.0, tail);
 }
 
 double robustSigma(const std::vector<double>& absResiduals) {

@@ -25,6 +25,13 @@ namespace parallax::fit {
 // A correspondence this many σ off is counted as an outlier in the report (the Cauchy loss has
 // already down-weighted it in the fit).
 constexpr double kOutlierSigmas = 5.0;
+// The share of gross errors a sound decode may have however clean the others are (a few per
+// hundred: a pixel on a module's image edge or a lobe's rim): what keeps one or two of them
+// from condemning a decode when the typical share is near zero.
+constexpr double kTypicalGrossErrorShare = 0.01;
+
+// P(X ≥ k) for X ~ Binomial(n, p).
+double binomialUpperTail(int n, int k, double p);
 
 // What a fit starts from and never changes: the observations, the options and the assumed
 // transfer, with what follows from them once.
@@ -66,6 +73,9 @@ struct CorrespondenceForm {
   // answer), and the gross outliers of that answer, left out.
   std::vector<double> cameraScale;
   std::vector<bool> excluded;
+  // kCameraPx only: the (station, module) decodes excluded whole (FitOptions::
+  // unreliableDecodeTail), with their counts.
+  std::vector<UnreliableDecode> unreliable;
 
   bool uses(size_t i) const { return kind == kModulePx || !excluded[i]; }
 };
@@ -129,7 +139,8 @@ bool fiducialResidualPx(const FitInputs& in, const FitState& state, size_t i, Ei
 // Fiducial sightings more than kOutlierSigmas σ off once the cameras are placed.
 std::vector<bool> findFiducialOutliers(const FitInputs& in, const FitState& state,
                                        const NoiseLevels& sigmas);
-// The camera-px form from the module-px answer: scales and gross outliers.
+// The camera-px form from the module-px answer: scales, gross outliers, and the decodes with
+// far more of them than the typical decode (FitOptions::unreliableDecodeTail).
 CorrespondenceForm cameraPxForm(const FitInputs& in, const FitState& state,
                                 const NoiseLevels& sigmas);
 // σ from the residuals (median absolute deviation), floored. With `fiducials`, theirs too:

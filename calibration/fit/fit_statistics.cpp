@@ -112,6 +112,26 @@ void summarizeResiduals(const FitInputs& in, const FitState& state, const Corres
   result->stripeSigmaMm = sigmas.stripeMm;
   result->correspondenceSigmaMm = sigmas.correspondencePx * mmPerModulePx(in, state);
 
+  // ---- decodes left out whole (FitOptions::unreliableDecodeTail) ----
+  result->unreliableDecodes = form.unreliable;
+  for (const UnreliableDecode& d : form.unreliable)
+    ++result->modules[static_cast<size_t>(d.module)].decodesLeftOut;
+  if (!form.unreliable.empty()) {
+    constexpr size_t kListed = 12;
+    std::string list;
+    for (size_t i = 0; i < std::min(kListed, form.unreliable.size()); ++i) {
+      const UnreliableDecode& d = form.unreliable[i];
+      list += fmt::format("{}station {} module {} ({:.0f}%)", i ? ", " : "", d.station, d.module,
+                          100.0 * d.grossErrors / std::max(1, d.correspondences));
+    }
+    if (form.unreliable.size() > kListed) list += ", …";
+    result->notes.push_back(fmt::format(
+        "{} (station, module) decodes left out: far more of their correspondences were gross "
+        "errors than the typical decode's {:.1f}%, and what made them biases the rest together "
+        "(a module seen at a steep angle); the modules keep their other stations' decodes: {}",
+        form.unreliable.size(), 100.0 * form.unreliable.front().typicalShare, list));
+  }
+
   // ---- what the decoder found of the camera's response, when it decoded pictures ----
   if (obs.cameraResponse && (obs.cameraResponse->disagrees || !obs.cameraResponse->measured))
     result->notes.push_back(describeCameraResponse(*obs.cameraResponse));

@@ -17,6 +17,7 @@
 
 #include "calibration/display/display_presets.h"
 #include "calibration/display/ray_error.h"
+#include "calibration/fit/fit_problem.h"
 #include "calibration/simulation/ground_truth.h"
 #include "calibration/simulation/seeded_random.h"
 #include "calibration/simulation/synthetic_observations.h"
@@ -319,6 +320,55 @@ TEST(DisplayFit, TenPercentGrossOutliers) {
                           static_cast<double>(b.data.observations.correspondences.size());
   EXPECT_NEAR(fraction, 0.10, 0.02);
   EXPECT_LT(b.rays.rmsPx, 1.5 * a.rays.rmsPx + 0.01);
+  // Independent gross errors leave every decode at the typical share: none is left out.
+  EXPECT_TRUE(b.fit.unreliableDecodes.empty()) << b.fit.unreliableDecodes.size();
+}
+
+// A decode whose gross errors come together (one station's view of one module, as a module seen
+// at a steep angle gives) biases its inliers too: it is left out whole and named, the module
+// keeps its other stations' decodes, and the fit still passes.
+TEST(DisplayFit, ADecodeFullOfGrossErrorsIsLeftOut) {
+  Case c = demoCase(23);
+  Outcome clean = run("clean (decode reference)", c);
+  ASSERT_TRUE(clean.fit.unreliableDecodes.empty());
+  CalibrationObservations obs = clean.data.observations;
+  // A third of station 0's view of module 5 decoded 4 px off; its inliers 0.3 px off together.
+  int n = 0;
+  for (Correspondence& k : obs.correspondences) {
+    if (k.camera != 0 || k.module != 5) continue;
+    k.modulePx += (n++ % 3 == 0) ? Eigen::Vector2d(4.0, -4.0) : Eigen::Vector2d(0.3, 0.0);
+  }
+  ASSERT_GE(n, 20);
+  const FitResult fit = fitDisplay(c.nominal, obs, c.fit);
+  ASSERT_EQ(fit.unreliableDecodes.size(), 1u);
+  EXPECT_EQ(fit.unreliableDecodes[0].station, 0);
+  EXPECT_EQ(fit.unreliableDecodes[0].module, 5);
+  bool named = false;
+  for (const std::string& note : fit.notes)
+    named |= note.find("station 0 module 5") != std::string::npos;
+  EXPECT_TRUE(named);
+  EXPECT_TRUE(fit.passesQualityChecks());
+  // Its bias did not move the module: within 3σ of the clean fit's ray error plus the truth's.
+  const RayErrorStats five = compareRays(c.truth, fit.model)[5];
+  EXPECT_LT(five.maxPx, clean.perModule[5].maxPx + 3.0 * fit.gate.modules[5].predicted.worstPx);
+  // Kept, the same decode pulls the module off (the reason it goes).
+  FitOptions keep = c.fit;
+  keep.unreliableDecodeTail = 0.0;
+  const FitResult kept = fitDisplay(c.nominal, obs, keep);
+  EXPECT_TRUE(kept.unreliableDecodes.empty());
+  const RayErrorStats keptFive = compareRays(c.truth, kept.model)[5];
+  std::printf("module 5 worst: clean %.3f px, decode left out %.3f, kept %.3f\n",
+              clean.perModule[5].maxPx, five.maxPx, keptFive.maxPx);
+  EXPECT_GT(keptFive.maxPx, five.maxPx);
+}
+
+TEST(DisplayFit, BinomialTail) {
+  EXPECT_DOUBLE_EQ(fit::binomialUpperTail(10, 0, 0.3), 1.0);
+  EXPECT_NEAR(fit::binomialUpperTail(10, 10, 0.5), std::pow(0.5, 10), 1e-15);
+  // P(X ≥ 2), n 3, p 0.5: (3 + 1) / 8.
+  EXPECT_NEAR(fit::binomialUpperTail(3, 2, 0.5), 0.5, 1e-12);
+  EXPECT_EQ(fit::binomialUpperTail(100, 1, 0.0), 0.0);
+  EXPECT_EQ(fit::binomialUpperTail(5, 6, 0.5), 0.0);
 }
 
 TEST(DisplayFit, BadStartFiveCentimetresFiveDegrees) {

@@ -49,17 +49,21 @@ Frame frameFromSrgb8(int width, int height, const std::vector<std::uint8_t>& rgb
 namespace {
 
 // srgb8FromLinear by table: the exact formula's pow costs ~10 ns a channel, a third of the
-// daemon's frame time. An input's bin is its nearest point i/4095; over a bin the code rises by
-// less than one (the curve's steepest slope, 12.92 · 255 codes per unit, is 0.8 codes a bin), so
-// a bin holds one code or two: the code of its lowest input, and the next code from the step
-// input on. Both are exact (the formula at the bin's lowest input, and the smallest input the
-// formula maps to the next code, found by bisection over the float bit patterns: the formula is
-// monotonic), so the result equals srgb8FromLinear bit for bit (the tests sweep it), at two
-// lookups and one compare, done a SIMD vector at a time (srgb_encode_kernel.h).
+// daemon's frame time. An input in [0, 1] falls in the bin of its float bit pattern's top bits
+// (bits >> kShift: 16257 bins, each 2^16 consecutive floats). Over a bin the code rises by at
+// most one (the codes are never closer than 2^16 floats: checked below; 2^17 fails above 0.5), so a
+// bin holds one code or two: the code of its lowest input, and the next code from the step input
+// on. Both are exact (the formula at the bin's lowest input, and the smallest input the formula
+// maps to the next code, found by bisection over the float bit patterns: the formula is monotonic),
+// so the result equals srgb8FromLinear bit for bit (the tests sweep it). One 32-bit word a bin
+// holds both, the code in the top byte and the step input's low kShift bits below it (2^kShift,
+// never reached, where the bin has no step): one lookup (a vector gather) and one compare, done
+// a SIMD vector at a time (srgb_encode_kernel.h).
 struct SrgbEncoder {
-  static constexpr int kSteps = 4095;
-  std::array<std::int32_t, kSteps + 1> code{};  // 32-bit: what a vector gather loads
-  std::array<float, kSteps + 1> step{};
+  static constexpr int kShift = SrgbTable::kShift;
+  static constexpr std::uint32_t kLowBits = (1u << kShift) - 1;
+  static constexpr int kBins = static_cast<int>(std::bit_cast<std::uint32_t>(1.0f) >> kShift) + 1;
+  std::array<std::uint32_t, kBins> words{};
 
   SrgbEncoder() {
     // The smallest float in [0, 1] for which `reaches` holds (it is monotonic in the input).
@@ -72,28 +76,29 @@ struct SrgbEncoder {
         else
           lo = mid + 1;
       }
-      return std::bit_cast<float>(lo);
+      return lo;
     };
-    // lowest[k]: the smallest input the formula maps to k or above (+inf for k = 256).
-    std::array<float, 257> lowest{};
-    lowest[256] = std::numeric_limits<float>::infinity();
+    // lowest[k]: the bits of the smallest input the formula maps to k or above (k = 1..255).
+    std::array<std::uint32_t, 256> lowest{};
     for (int k = 1; k < 256; ++k)
       lowest[static_cast<size_t>(k)] = smallest([&](float c) { return srgb8FromLinear(c) >= k; });
-    // The kernel's bin of an input (this file is compiled without FMA contraction, as it is).
-    auto binOf = [](float c) { return static_cast<int>(c * kSteps + 0.5f); };
-    float first = 0.0f;  // bin i's lowest input
-    for (int i = 0; i <= kSteps; ++i) {
-      const int k = srgb8FromLinear(first);
-      code[static_cast<size_t>(i)] = k;
-      step[static_cast<size_t>(i)] = lowest[static_cast<size_t>(k) + 1];
-      const float next = i == kSteps ? 2.0f : smallest([&](float c) { return binOf(c) > i; });
+    for (int i = 0; i < kBins; ++i) {
+      const auto first = static_cast<std::uint32_t>(i) << kShift;
+      const std::uint32_t last = std::min(first | kLowBits, std::bit_cast<std::uint32_t>(1.0f));
+      const int k = srgb8FromLinear(std::bit_cast<float>(first));
       // The bin's last input is at most one code higher: two codes cover the bin.
-      PARALLAX_CHECK(srgb8FromLinear(std::nextafter(next, 0.0f)) <= k + 1);
-      first = next;
+      const int top = srgb8FromLinear(std::bit_cast<float>(last));
+      PARALLAX_CHECK_OP(top - k, <=, 1);
+      if (top > k)
+        PARALLAX_CHECK_OP(lowest[static_cast<size_t>(top)] >> kShift, ==,
+                          static_cast<std::uint32_t>(i));
+      const std::uint32_t step =
+          top > k ? lowest[static_cast<size_t>(top)] & kLowBits : kLowBits + 1;
+      words[static_cast<size_t>(i)] = static_cast<std::uint32_t>(k) << 24 | step;
     }
   }
 
-  SrgbTable table() const { return {kSteps, code.data(), step.data()}; }
+  SrgbTable table() const { return {words.data()}; }
 };
 
 const SrgbEncoder& srgbEncoder() {

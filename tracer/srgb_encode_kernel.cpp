@@ -23,17 +23,21 @@ void EncodeSrgbChannels(const float* in, size_t n, const SrgbTable& table, std::
   using V = hn::Vec<decltype(d)>;
   constexpr size_t kMaxLanes = HWY_MAX_BYTES / sizeof(float);
   const size_t lanes = hn::Lanes(d);
-  const V zero = hn::Zero(d), one = hn::Set(d, 1.0f), half = hn::Set(d, 0.5f);
-  const V steps = hn::Set(d, static_cast<float>(table.steps));
+  const V zero = hn::Zero(d), one = hn::Set(d, 1.0f);
+  const auto* words = reinterpret_cast<const std::int32_t*>(table.words);
+  const auto lowBits = hn::Set(di, (1 << SrgbTable::kShift) - 1);
+  const auto stepBits = hn::Set(di, (1 << 24) - 1), codeBits = hn::Set(di, 0xFF);
   // The code of 0, as the loop below finds it: a vector of zeros (black, where a module's rays
-  // are masked: half its pixels, in runs) is stored without the gathers.
-  const auto black = [&] {
-    const auto index = hn::ConvertTo(di, half);
-    const auto k = hn::GatherIndex(di, table.code, index);
-    const V step = hn::GatherIndex(d, table.step, index);
-    return hn::DemoteTo(d8,
-                        hn::Sub(k, hn::VecFromMask(di, hn::RebindMask(di, hn::Ge(zero, step)))));
-  }();
+  // are masked: half its pixels, in runs) is stored without the gather.
+  const auto code = [&](V c) {
+    const auto bits = hn::BitCast(di, c);
+    const auto word = hn::GatherIndex(di, words, hn::ShiftRight<SrgbTable::kShift>(bits));
+    // A true mask is −1 as a vector: subtracting it adds one.
+    const auto next = hn::Not(hn::Lt(hn::And(bits, lowBits), hn::And(word, stepBits)));
+    return hn::DemoteTo(
+        d8, hn::Sub(hn::And(hn::ShiftRight<24>(word), codeBits), hn::VecFromMask(di, next)));
+  };
+  const auto black = code(zero);
 
   for (size_t i = 0; i < n; i += lanes) {
     const size_t here = n - i < lanes ? n - i : lanes;
@@ -49,16 +53,11 @@ void EncodeSrgbChannels(const float* in, size_t n, const SrgbTable& table, std::
       hn::StoreU(black, d8, out + i);
       continue;
     }
-    // maxps(x, 0) then minps(·, 1): NaN and −inf to 0, +inf to 1, as srgb8FromLinear does.
+    // maxps(x, 0) then minps(·, 1): NaN and −inf to 0, +inf to 1, as srgb8FromLinear does
+    // (and −0 to +0: Gt is false for it).
     V c = hn::IfThenElse(hn::Gt(x, zero), x, zero);
     c = hn::IfThenElse(hn::Lt(c, one), c, one);
-    const auto index = hn::ConvertTo(di, hn::Add(hn::Mul(c, steps), half));  // truncates
-    // The point's code and the input where its bin steps up to the next code.
-    const auto k = hn::GatherIndex(di, table.code, index);
-    const V step = hn::GatherIndex(d, table.step, index);
-    // A true mask is −1 as a vector: subtracting it adds one.
-    const auto code = hn::Sub(k, hn::VecFromMask(di, hn::RebindMask(di, hn::Ge(c, step))));
-    const auto bytes = hn::DemoteTo(d8, code);
+    const auto bytes = code(c);
     if (here == lanes) {
       hn::StoreU(bytes, d8, out + i);
     } else {

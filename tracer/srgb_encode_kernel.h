@@ -1,10 +1,10 @@
 #pragma once
 // Linear float channels to 8-bit sRGB codes, a SIMD vector at a time (Google Highway, the widest
 // instruction set the CPU has, chosen at run time): what every module frame goes through before
-// the link. Each lane clamps to [0, 1] (NaN to 0, as srgb8FromLinear does) and rounds to the
-// nearest of `steps` + 1 evenly spaced points: a bin, all of whose inputs map to one code or,
-// above the bin's step, to the next (the curve climbs less than one code a bin). Two table
-// loads (gathers) and one comparison: the bytes of srgb8FromLinear (frame.h) on every target.
+// the link. Each lane clamps to [0, 1] (NaN to 0, as srgb8FromLinear does); its float bits'
+// top bits pick a bin whose word holds the code of the bin's lowest input and where in the bin
+// the next code starts. One table load (a gather) and one comparison: the bytes of
+// srgb8FromLinear (frame.h) on every target.
 
 #include <cstddef>
 #include <cstdint>
@@ -12,11 +12,11 @@
 namespace parallax {
 
 struct SrgbTable {
-  int steps = 0;
-  // Per bin i (inputs c with trunc(c · steps + 0.5) = i): the code of its lowest input, and the
-  // smallest input that gets the next code (+inf where none in the bin does).
-  const std::int32_t* code = nullptr;
-  const float* step = nullptr;
+  // An input c in [0, 1] is in bin bits(c) >> kShift.
+  static constexpr int kShift = 16;
+  // Per bin: the code of its lowest input << 24 | the low kShift bits of the smallest input
+  // that gets the next code (2^kShift where no input of the bin does).
+  const std::uint32_t* words = nullptr;
 };
 
 // out[i] = srgb8FromLinear(in[i]) for i in [0, n).

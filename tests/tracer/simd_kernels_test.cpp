@@ -16,6 +16,7 @@
 #include "calibration/display/display_presets.h"
 #include "tracer/physical_scene.h"
 #include "tracer/scene_fixtures.h"
+#include "tracer/srgb_encode_kernel.h"
 #include "tracer/whitted_integrator.h"
 
 namespace parallax {
@@ -164,11 +165,11 @@ TEST(SimdKernels, EveryInstructionSetEncodesTheFormulasBytes) {
     }
     for (std::uint32_t b = lo - 3; b <= lo + 3; ++b) values.push_back(std::bit_cast<float>(b));
   }
-  for (int i = 0; i <= 4095; ++i) {  // around each table point's bin edges
-    const float edge = (static_cast<float>(i) - 0.5f) / 4095.0f;
-    for (float v = std::nextafter(std::nextafter(edge, 0.0f), 0.0f);
-         v <= std::nextafter(std::nextafter(edge, 1.0f), 1.0f); v = std::nextafter(v, 1.0f))
-      values.push_back(v);
+  // Around each edge between the table's bins (runs of 2^kShift float bit patterns).
+  for (std::uint32_t bin = 1; bin <= std::bit_cast<std::uint32_t>(1.0f) >> SrgbTable::kShift;
+       ++bin) {
+    const std::uint32_t edge = bin << SrgbTable::kShift;
+    for (std::uint32_t b = edge - 2; b <= edge + 2; ++b) values.push_back(std::bit_cast<float>(b));
   }
   const float inf = std::numeric_limits<float>::infinity();
   for (float v : {-1.0f, -0.0f, 2.0f, 1e30f, -inf, inf, std::numeric_limits<float>::quiet_NaN(),

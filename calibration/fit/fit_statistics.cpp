@@ -128,7 +128,8 @@ void summarizeResiduals(const FitInputs& in, const FitState& state, const Corres
     result->notes.push_back(fmt::format(
         "{} (station, module) decodes left out: far more of their correspondences were gross "
         "errors than the typical decode's {:.1f}%, and what made them biases the rest together "
-        "(as a module seen at a steep angle gives); the modules keep their other stations' decodes: {}",
+        "(as a module seen at a steep angle gives); the modules keep their other stations' "
+        "decodes: {}",
         form.unreliable.size(), 100.0 * form.unreliable.front().typicalShare, list));
   }
 

@@ -218,8 +218,14 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
   struct ModuleDecode {
     int n = 0, beyond = 0;
     double su = 0, sv = 0, sq = 0;
+    void add(const ModuleDecode& o) {
+      n += o.n;
+      beyond += o.beyond;
+      su += o.su;
+      sv += o.sv;
+      sq += o.sq;
+    }
   };
-  std::vector<ModuleDecode> perModule(session.truth.modules.size());
   std::map<std::pair<int, int>, ModuleDecode> perDecode;  // (station, module)
   {
     const double edges[] = {0, 4, 8, 16, 32, 64, 1e9};
@@ -241,20 +247,19 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
       while (b + 1 < kBins && edge >= edges[b + 1]) ++b;
       const double du = c.modulePx.x() - uv[0], dv = c.modulePx.y() - uv[1];
       const auto st = static_cast<size_t>(c.camera);
-      for (ModuleDecode* md :
-           {&perModule[static_cast<size_t>(c.module)], &perDecode[{c.camera, c.module}]}) {
-        if (std::hypot(du, dv) > 0.5) {
-          ++md->beyond;
-        } else {
-          ++md->n;
-          md->su += du;
-          md->sv += dv;
-          md->sq += du * du + dv * dv;
-        }
+      const bool gross = std::hypot(du, dv) > 0.5;
+      ModuleDecode& md = perDecode[{c.camera, c.module}];
+      if (gross) {
+        ++md.beyond;
+      } else {
+        ++md.n;
+        md.su += du;
+        md.sv += dv;
+        md.sq += du * du + dv * dv;
       }
       ou[st] += std::abs(du) > 0.5;
       ov[st] += std::abs(dv) > 0.5;
-      if (std::hypot(du, dv) > 0.5) {
+      if (gross) {
         ++cOut;
         ++bout[b];
         continue;
@@ -309,10 +314,10 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
         for (const auto& [key, d] : perDecode) {
           const double share = static_cast<double>(d.beyond) / (d.n + d.beyond);
           if (d.n < 10 || share < shares[b] || share >= shares[b + 1]) continue;
-          const double mu = d.su / d.n, mv = d.sv / d.n;
+          const double meanU = d.su / d.n, meanV = d.sv / d.n;
           ++groups;
-          meanSq += mu * mu + mv * mv;
-          noiseSq += (d.sq / d.n - mu * mu - mv * mv) / d.n;
+          meanSq += meanU * meanU + meanV * meanV;
+          noiseSq += (d.sq / d.n - meanU * meanU - meanV * meanV) / d.n;
         }
         if (groups)
           std::printf(
@@ -376,6 +381,8 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
                 cf.camera, d.x(), d.y(), d.z(), cf.stdDev[3], cf.stdDev[4], cf.stdDev[5],
                 cf.pose.physicalFromCamera.angularDistance(t.physicalFromCamera) * 180.0 / M_PI);
   }
+  std::vector<ModuleDecode> perModule(session.truth.modules.size());
+  for (const auto& [key, d] : perDecode) perModule[static_cast<size_t>(key.second)].add(d);
   std::printf(
       "| module | Δx, Δy, Δz mm (σ) | Δfx px (σ) | true RMS px / observer mm | predicted | true "
       "worst px / mm | 3σ worst | decoded: within 0.5 px, mean du dv, RMS px; beyond "

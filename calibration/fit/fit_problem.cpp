@@ -295,6 +295,7 @@ CorrespondenceForm cameraPxForm(const FitInputs& in, const FitState& state,
                    in.options.unreliableDecodeTail;
     if (d.unreliable) form.unreliable.push_back(d.counts);
   }
+  if (form.unreliable.empty()) return form;
   for (size_t i = 0; i < n; ++i) {
     const Correspondence& c = in.obs.correspondences[i];
     if (decodes[{c.camera, c.module}].unreliable) form.excluded[i] = true;
@@ -360,10 +361,10 @@ double binomialUpperTail(int n, int k, double p) {
   if (p <= 0.0) return 0.0;
   if (p >= 1.0) return 1.0;
   double tail = 0.0;
-  const double logP = std::log(p), logQ = std::log1p(-p);
+  const double logP = std::log(p), logQ = std::log1p(-p), logNFactorial = std::lgamma(n + 1.0);
   for (int j = k; j <= n; ++j) {
-    tail += std::exp(std::lgamma(n + 1.0) - std::lgamma(j + 1.0) - std::lgamma(n - j + 1.0) +
-                     j * logP + (n - j) * logQ);
+    tail += std::exp(logNFactorial - std::lgamma(j + 1.0) - std::lgamma(n - j + 1.0) + j * logP +
+                     (n - j) * logQ);
   }
   return std::min(1.0, tail);
 }

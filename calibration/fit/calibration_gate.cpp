@@ -74,9 +74,10 @@ ModuleGate judgeModule(const DisplayModel& fitted, const ModuleFit& fit, bool he
   if (fit.stationsSeeing < 2) {
     g.boundPx = g.boundObserverMm = kInf;
     g.predicted.bounded = false;
-    g.reason = "seen from one station only: its decode's own error cannot be told from its "
-               "parameters (a station that sees it too would bound it)" +
-               leftOut;
+    g.reason =
+        "seen from one station only: its decode's own error cannot be told from its "
+        "parameters (a station that sees it too would bound it)" +
+        leftOut;
     return g;
   }
   g.predicted = predictRayUncertainty(fitted, fit.module, fit.rayCovariance, grid);

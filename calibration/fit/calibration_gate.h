@@ -20,8 +20,9 @@
 //     it is 0.43°, a quarter of `default`'s 1.9° angular pitch.
 // A module no camera saw, or one whose error cannot be bounded (rank deficient: no finite
 // covariance; or seen from one station only, ModuleFit::stationsSeeing, where what its one
-// decode shares is absorbed by its parameters, out of any residual's sight), fails. A failure of the whole fit (not converged, stopped, a transfer the data
-// cannot decide, cameras or k undetermined) fails every module.
+// decode shares is absorbed by its parameters, out of any residual's sight), fails. A failure of
+// the whole fit (not converged, stopped, a transfer the data cannot decide, cameras or k
+// undetermined) fails every module.
 
 #include <string>
 #include <vector>

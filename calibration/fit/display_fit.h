@@ -108,7 +108,7 @@ struct ModuleFit {
   // correspondences (kMinViewShare): a module seen from one alone cannot be bounded
   // (calibration_gate.h).
   int stationsSeeing = 0;
-  double rmsPx = 0.0;      // correspondences, robust inliers (module px)
+  double rmsPx = 0.0;  // correspondences, robust inliers (module px)
   double stripeRmsMm = 0.0;
   BlockConditioning conditioning;
   // Standard deviations: rotation about x, y, z (deg), position x, y, z (mm), fx, fy, cx, cy

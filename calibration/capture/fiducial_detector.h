@@ -1,10 +1,12 @@
 #pragma once
 // Finds the fiducial markers (bright discs on the screen frame, calibration_camera.h) in a
 // station's black reference picture: with every module dark, the markers are the only bright
-// spots. Blobs are found by threshold and connected components; each fiducial takes the blob
-// nearest to where the nominal screen and the tape-measured station (aimed at the screen
-// centre, as the fit starts) predict it, if that blob is close enough and nearer to it than to
-// any other fiducial's prediction; a blob cut by the picture's edge is no sighting. The position is
+// spots. Blobs are found by threshold (above the picture's own noise as well as minPeak) and
+// connected components, and only those whose light stands out of their box's noise count (a
+// noisy picture is full of specks); each fiducial takes the brightest blob within reach of
+// where the nominal screen and the tape-measured station (aimed at the screen centre, as the
+// fit starts) predict it, if that blob is nearer to it than to any other fiducial's
+// prediction; a blob cut by the picture's edge is no sighting. The position is
 // the blob's background-subtracted centroid.
 
 #include <opencv2/core.hpp>
@@ -17,7 +19,7 @@
 namespace parallax {
 
 struct FiducialDetectorOptions {
-  double minPeak = 0.1;  // linear light above the background, for a blob
+  double minPeak = 0.1;  // linear light above the background, for a blob (at least)
   double searchRadiusFraction =
       0.06;                  // of the focal length: how far a marker may be from its prediction
   int maxBlobPixels = 4000;  // larger bright regions are not markers

@@ -68,6 +68,18 @@ ModuleGate judgeModule(const DisplayModel& fitted, const ModuleFit& fit, bool he
     g.reason = "rank deficient: the data cannot bound its rays" + leftOut;
     return g;
   }
+  // One station's decode alone: whatever that decode shares across the module (a steep view's
+  // bias, 0.03-0.07 px in the picture path) moves its 12 parameters and leaves no residual, so
+  // no σ can hold it (2 stations from pictures: such modules 2-3× their σ, up to 33 px off).
+  if (fit.stationsSeeing < 2) {
+    g.boundPx = g.boundObserverMm = kInf;
+    g.predicted.bounded = false;
+    g.reason =
+        "seen from one station only: its decode's own error cannot be told from its "
+        "parameters (a station that sees it too would bound it)" +
+        leftOut;
+    return g;
+  }
   g.predicted = predictRayUncertainty(fitted, fit.module, fit.rayCovariance, grid);
   if (!g.predicted.bounded || g.predicted.samples == 0) {
     g.boundPx = g.boundObserverMm = kInf;

@@ -19,8 +19,10 @@
 //     no eye ever receives the view meant for the other eye or the next module's, and at 2 m
 //     it is 0.43°, a quarter of `default`'s 1.9° angular pitch.
 // A module no camera saw, or one whose error cannot be bounded (rank deficient: no finite
-// covariance), fails. A failure of the whole fit (not converged, stopped, a transfer the data
-// cannot decide, cameras or k undetermined) fails every module.
+// covariance; or seen from one station only, ModuleFit::stationsSeeing, where what its one
+// decode shares is absorbed by its parameters, out of any residual's sight), fails. A failure of
+// the whole fit (not converged, stopped, a transfer the data cannot decide, cameras or k
+// undetermined) fails every module.
 
 #include <string>
 #include <vector>

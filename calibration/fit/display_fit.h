@@ -104,7 +104,11 @@ struct ModuleFit {
   bool observed = false;
   int correspondences = 0, stripes = 0, outliers = 0;
   int decodesLeftOut = 0;  // its stations' decodes left out whole (FitResult::unreliableDecodes)
-  double rmsPx = 0.0;      // correspondences, robust inliers (module px)
+  // Stations whose decode of it the final solve holds, each with a real share of its inlier
+  // correspondences (kMinViewShare): a module seen from one alone cannot be bounded
+  // (calibration_gate.h).
+  int stationsSeeing = 0;
+  double rmsPx = 0.0;  // correspondences, robust inliers (module px)
   double stripeRmsMm = 0.0;
   BlockConditioning conditioning;
   // Standard deviations: rotation about x, y, z (deg), position x, y, z (mm), fx, fy, cx, cy

@@ -29,6 +29,10 @@ constexpr double kOutlierSigmas = 5.0;
 // hundred: a pixel on a module's image edge or a lobe's rim): what keeps one or two of them
 // from condemning a decode when the typical share is near zero.
 constexpr double kTypicalGrossErrorShare = 0.01;
+// A station sees a module, for the gate, when the final solve holds at least this share of the
+// module's inlier correspondences from it: a sliver at the edge of its picture is no second
+// view.
+constexpr double kMinViewShare = 0.05;
 
 // P(X ≥ k) for X ~ Binomial(n, p).
 double binomialUpperTail(int n, int k, double p);

@@ -31,6 +31,7 @@ void summarizeResiduals(const FitInputs& in, const FitState& state, const Corres
   result->cameras.assign(cameras, {});
   std::vector<double> sumSqModule(modules, 0.0), sumSqCamera(cameras, 0.0);
   std::vector<int> inliersModule(modules, 0), inliersCamera(cameras, 0);
+  std::vector<int> inliersModuleCamera(modules * cameras, 0);
   for (size_t m = 0; m < modules; ++m) {
     result->modules[m].module = static_cast<int>(m);
     result->modules[m].observed = in.observed[m];
@@ -56,6 +57,15 @@ void summarizeResiduals(const FitInputs& in, const FitState& state, const Corres
     sumSqCamera[static_cast<size_t>(c.camera)] += r.squaredNorm();
     ++inliersModule[static_cast<size_t>(c.module)];
     ++inliersCamera[static_cast<size_t>(c.camera)];
+    if (form.uses(i))  // not in a decode left out whole
+      ++inliersModuleCamera[static_cast<size_t>(c.module) * cameras +
+                            static_cast<size_t>(c.camera)];
+  }
+  for (size_t m = 0; m < modules; ++m) {
+    for (size_t c = 0; c < cameras; ++c) {
+      const int n = inliersModuleCamera[m * cameras + c];
+      if (n > 0 && n >= kMinViewShare * inliersModule[m]) ++result->modules[m].stationsSeeing;
+    }
   }
   // RMS per axis (so it compares with σ directly).
   for (size_t m = 0; m < modules; ++m) {

@@ -120,6 +120,37 @@ TEST(CalibrationGate, AModuleNoCameraSawFailsTheGate) {
   }
 }
 
+// A module one station alone decoded: its parameters absorb whatever that decode shares
+// across it, and no σ can say how much, so it is not installed on its σ.
+TEST(CalibrationGate, AModuleSeenFromOneStationOnlyFailsTheGate) {
+  Session s = demoSession(41, {});
+  CalibrationObservations& obs = s.data.observations;
+  constexpr int kModule = 7;
+  int keptStation = -1;
+  for (const Correspondence& c : obs.correspondences) {
+    if (c.module == kModule) keptStation = std::max(keptStation, c.camera);
+  }
+  ASSERT_GE(keptStation, 1) << "module 7 should be seen by several stations";
+  auto otherView = [&](int module, int camera) {
+    return module == kModule && camera != keptStation;
+  };
+  std::erase_if(obs.correspondences,
+                [&](const Correspondence& c) { return otherView(c.module, c.camera); });
+  std::erase_if(obs.stripes, [&](const StripeCentre& c) { return otherView(c.module, c.camera); });
+  const FitResult fit = fitDisplay(s.nominal, obs, FitOptions{});
+  EXPECT_FALSE(fit.passesQualityChecks());
+  EXPECT_EQ(fit.modules[kModule].stationsSeeing, 1);
+  const ModuleGate& g = fit.gate.modules[kModule];
+  EXPECT_FALSE(g.passes);
+  EXPECT_FALSE(g.predicted.bounded);
+  EXPECT_NE(g.reason.find("seen from one station only"), std::string::npos) << g.reason;
+  for (const ModuleFit& m : fit.modules) {
+    if (m.module != kModule) {
+      EXPECT_GE(m.stationsSeeing, 2) << "module " << m.module;
+    }
+  }
+}
+
 TEST(CalibrationGate, AllowPartialInstallsTheRestWithTheFailingModuleNominalAndNamed) {
   const Session s = demoSession(41, {5, 9});
   FitOptions options;

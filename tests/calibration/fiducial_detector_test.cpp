@@ -4,13 +4,14 @@
 // detector took specks of noise 5-38 px from the markers at three of five stations, and the
 // fit's σ did not know).
 
+#include "calibration/capture/fiducial_detector.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
 
 #include "calibration/camera/calibration_geometry.h"
 #include "calibration/capture/calibration_captures.h"
-#include "calibration/capture/fiducial_detector.h"
 #include "calibration/display/display_presets.h"
 #include "calibration/simulation/camera_renderer.h"
 #include "calibration/simulation/ground_truth.h"
@@ -46,15 +47,16 @@ Detection detectAtNoise(std::uint64_t seed, double noiseSigma, int hotPixels = 0
   for (size_t st = 0; st < camera.truth.poses.size(); ++st) {
     const StationView view =
         viewFromStation(truth, camera.truth.intrinsics, camera.truth.poses[st], sensor);
-    cv::Mat recorded = renderFrame(view, std::vector<cv::Mat>(truth.modules.size()), sensor, random);
+    cv::Mat recorded =
+        renderFrame(view, std::vector<cv::Mat>(truth.modules.size()), sensor, random);
     for (int h = 0; h < hotPixels; ++h) {
       recorded.at<float>(static_cast<int>(random.uniform(0.0, recorded.rows - 1.0)),
                          static_cast<int>(random.uniform(0.0, recorded.cols - 1.0))) = 1.0f;
     }
     cv::Mat bytes;
     recorded.convertTo(bytes, CV_8U, 255.0);
-    detectFiducials(linearFromRecorded8(bytes, sensor.gamma), nominal.screen,
-                    static_cast<int>(st), FiducialDetectorOptions{}, &obs);
+    detectFiducials(linearFromRecorded8(bytes, sensor.gamma), nominal.screen, static_cast<int>(st),
+                    FiducialDetectorOptions{}, &obs);
     for (const Eigen::Vector2d& f : obs.fiducials) {
       Eigen::Vector2d px;
       const double margin = 8.0;  // a marker's image is ~7 px across at these distances
@@ -83,8 +85,7 @@ TEST(FiducialDetector, NoisyPicturesGiveTheMarkersNotTheSpecks) {
     for (double noise : {0.004, 0.075}) {
       const Detection d = detectAtNoise(seed, noise);
       std::printf("    seed %llu, sensor noise %.3f: %d sightings of %d visible, worst %.3f px\n",
-                  static_cast<unsigned long long>(seed), noise, d.sightings, d.visible,
-                  d.worstPx);
+                  static_cast<unsigned long long>(seed), noise, d.sightings, d.visible, d.worstPx);
       EXPECT_GE(d.sightings, d.visible) << "seed " << seed << " noise " << noise;
       EXPECT_LT(d.worstPx, noise < 0.01 ? 0.1 : 0.5) << "seed " << seed << " noise " << noise;
     }

@@ -15,6 +15,7 @@
 #include "scripts/scripted_scene.h"
 #include "tracer/frame.h"
 #include "tracer/physical_scene.h"
+#include "tracer/scene_fixtures.h"
 #include "tracer/whitted_integrator.h"
 
 namespace parallax {
@@ -121,6 +122,36 @@ TEST(ShadowRayBounds, GlassPointLightsAndGrazingLightEqualTracingEveryRay) {
   const Tally t = playBothWays(folder.write("mixed.lua", kMixed), 6, 0.5);
   EXPECT_GT(t.passed, 1000);
   EXPECT_GT(t.traced, 1000);
+}
+
+// The paper's shapes (glass, Phong highlights, a floor) with two point lights, one just above
+// the floor, on a flat and a curved screen.
+TEST(ShadowRayBounds, ShapesWithPointLightsEqualTracingEveryRay) {
+  Scene scene = makeShapesScene();
+  scene.addLight(Light::makePoint({0.2, 1.5, 1.0}, {0.8f, 0.8f, 0.7f}));
+  scene.addLight(Light::makePoint({-0.6, 0.02, 0.4}, {0.5f, 0.4f, 0.4f}));
+  for (double curvature : {0.0, 0.8}) {
+    NominalDisplayOptions options;
+    options.preset = "demo";
+    options.modules = 3;
+    options.width = 150;
+    options.height = 100;
+    options.curvature = curvature;
+    const DisplayModel display = makeNominalDisplay(options);
+    const PhysicalScene physical(scene, display.displayableBox);
+    ASSERT_FALSE(physical.occluders().empty());
+    const RayTextures textures = generateRayTextures(display, 1);
+    RenderOptions everyRay;
+    everyRay.boundShadowRays = false;
+    RenderCounters withBounds, without;
+    const Frame a = renderFrame(physical, textures, RenderOptions{}, &withBounds);
+    const Frame b = renderFrame(physical, textures, everyRay, &without);
+    long differing = 0;
+    for (size_t p = 0; p < a.pixels.size(); ++p) differing += a.pixels[p] == b.pixels[p] ? 0 : 1;
+    EXPECT_EQ(differing, 0) << "curvature " << curvature;
+    EXPECT_GT(withBounds.shadowPassedBounds, 1000) << "curvature " << curvature;
+    EXPECT_EQ(withBounds.shadow + withBounds.shadowPassedBounds, without.shadow);
+  }
 }
 
 // More meshes than kMaxOccluders: no bounds, every ray traced.

@@ -191,6 +191,7 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox,
   rtcCommitScene(scene_);
   if (dynamicScene_) rtcCommitScene(dynamicScene_);
   if (split()) boundDynamicMeshes();
+  boundOccluders();
   throwIfEmbreeFailed("the scene build");
   if (counters_.trianglesBuilt == 0) {
     boundsMin_ = boundsMax_ = Eigen::Vector3f::Zero();
@@ -242,6 +243,55 @@ void PhysicalScene::boundDynamicMeshes() {
           radius = std::max(radius, (mesh->positions[index] - centre).norm());
     dynamicSpheres_.emplace_back(centre.x(), centre.y(), centre.z(),
                                  radius * (1.0f + 1e-4f) + margin);
+  }
+}
+
+void PhysicalScene::boundOccluders() {
+  occluders_.clear();
+  if (meshes_.size() > kMaxOccluders) return;
+  // As the dynamic spheres' (boundDynamicMeshes): the tests' rounding and Embree's.
+  const float margin = 1e-4f * (boundsMax_ - boundsMin_).norm() + 1e-6f;
+  // A plane's: the float rounding of a distance from it, n · a − c, and of Embree's test of
+  // which side of a triangle a ray starts (its errors grow with v0 − o, inside the bounds).
+  constexpr double kEpsilon = std::numeric_limits<float>::epsilon();
+  const double reach = (boundsMax_ - boundsMin_).cast<double>().norm() +
+                       boundsMin_.cwiseAbs().cwiseMax(boundsMax_.cwiseAbs()).cast<double>().norm();
+  for (const PhysicalMesh& mesh : meshes_) {
+    OccluderBound bound;
+    Eigen::AlignedBox3f box;
+    for (const auto& t : mesh.triangles)
+      for (std::uint32_t index : t) box.extend(mesh.positions[index]);
+    const Eigen::Vector3f centre = box.center();
+    float radius = 0.0f;
+    for (const auto& t : mesh.triangles)
+      for (std::uint32_t index : t)
+        radius = std::max(radius, (mesh.positions[index] - centre).norm());
+    bound.sphere = {centre.x(), centre.y(), centre.z(), radius * (1.0f + 1e-4f) + margin};
+    // Flat: every corner within float rounding of the largest triangle's plane (in double).
+    size_t largest = 0;
+    for (size_t t = 1; t < mesh.triangles.size(); ++t)
+      if (mesh.crossLengths[t] > mesh.crossLengths[largest]) largest = t;
+    const auto corner = [&](size_t t, int k) {
+      return mesh.positions[mesh.triangles[t][static_cast<size_t>(k)]].cast<double>();
+    };
+    const Eigen::Vector3d n = (corner(largest, 1) - corner(largest, 0))
+                                  .cross(corner(largest, 2) - corner(largest, 0))
+                                  .normalized();
+    const double c = n.dot(corner(largest, 0));
+    double deviation = 0.0, extent = 0.0;
+    for (const auto& t : mesh.triangles) {
+      for (std::uint32_t index : t) {
+        const Eigen::Vector3d p = mesh.positions[index].cast<double>();
+        deviation = std::max(deviation, std::abs(n.dot(p) - c));
+        extent = std::max(extent, p.cwiseAbs().maxCoeff());
+      }
+    }
+    if (n.allFinite() && deviation <= 16.0 * kEpsilon * extent && reach > 0.0) {
+      bound.plane = {static_cast<float>(n.x()), static_cast<float>(n.y()),
+                     static_cast<float>(n.z()), static_cast<float>(c)};
+      bound.planeMargin = static_cast<float>(deviation + 16.0 * kEpsilon * reach);
+    }
+    occluders_.push_back(bound);
   }
 }
 

@@ -50,6 +50,19 @@ struct PhysicalMesh {
   int material = 0;
 };
 
+// A mesh's bound for the shadow rays' test (shadow_ray_kernel.h): a ray that passes it cannot
+// meet the mesh. A sphere that holds it (a little wider), and for a flat mesh its plane too: a
+// ray that stays on one side of the plane passes it, as a shadow ray leaving a floor does.
+struct OccluderBound {
+  Eigen::Vector4f sphere = Eigen::Vector4f::Zero();  // centre x, y, z, radius (physical)
+  // A flat mesh: the unit normal n and n · p of its plane; its corners lie within planeMargin of
+  // it, the rounding of a ray's distance from it (and of Embree's test) included. A zero normal
+  // for any other mesh.
+  Eigen::Vector4f plane = Eigen::Vector4f::Zero();
+  float planeMargin = 0.0f;
+  bool flat() const { return planeMargin > 0.0f; }
+};
+
 struct PhysicalLight {
   LightKind kind = LightKind::kDirectional;
   Eigen::Vector3f toLight = Eigen::Vector3f::UnitY();  // directional: unit, toward the light
@@ -86,6 +99,10 @@ class PhysicalScene {
   // more than kMaxDynamicSpheres. Empty unless split.
   static constexpr size_t kMaxDynamicSpheres = 8;
   const std::vector<Eigen::Vector4f>& dynamicSpheres() const { return dynamicSpheres_; }
+  // Every mesh's bound (OccluderBound), in mesh order, when the scene has at most
+  // kMaxOccluders meshes; empty otherwise (the shadow rays then all go to Embree).
+  static constexpr size_t kMaxOccluders = 8;
+  const std::vector<OccluderBound>& occluders() const { return occluders_; }
   // Per Scene instance: whether the split counted it dynamic.
   bool dynamicInstance(int instance) const {
     return split() && dynamicInstances_[static_cast<size_t>(instance)];
@@ -134,6 +151,8 @@ class PhysicalScene {
   std::vector<bool> dynamicInstances_;
   std::vector<Eigen::Vector4f> dynamicSpheres_;
   void boundDynamicMeshes();
+  void boundOccluders();
+  std::vector<OccluderBound> occluders_;
   std::vector<int> instanceMeshes_;
   std::vector<int> meshInstances_;  // per mesh: its Scene instance
   WorldToPhysical physicalFromWorld_;

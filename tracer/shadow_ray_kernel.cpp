@@ -23,7 +23,7 @@ namespace HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
 template <bool kPoint>
-long MakeShadowRaysFor(const ShadowRayJob& job) {
+ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
   const hn::ScalableTag<float> d;
   const hn::RebindToSigned<decltype(d)> di;
   using V = hn::Vec<decltype(d)>;
@@ -59,12 +59,40 @@ long MakeShadowRaysFor(const ShadowRayJob& job) {
   if (job.cachedBit) {
     for (int f = 0; f < StagedRays::kFields; ++f)
       dynField[f] = job.dynamic->field(static_cast<StagedRays::Field>(f));
+  }
+  if (job.cachedBit || job.occluders) {
     freeField[0] = job.unblocked->field(StagedRays::kR);
     freeField[1] = job.unblocked->field(StagedRays::kG);
     freeField[2] = job.unblocked->field(StagedRays::kB);
   }
   size_t kept = 0, keptDynamic = 0, keptFree = 0;
-  long answered = 0;
+  ShadowRayCounts counts;
+  // Appends the light of the lanes of `free` to job.unblocked.
+  const auto addFree = [&](const V(&values)[StagedRays::kFields], V pixel, auto free) {
+    for (int c = 0; c < 3; ++c)
+      CompressAppend(d, values[StagedRays::kR + c], free, freeField[c] + keptFree);
+    CompressAppend(d, pixel, free, reinterpret_cast<float*>(job.unblocked->pixels()) + keptFree);
+    const size_t added = hn::CountTrue(d, free);
+    keptFree += added;
+    return static_cast<long>(added);
+  };
+
+  // The meshes' bounds. A directional light's rays all run along one l to an infinite tfar:
+  // whether one passes a flat mesh's plane is which side of it the ray starts on (the side
+  // n · l points to; none when l lies in the plane, left to the sphere).
+  int planeSide[PhysicalScene::kMaxOccluders] = {};
+  for (size_t k = 0; k < job.occluderCount; ++k) {
+    const OccluderBound& bound = job.occluders[k];
+    if (!bound.flat()) continue;
+    if constexpr (kPoint) {
+      planeSide[k] = 2;  // both ends tested (MayCrossPlane)
+    } else {
+      const Eigen::Vector3f normal = bound.plane.head<3>();
+      const float along = normal.x() * light.toLight.x() +
+                          (normal.y() * light.toLight.y() + normal.z() * light.toLight.z());
+      planeSide[k] = along > 0.0f ? 1 : along < 0.0f ? -1 : 0;
+    }
+  }
 
   for (size_t j = 0; j < n; j += lanes) {
     const auto valid = hn::FirstN(d, n - j);
@@ -139,7 +167,8 @@ long MakeShadowRaysFor(const ShadowRayJob& job) {
       const auto known = hn::RebindMask(d, hn::Ne(hn::And(flags, knownBit), hn::Zero(di)));
       const auto clear = hn::RebindMask(d, hn::Ne(hn::And(flags, cachedBit), hn::Zero(di)));
       const auto toDynamic = hn::And(reaches, hn::And(known, clear));
-      answered += static_cast<long>(hn::CountTrue(d, hn::AndNot(clear, hn::And(reaches, known))));
+      counts.answered +=
+          static_cast<long>(hn::CountTrue(d, hn::AndNot(clear, hn::And(reaches, known))));
       keep = hn::AndNot(known, reaches);
       if (!hn::AllFalse(d, toDynamic)) {
         // Only rays that may meet a dynamic object's sphere go to Embree.
@@ -155,30 +184,47 @@ long MakeShadowRaysFor(const ShadowRayJob& job) {
                          reinterpret_cast<float*>(job.dynamic->pixels()) + keptDynamic);
           keptDynamic += hn::CountTrue(d, traced);
         }
-        if (!hn::AllFalse(d, free)) {
-          for (int c = 0; c < 3; ++c)
-            CompressAppend(d, values[StagedRays::kR + c], free, freeField[c] + keptFree);
-          CompressAppend(d, pixel, free,
-                         reinterpret_cast<float*>(job.unblocked->pixels()) + keptFree);
-          keptFree += hn::CountTrue(d, free);
-        }
+        if (!hn::AllFalse(d, free)) counts.passedDynamic += addFree(values, pixel, free);
       }
     }
     if (hn::AllFalse(d, keep)) continue;
+    if (job.occluders) {
+      // Only rays that may meet some mesh's bound go to Embree.
+      auto meets = hn::Lt(zero, zero);
+      for (size_t k = 0; k < job.occluderCount; ++k) {
+        const OccluderBound& bound = job.occluders[k];
+        auto may = MayMeetSphere(d, ax, ay, az, lx, ly, lz, tfar, bound.sphere);
+        if (planeSide[k] == 2) {
+          may = hn::And(
+              may, MayCrossPlane(d, ax, ay, az, lx, ly, lz, tfar, bound.plane, bound.planeMargin));
+        } else if (planeSide[k] != 0) {
+          const V start = PlaneDistance(d, ax, ay, az, bound.plane);
+          const auto stays = planeSide[k] > 0 ? hn::Gt(start, hn::Set(d, bound.planeMargin))
+                                              : hn::Lt(start, hn::Set(d, -bound.planeMargin));
+          may = hn::AndNot(stays, may);
+        }
+        meets = hn::Or(meets, may);
+        if (hn::AllFalse(d, hn::AndNot(meets, keep))) break;  // all go to Embree
+      }
+      const auto free = hn::AndNot(meets, keep);
+      if (!hn::AllFalse(d, free)) {
+        counts.passedOccluders += addFree(values, pixel, free);
+        keep = hn::And(keep, meets);
+        if (hn::AllFalse(d, keep)) continue;
+      }
+    }
     for (int f = 0; f < StagedRays::kFields; ++f)
       CompressAppend(d, values[f], keep, outField[f] + kept);
     CompressAppend(d, pixel, keep, reinterpret_cast<float*>(out.pixels()) + kept);
     kept += hn::CountTrue(d, keep);
   }
   out.setSize(kept);
-  if (job.cachedBit) {
-    job.dynamic->setSize(keptDynamic);
-    job.unblocked->setSize(keptFree);
-  }
-  return answered;
+  if (job.cachedBit) job.dynamic->setSize(keptDynamic);
+  if (job.cachedBit || job.occluders) job.unblocked->setSize(keptFree);
+  return counts;
 }
 
-long MakeShadowRays(const ShadowRayJob& job) {
+ShadowRayCounts MakeShadowRays(const ShadowRayJob& job) {
   return job.light->kind == LightKind::kPoint ? MakeShadowRaysFor<true>(job)
                                               : MakeShadowRaysFor<false>(job);
 }
@@ -291,7 +337,9 @@ HWY_EXPORT(MakeShadowRays);
 HWY_EXPORT(AddUnblockedLight);
 HWY_EXPORT(AddLight);
 
-long makeShadowRays(const ShadowRayJob& job) { return HWY_DYNAMIC_DISPATCH(MakeShadowRays)(job); }
+ShadowRayCounts makeShadowRays(const ShadowRayJob& job) {
+  return HWY_DYNAMIC_DISPATCH(MakeShadowRays)(job);
+}
 
 void addUnblockedLight(const StagedRays& staged, const RTCRay16* packets, Rgb* pixels) {
   HWY_DYNAMIC_DISPATCH(AddUnblockedLight)(staged, packets, pixels);

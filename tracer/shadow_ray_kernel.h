@@ -12,6 +12,10 @@
 // objects only (`dynamic`) when none does, unless that ray passes every dynamic object's
 // bounding sphere (PhysicalScene::dynamicSpheres): then nothing can block it and its light goes
 // to `unblocked`, for addLight, without a trip through Embree.
+//
+// With `occluders` (PhysicalScene::occluders, a first generation's rays: one a pixel toward the
+// light, so the order their light is added in does not matter), a ray that would go to Embree
+// goes to `unblocked` instead when it passes every mesh's bound: nothing can block it.
 
 #include <embree3/rtcore.h>
 
@@ -35,10 +39,19 @@ struct ShadowRayJob {
   StagedRays* unblocked = nullptr;           // likewise (pixels and kR, kG, kB only)
   const Eigen::Vector4f* spheres = nullptr;  // centre and radius, sphereCount of them
   std::size_t sphereCount = 0;
+  const OccluderBound* occluders = nullptr;  // occluderCount of them; null: no test
+  std::size_t occluderCount = 0;
 };
 
-// Returns the rays the frame cache answered (no ray made).
-long makeShadowRays(const ShadowRayJob& job);
+struct ShadowRayCounts {
+  long answered = 0;         // the frame cache answered them: blocked by a static surface
+  long passedDynamic = 0;    // the cache's clear rays that pass every dynamic bound
+  long passedOccluders = 0;  // rays that pass every mesh's bound (`occluders`)
+};
+
+// Makes the rays (job.rays, and with the cache job.dynamic) and lists the light that needs no
+// ray in job.unblocked.
+ShadowRayCounts makeShadowRays(const ShadowRayJob& job);
 
 // After Embree traced them (`packets`: the staged rays in order, tfar −inf where blocked), adds
 // each unblocked ray's contribution (kR, kG, kB) to its pixel, a vector of rays at a time: a

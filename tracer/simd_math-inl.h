@@ -76,6 +76,32 @@ HWY_INLINE auto MayMeetSphere(D d, V ax, V ay, V az, V lx, V ly, V lz, V tfar,
   return hn::Not(hn::Or(passesBeside, hn::Or(behind, beyond)));
 }
 
+// n · a − c of the plane n · x = c (`plane`: n, c): a's signed distance from it.
+template <class D, class V = hwy::HWY_NAMESPACE::Vec<D>>
+HWY_INLINE V PlaneDistance(D d, V ax, V ay, V az, const Eigen::Vector4f& plane) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  return hn::Sub(
+      Dot3(hn::Set(d, plane.x()), hn::Set(d, plane.y()), hn::Set(d, plane.z()), ax, ay, az),
+      hn::Set(d, plane.w()));
+}
+
+// Lanes whose ray (from a along the unit l, for t in [0, tfar]) may cross the plane n · x = c:
+// false only where both its ends lie on one side, farther than `margin`. A ray along the plane
+// to an infinite tfar gives 0 · ∞, NaN, which compares false: may cross.
+template <class D, class V = hwy::HWY_NAMESPACE::Vec<D>>
+HWY_INLINE auto MayCrossPlane(D d, V ax, V ay, V az, V lx, V ly, V lz, V tfar,
+                              const Eigen::Vector4f& plane, float margin) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  const V start = PlaneDistance(d, ax, ay, az, plane);
+  const V along =
+      Dot3(hn::Set(d, plane.x()), hn::Set(d, plane.y()), hn::Set(d, plane.z()), lx, ly, lz);
+  const V end = hn::Add(start, hn::Mul(along, tfar));
+  const V above = hn::Set(d, margin), below = hn::Set(d, -margin);
+  const auto over = hn::And(hn::Gt(start, above), hn::Gt(end, above));
+  const auto under = hn::And(hn::Lt(start, below), hn::Lt(end, below));
+  return hn::Not(hn::Or(over, under));
+}
+
 // The lanes of `v` that `keep` selects, written in order from `to` on, followed by whatever
 // fills the rest of the vector (the destination has room for a whole vector). Compressing in a
 // register and storing the whole vector: AVX-512's compress-to-memory, which Highway's

@@ -370,9 +370,13 @@ void TileRenderer::makeShadowRays(const PhysicalLight& light, int lightIndex, in
                                          (cache_->lightsValid >> lightIndex & 1u)
                                      ? static_cast<std::uint8_t>(1u << lightIndex)
                                      : 0;
+  // A first generation's rays that pass every mesh's bound need no trace (one a pixel toward
+  // this light: their light is added now, not after the traced ones, to the same sums).
+  const bool bounded =
+      options_.boundShadowRays && generation == 0 && !build && !scene_.occluders().empty();
   shadows_.staged.reserve(n);
   dynamicShadows_.staged.reserve(cachedBit ? n : 0);
-  unblocked_.reserve(cachedBit ? n : 0);
+  unblocked_.reserve(cachedBit || bounded ? n : 0);
   ShadowRayJob job;
   job.surfaces = &lit_;
   job.light = &light;
@@ -384,12 +388,16 @@ void TileRenderer::makeShadowRays(const PhysicalLight& light, int lightIndex, in
   job.unblocked = &unblocked_;
   job.spheres = scene_.dynamicSpheres().data();
   job.sphereCount = scene_.dynamicSpheres().size();
-  c->cache.shadowAnswered += parallax::makeShadowRays(job);
-  if (unblocked_.size() > 0) {
-    // One ray a pixel toward this light, as in the batches: added now or after them, the same.
-    addLight(unblocked_, frame_->pixels.data());
-    c->cache.shadowPassedDynamic += static_cast<long>(unblocked_.size());
+  if (bounded) {
+    job.occluders = scene_.occluders().data();
+    job.occluderCount = scene_.occluders().size();
   }
+  const ShadowRayCounts counts = parallax::makeShadowRays(job);
+  c->cache.shadowAnswered += counts.answered;
+  c->cache.shadowPassedDynamic += counts.passedDynamic;
+  c->shadowPassedBounds += counts.passedOccluders;
+  // One ray a pixel toward this light, as in the batches: added now or after them, the same.
+  if (unblocked_.size() > 0) addLight(unblocked_, frame_->pixels.data());
   shadows_.load(glassShadows_);
   dynamicShadows_.load(glassShadows_);
 }
@@ -891,6 +899,7 @@ RenderCounters& RenderCounters::operator+=(const RenderCounters& o) {
   refraction += o.refraction;
   pruned += o.pruned;
   glassShadowHits += o.glassShadowHits;
+  shadowPassedBounds += o.shadowPassedBounds;
   textureLookups += o.textureLookups;
   cache += o.cache;
   deepest = std::max(deepest, o.deepest);
@@ -910,6 +919,7 @@ std::vector<std::string> RenderCounters::lines() const {
           pruned, textureLookups, deepest),
       fmt::format("  glass surfaces shadow rays passed through {} (the glass filter's calls)",
                   glassShadowHits),
+      fmt::format("  shadow rays not traced: {} pass every object's bounds", shadowPassedBounds),
   };
   if (cache.pixelsReused + cache.primaryDynamicOnly > 0) {
     out.push_back(fmt::format(

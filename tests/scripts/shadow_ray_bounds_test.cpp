@@ -1,0 +1,183 @@
+// A first generation's shadow rays that pass every mesh's bound (PhysicalScene::occluders: a
+// sphere, and a flat mesh's plane) add their light without a trip through Embree
+// (RenderOptions::boundShadowRays). Nothing could have blocked them, so the frames must be the
+// ones that tracing every ray gives, bit for bit: frame after frame of animated scripts with
+// directional and point lights, glass, a light that grazes the floor and one close above a wall.
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <vector>
+
+#include "calibration/display/display_presets.h"
+#include "calibration/display/ray_textures.h"
+#include "script_test_util.h"
+#include "scripts/scripted_scene.h"
+#include "tracer/frame.h"
+#include "tracer/physical_scene.h"
+#include "tracer/scene_fixtures.h"
+#include "tracer/whitted_integrator.h"
+
+namespace parallax {
+namespace {
+
+using testing::TempFolder;
+
+struct Display {
+  DisplayModel model;
+  std::vector<RayTextures> textures;
+};
+
+// Three modules of the demo screen, small enough for a fast test.
+const Display& smallDisplay() {
+  static const Display display = [] {
+    NominalDisplayOptions options;
+    options.preset = "demo";
+    options.modules = 3;
+    options.width = 150;  // rows end in a partial vector on every target
+    options.height = 96;
+    Display d;
+    d.model = makeNominalDisplay(options);
+    for (int m = 0; m < 3; ++m) d.textures.push_back(generateRayTextures(d.model, m));
+    return d;
+  }();
+  return display;
+}
+
+struct Tally {
+  long pixels = 0;
+  long differing = 0;
+  long passed = 0;  // shadow rays not traced
+  long traced = 0;  // shadow rays traced with the bounds, and without them
+  long tracedAll = 0;
+};
+
+// Every frame of the script rendered both ways; the pixels compared as floats.
+Tally playBothWays(const std::string& path, int frames, double dt) {
+  ScriptOptions scriptOptions;
+  scriptOptions.libraryRoot = testing::sceneLibrary();
+  scriptOptions.quiet = true;
+  ScriptedScene script(path, scriptOptions);
+  const Display& display = smallDisplay();
+  RenderOptions bounded, everyRay;
+  everyRay.boundShadowRays = false;
+  Tally tally;
+  for (int f = 0; f < frames; ++f) {
+    EXPECT_TRUE(script.setTime(f * dt)) << script.lastError();
+    const PhysicalScene scene(script.scene(), display.model.displayableBox);
+    EXPECT_FALSE(scene.occluders().empty()) << path;
+    for (const RayTextures& textures : display.textures) {
+      RenderCounters withBounds, without;
+      const Frame a = renderFrame(scene, textures, bounded, &withBounds);
+      const Frame b = renderFrame(scene, textures, everyRay, &without);
+      for (size_t p = 0; p < a.pixels.size(); ++p) {
+        ++tally.pixels;
+        tally.differing += a.pixels[p] == b.pixels[p] ? 0 : 1;
+      }
+      EXPECT_EQ(without.shadowPassedBounds, 0);
+      tally.passed += withBounds.shadowPassedBounds;
+      tally.traced += withBounds.shadow;
+      tally.tracedAll += without.shadow;
+    }
+  }
+  EXPECT_EQ(tally.differing, 0) << tally.differing << " of " << tally.pixels << " pixels, " << path;
+  // Every ray left out is one the full trace made, and found unblocked.
+  EXPECT_EQ(tally.traced + tally.passed, tally.tracedAll) << path;
+  return tally;
+}
+
+TEST(ShadowRayBounds, OrbitFramesEqualTracingEveryRay) {
+  const Tally t = playBothWays(testing::sceneLibrary() + "/orbit.lua", 8, 0.37);
+  // Most of the floor's shadow rays pass the wall's plane and the moving objects' spheres.
+  EXPECT_GT(t.passed, t.traced);
+}
+
+// Glass (its shadow rays carry a transmittance), a point light, a phong pillar, a floor that
+// moves; and a light that grazes the floor: its rays stay within the plane's margin of it.
+const char* const kMixed = R"(
+local white = px.diffuse{color = {0.7, 0.7, 0.7}}
+local red = px.phong{color = {0.8, 0.2, 0.2}, specular = {0.5, 0.5, 0.5}, shininess = 20}
+local glass = px.glass{ior = 1.5, absorption = {0.5, 0.2, 0.1}}
+local floor = px.grid{width = 2, height = 2, nx = 4, ny = 4, material = white,
+                      transform = px.rotate_x(-math.pi / 2)}
+px.plane{width = 2, height = 1.5, material = white, transform = px.translate(0, 0.75, -1)}
+px.box{size = {0.3, 0.3, 0.3}, material = glass, transform = px.translate(0.5, 0.3, 0.2)}
+local pillar = px.cylinder{radius = 0.1, height = 0.8, material = red,
+                           transform = px.translate(-0.5, 0.4, 0)}
+local ball = px.sphere{radius = 0.15, material = red, transform = px.translate(0, 0.5, 0.3)}
+px.directional{direction = {0.3, -1, -0.5}, color = {0.5, 0.5, 0.5}}
+px.directional{direction = {-1, -1e-4, -0.2}, color = {0.3, 0.3, 0.3}}
+local bulb = px.point{position = {0, 1.2, 0.5}, color = {0.4, 0.4, 0.4}}
+px.point{position = {0.2, 0.6, -0.999}, color = {0.2, 0.2, 0.2}}
+px.world_box{min = {-1, -0.1, -1}, max = {1, 1.5, 1}}
+function update(t, dt)
+  px.set_transform(ball, px.translate(0.4 * math.cos(t), 0.5, 0.3 * math.sin(t)))
+  px.set_transform(floor, px.translate(0, 0.05 * math.sin(t), 0) * px.rotate_x(-math.pi / 2 + 0.1 * t))
+  px.set_light(bulb, {position = {0.3 * math.sin(t), 1.2, 0.5}})
+end
+)";
+
+TEST(ShadowRayBounds, GlassPointLightsAndGrazingLightEqualTracingEveryRay) {
+  TempFolder folder;
+  const Tally t = playBothWays(folder.write("mixed.lua", kMixed), 6, 0.5);
+  EXPECT_GT(t.passed, 1000);
+  EXPECT_GT(t.traced, 1000);
+}
+
+// The paper's shapes (glass, Phong highlights, a floor) with two point lights, one just above
+// the floor, on a flat and a curved screen.
+TEST(ShadowRayBounds, ShapesWithPointLightsEqualTracingEveryRay) {
+  Scene scene = makeShapesScene();
+  scene.addLight(Light::makePoint({0.2, 1.5, 1.0}, {0.8f, 0.8f, 0.7f}));
+  scene.addLight(Light::makePoint({-0.6, 0.02, 0.4}, {0.5f, 0.4f, 0.4f}));
+  for (double curvature : {0.0, 0.8}) {
+    NominalDisplayOptions options;
+    options.preset = "demo";
+    options.modules = 3;
+    options.width = 150;
+    options.height = 100;
+    options.curvature = curvature;
+    const DisplayModel display = makeNominalDisplay(options);
+    const PhysicalScene physical(scene, display.displayableBox);
+    ASSERT_FALSE(physical.occluders().empty());
+    const RayTextures textures = generateRayTextures(display, 1);
+    RenderOptions everyRay;
+    everyRay.boundShadowRays = false;
+    RenderCounters withBounds, without;
+    const Frame a = renderFrame(physical, textures, RenderOptions{}, &withBounds);
+    const Frame b = renderFrame(physical, textures, everyRay, &without);
+    long differing = 0;
+    for (size_t p = 0; p < a.pixels.size(); ++p) differing += a.pixels[p] == b.pixels[p] ? 0 : 1;
+    EXPECT_EQ(differing, 0) << "curvature " << curvature;
+    EXPECT_GT(withBounds.shadowPassedBounds, 1000) << "curvature " << curvature;
+    EXPECT_EQ(withBounds.shadow + withBounds.shadowPassedBounds, without.shadow);
+  }
+}
+
+// More meshes than kMaxOccluders: no bounds, every ray traced.
+TEST(ShadowRayBounds, ManyMeshesTraceEveryRay) {
+  TempFolder folder;
+  std::string text = R"(
+local white = px.diffuse{color = {0.7, 0.7, 0.7}}
+px.grid{width = 2, height = 2, material = white, transform = px.rotate_x(-math.pi / 2)}
+px.directional{direction = {0.3, -1, -0.5}, color = {0.5, 0.5, 0.5}}
+px.world_box{min = {-1, -0.1, -1}, max = {1, 1.5, 1}}
+)";
+  for (int i = 0; i < static_cast<int>(PhysicalScene::kMaxOccluders); ++i) {
+    text += "px.box{size = {0.1, 0.1, 0.1}, material = white, transform = px.translate(" +
+            std::to_string(-0.8 + 0.2 * i) + ", 0.3, 0)}\n";
+  }
+  ScriptOptions options;
+  options.quiet = true;
+  ScriptedScene script(folder.write("many.lua", text), options);
+  const PhysicalScene scene(script.scene(), smallDisplay().model.displayableBox);
+  EXPECT_EQ(scene.meshes().size(), PhysicalScene::kMaxOccluders + 1);
+  EXPECT_TRUE(scene.occluders().empty());
+  RenderCounters counters;
+  renderFrame(scene, smallDisplay().textures[1], RenderOptions{}, &counters);
+  EXPECT_GT(counters.shadow, 100);
+  EXPECT_EQ(counters.shadowPassedBounds, 0);
+}
+
+}  // namespace
+}  // namespace parallax

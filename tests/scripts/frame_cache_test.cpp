@@ -20,6 +20,7 @@
 #include "calibration/display/ray_textures.h"
 #include "script_test_util.h"
 #include "scripts/scripted_scene.h"
+#include "small_display.h"
 #include "tracer/frame.h"
 #include "tracer/physical_scene.h"
 #include "tracer/whitted_integrator.h"
@@ -29,24 +30,10 @@ namespace {
 
 using testing::TempFolder;
 
-struct Display {
-  DisplayModel model;
-  std::vector<RayTextures> textures;
-};
+using Display = testing::SmallDisplay;
 
-// Three modules of the demo screen, small enough for a fast test.
 const Display& smallDisplay() {
-  static const Display display = [] {
-    NominalDisplayOptions options;
-    options.preset = "demo";
-    options.modules = 3;
-    options.width = 128;
-    options.height = 96;
-    Display d;
-    d.model = makeNominalDisplay(options);
-    for (int m = 0; m < 3; ++m) d.textures.push_back(generateRayTextures(d.model, m));
-    return d;
-  }();
+  static const Display display = testing::makeSmallDisplay(128);
   return display;
 }
 

@@ -129,6 +129,15 @@ void applyGate(const DisplayModel& nominal, const GateLimits& limits,
   for (int m : result->heldModules) held[static_cast<size_t>(m)] = true;
   for (size_t m = 0; m < result->modules.size(); ++m) {
     ModuleGate g = judgeModule(result->model, result->modules[m], held[m], limits, grid);
+    // The covariance describes a minimum; short of one it bounds nothing, and a refused fit
+    // should not still quote bounds (the sweeps' coverage leaves such fits out for the same
+    // reason). The σ stay in the report, marked unbounded.
+    if (!result->converged && !held[m] && g.predicted.bounded) {
+      g.predicted.bounded = false;
+      g.boundPx = g.boundObserverMm = std::numeric_limits<double>::infinity();
+      g.passes = false;
+      g.reason = "the fit did not converge: its σ describe no minimum, so nothing bounds its rays";
+    }
     const OpticalModule& om = result->model.modules[m];
     if (g.passes && !(om.position.allFinite() && std::isfinite(om.fx) && std::isfinite(om.fy) &&
                       std::isfinite(om.cx) && std::isfinite(om.cy) && std::isfinite(om.k1) &&

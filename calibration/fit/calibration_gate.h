@@ -22,7 +22,8 @@
 // covariance; or seen from one station only, ModuleFit::stationsSeeing, where what its one
 // decode shares is absorbed by its parameters, out of any residual's sight), fails. A failure of
 // the whole fit (not converged, stopped, a transfer the data cannot decide, cameras or k
-// undetermined) fails every module.
+// undetermined) fails every module; one that did not converge leaves every module unbounded
+// (its σ describe no minimum).
 
 #include <string>
 #include <vector>

@@ -151,6 +151,22 @@ TEST(CalibrationGate, AModuleSeenFromOneStationOnlyFailsTheGate) {
   }
 }
 
+// Short of a minimum the covariance bounds nothing: every module of a fit that did not
+// converge is unbounded, and says why.
+TEST(CalibrationGate, AFitThatDidNotConvergeBoundsNoModule) {
+  const Session s = demoSession(41, {});
+  FitOptions options;
+  options.maxIterations = 2;
+  const FitResult fit = fitDisplay(s.nominal, s.data.observations, options);
+  ASSERT_FALSE(fit.converged);
+  EXPECT_FALSE(fit.passesQualityChecks());
+  for (const ModuleGate& g : fit.gate.modules) {
+    EXPECT_FALSE(g.passes) << g.module;
+    EXPECT_FALSE(g.predicted.bounded) << g.module;
+    EXPECT_NE(g.reason.find("did not converge"), std::string::npos) << g.reason;
+  }
+}
+
 TEST(CalibrationGate, AllowPartialInstallsTheRestWithTheFailingModuleNominalAndNamed) {
   const Session s = demoSession(41, {5, 9});
   FitOptions options;

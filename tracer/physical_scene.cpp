@@ -85,6 +85,28 @@ bool normalsAreFlat(const PhysicalMesh& mesh) {
   return true;
 }
 
+// What the tests that use a bound sphere round (a distance squared and a projection, a few
+// ulps of the scene's size), and Embree's own triangle test: the sphere is widened by it.
+float sphereMargin(const Eigen::Vector3f& boundsMin, const Eigen::Vector3f& boundsMax) {
+  return 1e-4f * (boundsMax - boundsMin).norm() + 1e-6f;
+}
+
+// The sphere about the meshes' box centre through their farthest corner: a ball that holds a
+// triangle's corners holds the triangle (it is convex). Centre and radius, widened by `margin`.
+Eigen::Vector4f boundingSphere(const std::vector<const PhysicalMesh*>& meshes, float margin) {
+  Eigen::AlignedBox3f box;
+  for (const PhysicalMesh* mesh : meshes)
+    for (const auto& t : mesh->triangles)
+      for (std::uint32_t index : t) box.extend(mesh->positions[index]);
+  const Eigen::Vector3f centre = box.center();
+  float radius = 0.0f;
+  for (const PhysicalMesh* mesh : meshes)
+    for (const auto& t : mesh->triangles)
+      for (std::uint32_t index : t)
+        radius = std::max(radius, (mesh->positions[index] - centre).norm());
+  return {centre.x(), centre.y(), centre.z(), radius * (1.0f + 1e-4f) + margin};
+}
+
 }  // namespace
 
 PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox,
@@ -226,31 +248,15 @@ void PhysicalScene::boundDynamicMeshes() {
     for (size_t i = 1; i < groups.size(); ++i) groups[0].push_back(groups[i][0]);
     groups.resize(1);
   }
-  // The margin covers the rounding of the tests that use the spheres (a distance squared and a
-  // projection, a few ulps of the scene's size), and Embree's of its own triangle test.
-  const float margin = 1e-4f * (boundsMax_ - boundsMin_).norm() + 1e-6f;
+  const float margin = sphereMargin(boundsMin_, boundsMax_);
   dynamicSpheres_.clear();
-  for (const auto& group : groups) {
-    Eigen::AlignedBox3f box;
-    for (const PhysicalMesh* mesh : group)
-      for (const auto& t : mesh->triangles)
-        for (std::uint32_t index : t) box.extend(mesh->positions[index]);
-    const Eigen::Vector3f centre = box.center();
-    float radius = 0.0f;
-    for (const PhysicalMesh* mesh : group)
-      for (const auto& t : mesh->triangles)
-        for (std::uint32_t index : t)
-          radius = std::max(radius, (mesh->positions[index] - centre).norm());
-    dynamicSpheres_.emplace_back(centre.x(), centre.y(), centre.z(),
-                                 radius * (1.0f + 1e-4f) + margin);
-  }
+  for (const auto& group : groups) dynamicSpheres_.push_back(boundingSphere(group, margin));
 }
 
 void PhysicalScene::boundOccluders() {
   occluders_.clear();
   if (meshes_.size() > kMaxOccluders) return;
-  // As the dynamic spheres' (boundDynamicMeshes): the tests' rounding and Embree's.
-  const float margin = 1e-4f * (boundsMax_ - boundsMin_).norm() + 1e-6f;
+  const float margin = sphereMargin(boundsMin_, boundsMax_);
   // A plane's: the float rounding of a distance from it, n · a − c, and of Embree's test of
   // which side of a triangle a ray starts (its errors grow with v0 − o, inside the bounds).
   constexpr double kEpsilon = std::numeric_limits<float>::epsilon();
@@ -258,15 +264,7 @@ void PhysicalScene::boundOccluders() {
                        boundsMin_.cwiseAbs().cwiseMax(boundsMax_.cwiseAbs()).cast<double>().norm();
   for (const PhysicalMesh& mesh : meshes_) {
     OccluderBound bound;
-    Eigen::AlignedBox3f box;
-    for (const auto& t : mesh.triangles)
-      for (std::uint32_t index : t) box.extend(mesh.positions[index]);
-    const Eigen::Vector3f centre = box.center();
-    float radius = 0.0f;
-    for (const auto& t : mesh.triangles)
-      for (std::uint32_t index : t)
-        radius = std::max(radius, (mesh.positions[index] - centre).norm());
-    bound.sphere = {centre.x(), centre.y(), centre.z(), radius * (1.0f + 1e-4f) + margin};
+    bound.sphere = boundingSphere({&mesh}, margin);
     // Flat: every corner within float rounding of the largest triangle's plane (in double).
     size_t largest = 0;
     for (size_t t = 1; t < mesh.triangles.size(); ++t)

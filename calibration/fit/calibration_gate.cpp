@@ -37,7 +37,7 @@ std::vector<std::string> GateResult::describe() const {
 
 namespace {
 
-ModuleGate judgeModule(const DisplayModel& fitted, const ModuleFit& fit, bool held,
+ModuleGate judgeModule(const DisplayModel& fitted, const ModuleFit& fit, bool held, bool converged,
                        const GateLimits& limits, const RayUncertaintyOptions& grid) {
   ModuleGate g;
   g.module = fit.module;
@@ -87,6 +87,15 @@ ModuleGate judgeModule(const DisplayModel& fitted, const ModuleFit& fit, bool he
                                    : "its covariance is not finite: its rays cannot be bounded";
     return g;
   }
+  // The covariance describes a minimum; short of one it bounds nothing, and a refused fit
+  // should not still quote bounds (the sweeps' coverage leaves such fits out for the same
+  // reason). The σ stay in the report, marked unbounded.
+  if (!converged) {
+    g.predicted.bounded = false;
+    g.boundPx = g.boundObserverMm = kInf;
+    g.reason = "the fit did not converge: its σ describe no minimum, so nothing bounds its rays";
+    return g;
+  }
   g.boundPx = limits.sigmas * g.predicted.worstPx;
   g.boundObserverMm = limits.sigmas * g.predicted.worstObserverMm;
   std::string why;
@@ -128,16 +137,8 @@ void applyGate(const DisplayModel& nominal, const GateLimits& limits,
   std::vector<bool> held(result->modules.size(), false);
   for (int m : result->heldModules) held[static_cast<size_t>(m)] = true;
   for (size_t m = 0; m < result->modules.size(); ++m) {
-    ModuleGate g = judgeModule(result->model, result->modules[m], held[m], limits, grid);
-    // The covariance describes a minimum; short of one it bounds nothing, and a refused fit
-    // should not still quote bounds (the sweeps' coverage leaves such fits out for the same
-    // reason). The σ stay in the report, marked unbounded.
-    if (!result->converged && !held[m] && g.predicted.bounded) {
-      g.predicted.bounded = false;
-      g.boundPx = g.boundObserverMm = std::numeric_limits<double>::infinity();
-      g.passes = false;
-      g.reason = "the fit did not converge: its σ describe no minimum, so nothing bounds its rays";
-    }
+    ModuleGate g =
+        judgeModule(result->model, result->modules[m], held[m], result->converged, limits, grid);
     const OpticalModule& om = result->model.modules[m];
     if (g.passes && !(om.position.allFinite() && std::isfinite(om.fx) && std::isfinite(om.fy) &&
                       std::isfinite(om.cx) && std::isfinite(om.cy) && std::isfinite(om.k1) &&

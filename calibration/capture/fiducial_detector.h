@@ -6,8 +6,8 @@
 // noisy picture is full of specks); each fiducial takes the brightest blob within reach of
 // where the nominal screen and the tape-measured station (aimed at the screen centre, as the
 // fit starts) predict it, if that blob is nearer to it than to any other fiducial's
-// prediction; a blob cut by the picture's edge is no sighting. The position is
-// the blob's background-subtracted centroid.
+// prediction, and not far dimmer than its station's typical sighting; a blob cut by the
+// picture's edge is no sighting. The position is the blob's background-subtracted centroid.
 
 #include <opencv2/core.hpp>
 #include <optional>

@@ -208,6 +208,46 @@ Diagnostics diagnose(const InformationBlocks& info, const ConditioningOptions& o
 
 namespace {
 
+// A cluster that alone decides a direction (leverage 1) leaves no residual to tell how far off it
+// is; the gate refuses a module seen from one station for that. Capping keeps the rest finite:
+// such a direction's score is widened tenfold at most.
+constexpr double kMaxLeverage = 0.99;
+
+// CR2's score (widenToClusterRobust). With J̃_c = Ω_c^(−½) J_c = Q S^½ Uᵀ (M_c = J̃ᵀJ̃ = U S Uᵀ)
+// and C the covariance over the cluster's parameters, H_cc = Q K Qᵀ, K = S^½ Uᵀ C U S^½ = V Λ Vᵀ,
+// so J̃ᵀ (I − H_cc)^(−½) ẽ = U S^½ (I + V D Vᵀ) S^(−½) Uᵀ s, D = (1 − Λ)^(−½) − 1.
+Eigen::VectorXd leverageCorrected(const Eigen::VectorXd& score, const Eigen::MatrixXd& information,
+                                  const Eigen::MatrixXd& covariance) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> m(information);
+  const Eigen::VectorXd& s = m.eigenvalues();
+  const double top = s.size() ? s.maxCoeff() : 0.0;
+  if (!(top > 0.0) || !covariance.allFinite()) return score;
+  std::vector<Eigen::Index> kept;
+  for (Eigen::Index i = 0; i < s.size(); ++i) {
+    if (s[i] > 1e-12 * top) kept.push_back(i);
+  }
+  const auto rank = static_cast<Eigen::Index>(kept.size());
+  Eigen::MatrixXd u(information.rows(), rank);
+  Eigen::VectorXd root(rank);
+  for (Eigen::Index j = 0; j < rank; ++j) {
+    u.col(j) = m.eigenvectors().col(kept[static_cast<size_t>(j)]);
+    root[j] = std::sqrt(s[kept[static_cast<size_t>(j)]]);
+  }
+  const Eigen::MatrixXd w = u * root.asDiagonal();
+  const Eigen::MatrixXd k = w.transpose() * covariance * w;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> leverage(0.5 * (k + k.transpose()));
+  Eigen::VectorXd d(rank);
+  for (Eigen::Index j = 0; j < rank; ++j) {
+    const double lambda = std::clamp(leverage.eigenvalues()[j], 0.0, kMaxLeverage);
+    d[j] = 1.0 / std::sqrt(1.0 - lambda) - 1.0;
+  }
+  const Eigen::VectorXd inSpan = u.transpose() * score;
+  Eigen::VectorXd q = inSpan.cwiseQuotient(root);
+  const Eigen::MatrixXd& v = leverage.eigenvectors();
+  q += v * d.asDiagonal() * (v.transpose() * q);
+  return w * q + (score - u * inSpan);
+}
+
 // max(1, tr(a⁻¹ b) / n) for a positive definite a; 1 otherwise.
 double widening(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   const Eigen::LLT<Eigen::MatrixXd> llt(a);
@@ -236,13 +276,35 @@ void widenToClusterRobust(const InformationBlocks& info, const std::vector<Clust
     q[m] = Eigen::MatrixXd::Zero(n, sharedSize);
   }
   Eigen::MatrixXd x = Eigen::MatrixXd::Zero(sharedSize, sharedSize);
-  const double correction = static_cast<double>(scores.size()) / (scores.size() - 1.0);
+  const double smallSample = static_cast<double>(scores.size()) / (scores.size() - 1.0);
+  const bool sharedDetermined = d->sharedStdDev.allFinite();
   for (const ClusterScore& c : scores) {
-    Eigen::VectorXd shared = c.sharedPart;
-    Eigen::VectorXd a;
     const auto m = static_cast<size_t>(c.module);
+    Eigen::VectorXd modulePart = c.modulePart;
+    Eigen::VectorXd shared = c.sharedPart;
+    // CR2 needs the covariance over the cluster's parameters; an undetermined one has none, and
+    // its score is taken raw, with the small-sample factor n / (n − 1) instead.
+    double correction = smallSample;
+    const bool moduleDetermined = c.module < 0 || d->moduleStdDev[m].allFinite();
+    if (c.information.size() > 0 && sharedDetermined && moduleDetermined) {
+      const Eigen::Index n = c.modulePart.size();
+      Eigen::MatrixXd covariance = Eigen::MatrixXd::Zero(n + sharedSize, n + sharedSize);
+      covariance.bottomRightCorner(sharedSize, sharedSize) = d->sharedCovariance;
+      if (c.module >= 0) {
+        covariance.topLeftCorner(n, n) = d->moduleCovariance[m];
+        covariance.topRightCorner(n, sharedSize) = d->moduleSharedCovariance[m];
+        covariance.bottomLeftCorner(sharedSize, n) = d->moduleSharedCovariance[m].transpose();
+      }
+      Eigen::VectorXd score(n + sharedSize);
+      score << c.modulePart, c.sharedPart;
+      const Eigen::VectorXd corrected = leverageCorrected(score, c.information, covariance);
+      modulePart = corrected.head(n);
+      shared = corrected.tail(sharedSize);
+      correction = 1.0;
+    }
+    Eigen::VectorXd a;
     if (c.module >= 0) {
-      a = inverses[m] * c.modulePart;
+      a = inverses[m] * modulePart;
       shared -= info.moduleShared[m].transpose() * a;
     }
     const Eigen::VectorXd xs = d->sharedCovariance * shared;

@@ -94,6 +94,9 @@ struct ClusterScore {
   int module = -1;
   Eigen::VectorXd modulePart;
   Eigen::VectorXd sharedPart;
+  // The cluster's own information J_cᵀ Ω_c⁻¹ J_c over [modulePart | sharedPart] (square), for
+  // the correction of its leverage; empty: the score is taken as it is.
+  Eigen::MatrixXd information;
 };
 
 // Widens the covariances of `d` (from diagnose: the model's, the rows independent with the σ
@@ -103,6 +106,12 @@ struct ClusterScore {
 // Σ_sw is rank deficient, so it only scales: each module's block (and the shared block) by
 // f = max(1, tr(Σ⁻¹ Σ_sw) / n), whose expectation is 1 when the model is right (B's is H);
 // cross-covariances by √(f_module f_shared), keeping the correlations.
+// The scores are of residuals at the solution, which the fit has pulled toward each cluster's
+// own errors: a module seen from few stations absorbs most of what each station's decode
+// shares, and its raw sandwich says little. A score with its `information` is corrected for
+// that leverage as Bell and McCaffrey's CR2 does: the cluster's residuals taken through
+// (I − H_cc)^(−1/2), H_cc = Ω_c^(−1/2) J_c Σ J_cᵀ Ω_c^(−1/2) its block of the hat matrix, which
+// makes the sandwich's expectation Σ again under the model.
 void widenToClusterRobust(const InformationBlocks& info, const std::vector<ClusterScore>& scores,
                           const ConditioningOptions& options, Diagnostics* d);
 

@@ -19,7 +19,7 @@ constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 constexpr double kTangentToRotationDeg = 2.0 * kRadToDeg;
 
 ClusterScore zeroScore(int sharedSize) {
-  return {-1, Eigen::VectorXd::Zero(kModuleTangentSize), Eigen::VectorXd::Zero(sharedSize)};
+  return {-1, Eigen::VectorXd::Zero(kModuleTangentSize), Eigen::VectorXd::Zero(sharedSize), {}};
 }
 
 // Adds weight × row r of the Jacobian to `score`, split as its columns [modules | shared].
@@ -163,15 +163,41 @@ Eigen::MatrixXd crossInformation(const SharedErrorModel& model, const ceres::CRS
   return out;
 }
 
-// Σ Jᵀr over the decoded rows of each (station, module), and over every other block alone, in
-// the Jacobian's column layout [modules | shared].
+// One row of the Jacobian as a dense vector over a cluster's parameters [its module | shared];
+// `module` set when the row touches one.
+Eigen::VectorXd clusterRow(const ceres::CRSMatrix& jacobian, size_t r, int sharedStart,
+                           int sharedSize, int* module) {
+  Eigen::VectorXd row = Eigen::VectorXd::Zero(kModuleTangentSize + sharedSize);
+  for (int k = jacobian.rows[r]; k < jacobian.rows[r + 1]; ++k) {
+    const int col = jacobian.cols[static_cast<size_t>(k)];
+    const double v = jacobian.values[static_cast<size_t>(k)];
+    if (col >= sharedStart) {
+      row[kModuleTangentSize + col - sharedStart] += v;
+    } else {
+      *module = col / kModuleTangentSize;
+      row[col % kModuleTangentSize] += v;
+    }
+  }
+  return row;
+}
+
+// The score Σ JᵀΩ⁻¹r and the information JᵀΩ⁻¹J (under `model`) of the decoded rows of each
+// (station, module), and of every other block alone, over [module | shared].
 std::vector<ClusterScore> stationModuleScores(const FitProblem& built,
+                                              const SharedErrorModel& model,
                                               const ceres::CRSMatrix& jacobian,
                                               const std::vector<double>& residuals, int moduleCount,
                                               int sharedSize) {
-  std::vector<ClusterScore> scores;
-  std::unordered_map<std::int64_t, size_t> index;
   const int sharedStart = moduleCount * kModuleTangentSize;
+  const int size = kModuleTangentSize + sharedSize;
+  struct Cluster {
+    int module = -1;
+    Eigen::VectorXd score;
+    Eigen::MatrixXd information;
+  };
+  std::vector<Cluster> clusters;
+  std::vector<size_t> clusterOfRow(residuals.size());
+  std::unordered_map<std::int64_t, size_t> index;
   size_t row = 0;
   for (size_t b = 0; b < built.residualBlocks.size(); ++b) {
     const auto rows = static_cast<size_t>(
@@ -179,11 +205,34 @@ std::vector<ClusterScore> stationModuleScores(const FitProblem& built,
     // Both kinds of a (station, module) together; other blocks each alone (negative keys).
     const std::int64_t key =
         built.groupOf[b] >= 0 ? built.groupOf[b] / 2 : -1 - static_cast<std::int64_t>(b);
-    const auto [it, fresh] = index.try_emplace(key, scores.size());
-    if (fresh) scores.push_back(zeroScore(sharedSize));
-    for (size_t r = row; r < row + rows; ++r)
-      addJacobianRow(jacobian, r, residuals[r], sharedStart, &scores[it->second]);
+    const auto [it, fresh] = index.try_emplace(key, clusters.size());
+    if (fresh)
+      clusters.push_back({-1, Eigen::VectorXd::Zero(size), Eigen::MatrixXd::Zero(size, size)});
+    Cluster& c = clusters[it->second];
+    for (size_t r = row; r < row + rows; ++r) {
+      const Eigen::VectorXd j = clusterRow(jacobian, r, sharedStart, sharedSize, &c.module);
+      c.score += model.weights[r] * residuals[r] * j;
+      c.information.noalias() += model.weights[r] * j * j.transpose();
+      clusterOfRow[r] = it->second;
+    }
     row += rows;
+  }
+  // A group's common part (Ω⁻¹'s −coefficient 11ᵀ): every group lies within one cluster.
+  for (const SharedErrorModel::Group& g : model.groups) {
+    if (g.coefficient <= 0.0 || g.members.empty()) continue;
+    Cluster& c = clusters[clusterOfRow[static_cast<size_t>(g.members.front())]];
+    Eigen::VectorXd sum = Eigen::VectorXd::Zero(size);
+    int ignored = -1;
+    for (int r : g.members)
+      sum += clusterRow(jacobian, static_cast<size_t>(r), sharedStart, sharedSize, &ignored);
+    c.score -= g.coefficient * g.sum * sum;
+    c.information.noalias() -= g.coefficient * sum * sum.transpose();
+  }
+  std::vector<ClusterScore> scores;
+  scores.reserve(clusters.size());
+  for (Cluster& c : clusters) {
+    scores.push_back({c.module, c.score.head(kModuleTangentSize), c.score.tail(sharedSize),
+                      std::move(c.information)});
   }
   return scores;
 }
@@ -244,7 +293,7 @@ void diagnoseUncertainty(const FitInputs& in, FitState& state, const NoiseLevels
   // What the residuals themselves say, station by station: a station's decoding of a module
   // that is off as a whole moves the module more than independent errors could.
   widenToClusterRobust(info,
-                       stationModuleScores(built, jacobian, residuals,
+                       stationModuleScores(built, errors, jacobian, residuals,
                                            static_cast<int>(moduleOf.size()), sharedSize),
                        options.conditioning, &d);
   if (intrinsicsShift.size() > 0) {

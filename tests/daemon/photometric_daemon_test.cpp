@@ -81,9 +81,10 @@ class PhotometricDaemon : public ::testing::Test {
     // 42° lobe their brightness falls off, which the stripe decoder takes for the lobe's own
     // shape (the only part of the variation that is not uniform across a module). Their
     // stripes scatter by 1.4 mm against 0.2 without it, which the fit's σ counts: predicted
-    // worst 20-85 mm on the observer line, beyond the default gate's 15. This test is about
-    // the colours: its gate takes 100 mm.
-    options.config.calibration.maxObserverMm = 100.0;
+    // worst 20-130 mm on the observer line (up to 85 before the σ counted each decode's
+    // leverage), beyond the default gate's 15. This test is about the colours: its gate takes
+    // 250 mm.
+    options.config.calibration.maxObserverMm = 250.0;
     options.linkSpec = sim_->spec();
     options.keepAliveMs = 100;
     options.onReady = [this] { ready_ = true; };

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 #include <opencv2/imgproc.hpp>
 
@@ -84,12 +85,39 @@ void CameraRenderOptions::validate() const {
         "must be 0..1");
 }
 
+int supersamplingFor(const DisplayModel& truth, const CameraIntrinsics& intrinsics,
+                     const CameraPose& pose) {
+  constexpr int kMostSupersampling = 7;
+  constexpr double kModulePxARenderPx = 2.0;
+  const Eigen::Vector3d centre = truth.screen.pointAt(0.0, 0.0);
+  double modulePxACameraPx = 0.0;
+  for (const Eigen::Vector3d& beside :
+       {truth.screen.pointAt(0.01, 0.0), truth.screen.pointAt(0.0, 0.01)}) {
+    Eigen::Vector2d c0, c1;
+    if (!projectPhysical(intrinsics, pose, centre, &c0) ||
+        !projectPhysical(intrinsics, pose, beside, &c1))
+      continue;
+    const double cameraPx = (c1 - c0).norm();
+    if (!(cameraPx > 0.0)) continue;
+    for (const OpticalModule& m : truth.modules) {
+      const ModuleOptics optics(m);
+      Eigen::Vector2d u0, u1;
+      if (optics.project(centre - m.position, &u0) && optics.project(beside - m.position, &u1))
+        modulePxACameraPx = std::max(modulePxACameraPx, (u1 - u0).norm() / cameraPx);
+    }
+  }
+  const int needed = static_cast<int>(std::ceil(modulePxACameraPx / kModulePxARenderPx));
+  return std::clamp(needed | 1, 1, kMostSupersampling);
+}
+
 StationView viewFromStation(const DisplayModel& truth, const CameraIntrinsics& intrinsics,
                             const CameraPose& pose, const CameraRenderOptions& options) {
   options.validate();
   StationView view;
-  view.width = intrinsics.width;
-  view.height = intrinsics.height;
+  const int s = supersamplingFor(truth, intrinsics, pose);
+  view.supersampling = s;
+  view.width = intrinsics.width * s;
+  view.height = intrinsics.height * s;
   std::vector<ModuleOptics> optics;
   for (const OpticalModule& m : truth.modules) optics.emplace_back(m);
   // FWHM = diffusion width ⇒ σ = FWHM / (2 √(2 ln 2)).
@@ -103,18 +131,18 @@ StationView viewFromStation(const DisplayModel& truth, const CameraIntrinsics& i
     auto& counts = rowCounts[static_cast<size_t>(y)];
     counts.assign(static_cast<size_t>(view.width), 0);
     for (int x = 0; x < view.width; ++x) {
-      const Eigen::Vector2d n = intrinsics.normalized({x + 0.5, y + 0.5});
-      Vec3<double> s;
-      if (!screenPointOfCameraRay(truth.screen.curvature, camera.data(), n.x(), n.y(), &s))
+      const Eigen::Vector2d n = intrinsics.normalized({(x + 0.5) / s, (y + 0.5) / s});
+      Vec3<double> p;
+      if (!screenPointOfCameraRay(truth.screen.curvature, camera.data(), n.x(), n.y(), &p))
         continue;
-      if (!truth.screen.contains(s.x(), s.y())) continue;
+      if (!truth.screen.contains(p.x(), p.y())) continue;
       const size_t begin = out.size();
       for (size_t m = 0; m < truth.modules.size(); ++m) {
-        const double angle = stripeAngle(truth.screen, s, truth.modules[m].position, pose.centre);
+        const double angle = stripeAngle(truth.screen, p, truth.modules[m].position, pose.centre);
         const double weight = std::exp(-0.5 * (angle / sigma) * (angle / sigma));
         if (!(weight >= options.minLobeWeight)) continue;
         Eigen::Vector2d uv;
-        if (!optics[m].project(s - truth.modules[m].position, &uv)) continue;
+        if (!optics[m].project(p - truth.modules[m].position, &uv)) continue;
         const OpticalModule& mod = truth.modules[m];
         if (uv.x() < 0.0 || uv.y() < 0.0 || uv.x() > mod.width || uv.y() > mod.height) continue;
         out.push_back({static_cast<int>(m), static_cast<float>(uv.x()), static_cast<float>(uv.y()),
@@ -153,8 +181,30 @@ cv::Mat renderFrame(const StationView& view, const std::vector<cv::Mat>& moduleI
       row[x] = value;
     }
   });
+  if (view.supersampling > 1)
+    return sensorResponse(cameraPixelLight(linear, view, options.blurSigmaPx), options, random);
   if (!view.markers.empty()) linear += view.markers;
   return recordThroughSensor(linear, options, random);
+}
+
+cv::Mat cameraPixelLight(const cv::Mat& renderLight, const StationView& view, double blurSigmaPx) {
+  const int s = view.supersampling;
+  cv::Mat blurred = renderLight;
+  if (blurSigmaPx > 0.0) cv::GaussianBlur(renderLight, blurred, cv::Size(0, 0), blurSigmaPx * s);
+  const int width = view.width / s, height = view.height / s;
+  cv::Mat light(height, width, renderLight.type());
+  const size_t bytes = renderLight.elemSize();
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x)
+      std::memcpy(light.ptr(y, x), blurred.ptr(y * s + s / 2, x * s + s / 2), bytes);
+  }
+  if (!view.markers.empty()) {
+    cv::Mat markers = view.markers;
+    if (blurSigmaPx > 0.0) cv::GaussianBlur(view.markers, markers, cv::Size(0, 0), blurSigmaPx);
+    if (light.channels() == 3) cv::cvtColor(markers, markers, cv::COLOR_GRAY2BGR);
+    light += markers;
+  }
+  return light;
 }
 
 cv::Mat recordThroughSensor(const cv::Mat& light, const CameraRenderOptions& options,
@@ -164,7 +214,12 @@ cv::Mat recordThroughSensor(const cv::Mat& light, const CameraRenderOptions& opt
     linear = cv::Mat();  // a new buffer: the caller's light stays as it was
     cv::GaussianBlur(light, linear, cv::Size(0, 0), options.blurSigmaPx);
   }
-  // Sensor: response curve, then noise (drawn serially from the seeded stream: deterministic).
+  return sensorResponse(linear, options, random);
+}
+
+cv::Mat sensorResponse(const cv::Mat& linear, const CameraRenderOptions& options,
+                       SeededRandom& random) {
+  // Response curve, then noise (drawn serially from the seeded stream: deterministic).
   cv::Mat recorded(linear.rows, linear.cols, CV_32F);
   for (int y = 0; y < linear.rows; ++y) {
     const float* in = linear.ptr<float>(y);

@@ -13,8 +13,17 @@
 // decoding cancels (it works on differences and ratios) and the fiducial detector finds in
 // the black reference frame.
 //
-// A StationView caches, per camera pixel, the modules that reach it (the geometry is the same
+// A StationView caches, per render pixel, the modules that reach it (the geometry is the same
 // for every frame of a station), so rendering a frame is a weighted lookup.
+// A real lens blurs the continuous image before the pixels sample it; blurring the rendered
+// samples instead is the same only while the patterns have many samples a period. From far
+// away a camera pixel spans several module pixels (about 7 on demo from 10 m, two a 16-px
+// phase period), and the blurred samples then shift each decoded position by less than the
+// continuous blur does (the decoder's correction, capture_decoder's blurShift, assumes the
+// latter): a bias every decode shares, which put the fitted screen curvature 2σ off at 10 m. So
+// a station that far is rendered finer (`supersampling` render pixels a camera pixel's side,
+// odd, so that one sits at each camera pixel's centre), blurred there, and sampled at the
+// camera pixels' centres.
 
 #include <array>
 #include <cstdint>
@@ -51,10 +60,11 @@ struct LobeContribution {
 // which cut one flank of the lit modules' stripes and biased their peaks (±0.4 mm at demo's
 // oblique stations).
 struct StationView {
-  int width = 0, height = 0;
+  int width = 0, height = 0;  // the render grid: the camera's × supersampling
+  int supersampling = 1;
   std::vector<uint32_t> first;  // per pixel (row-major), plus one: its range in `contributions`
   std::vector<LobeContribution> contributions;  // per pixel, strongest first
-  cv::Mat markers;  // CV_32F: the fiducial markers' light, added to every frame
+  cv::Mat markers;  // CV_32F, camera pixels: the fiducial markers' light, added to every frame
   std::span<const LobeContribution> at(int x, int y) const {
     const size_t i = static_cast<size_t>(y) * static_cast<size_t>(width) + static_cast<size_t>(x);
     return {contributions.data() + first[i], first[i + 1] - first[i]};
@@ -64,8 +74,23 @@ struct StationView {
 StationView viewFromStation(const DisplayModel& truth, const CameraIntrinsics& intrinsics,
                             const CameraPose& pose, const CameraRenderOptions& options);
 
-// One recorded frame (CV_32F, values in [0, 1]). moduleImages[i] is module i's image (CV_32F,
-// linear, its resolution) or empty for a dark module.
+// Render pixels a camera pixel's side must be drawn with so that one spans at most 2 module
+// pixels near the screen's centre (odd, at most 7).
+int supersamplingFor(const DisplayModel& truth, const CameraIntrinsics& intrinsics,
+                     const CameraPose& pose);
+
+// The light of a supersampled view's render grid (CV_32F or CV_32FC3, markers not in it) as the
+// camera pixels receive it: the lens blur at the render grid's scale, each camera pixel's centre
+// sample, and the markers (blurred at the camera's scale) added.
+cv::Mat cameraPixelLight(const cv::Mat& renderLight, const StationView& view, double blurSigmaPx);
+
+// What the sensor makes of light already blurred by the lens: the response curve, then the
+// noise drawn from `random`; values in [0, 1].
+cv::Mat sensorResponse(const cv::Mat& linear, const CameraRenderOptions& options,
+                       SeededRandom& random);
+
+// One recorded frame (CV_32F, values in [0, 1]) at the camera's resolution. moduleImages[i] is
+// module i's image (CV_32F, linear, its resolution) or empty for a dark module.
 cv::Mat renderFrame(const StationView& view, const std::vector<cv::Mat>& moduleImages,
                     const CameraRenderOptions& options, SeededRandom& random);
 

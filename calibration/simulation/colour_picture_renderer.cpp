@@ -27,11 +27,12 @@ cv::Mat renderColourPicture(const StationView& view, const std::vector<cv::Mat>&
                             const CameraRenderOptions& sensor, double exposure,
                             SeededRandom& random) {
   sensor.validate();
+  const bool fine = view.supersampling > 1;  // the markers are then added at the camera's scale
   cv::Mat light(view.height, view.width, CV_32FC3);
   tbb::parallel_for(0, view.height, [&](int y) {
     cv::Vec3f* row = light.ptr<cv::Vec3f>(y);
     for (int x = 0; x < view.width; ++x) {
-      const float marker = view.markers.empty() ? 0.0f : view.markers.at<float>(y, x);
+      const float marker = view.markers.empty() || fine ? 0.0f : view.markers.at<float>(y, x);
       const float grey = static_cast<float>(sensor.ambient) + marker;
       cv::Vec3f value(grey, grey, grey);
       for (const LobeContribution& c : view.at(x, y)) {
@@ -43,7 +44,10 @@ cv::Mat renderColourPicture(const StationView& view, const std::vector<cv::Mat>&
       row[x] = value * static_cast<float>(exposure);
     }
   });
-  if (sensor.blurSigmaPx > 0.0) cv::GaussianBlur(light, light, cv::Size(0, 0), sensor.blurSigmaPx);
+  if (fine)
+    light = cameraPixelLight(light, view, sensor.blurSigmaPx);
+  else if (sensor.blurSigmaPx > 0.0)
+    cv::GaussianBlur(light, light, cv::Size(0, 0), sensor.blurSigmaPx);
   // Response, noise (serial from the seeded stream: deterministic), saturation, 8 bits.
   cv::Mat recorded(light.size(), CV_32FC3);
   for (int y = 0; y < light.rows; ++y) {

@@ -43,6 +43,7 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
   const V worldPerPhysical = hn::Set(d, job.worldPerPhysical);
   const V infinity = hn::Set(d, std::numeric_limits<float>::infinity());
   const auto highlightBit = hn::Set(di, LitSurfaces::kHighlight);
+  const auto leavesBit = hn::Set(di, LitSurfaces::kLeavesMesh);
   const auto knownBit =
       hn::Set(di, static_cast<int>(StaticHit::kLightsKnown) << LitSurfaces::kStaticLightsShift);
   const auto cachedBit =
@@ -189,11 +190,17 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
     }
     if (hn::AllFalse(d, keep)) continue;
     if (job.occluders) {
-      // Only rays that may meet some mesh's bound go to Embree.
+      // Only rays that may meet some mesh's bound go to Embree. A ray that leaves a bare face
+      // of its own mesh cannot meet that mesh: its bound is not asked (it holds the ray's start).
+      const auto ownMesh =
+          hn::IfThenElse(hn::Ne(hn::And(flags, leavesBit), hn::Zero(di)),
+                         hn::ShiftRight<LitSurfaces::kMeshShift>(flags), hn::Set(di, -1));
       auto meets = hn::Lt(zero, zero);
       for (size_t k = 0; k < job.occluderCount; ++k) {
         const OccluderBound& bound = job.occluders[k];
-        auto may = MayMeetSphere(d, ax, ay, az, lx, ly, lz, tfar, bound.sphere);
+        const auto others =
+            hn::RebindMask(d, hn::Ne(ownMesh, hn::Set(di, static_cast<std::int32_t>(k))));
+        auto may = hn::And(others, MayMeetSphere(d, ax, ay, az, lx, ly, lz, tfar, bound.sphere));
         if (planeSide[k] == 2) {
           may = hn::And(
               may, MayCrossPlane(d, ax, ay, az, lx, ly, lz, tfar, bound.plane, bound.planeMargin));

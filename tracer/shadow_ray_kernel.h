@@ -15,7 +15,9 @@
 //
 // With `occluders` (PhysicalScene::occluders, a first generation's rays: one a pixel toward the
 // light, so the order their light is added in does not matter), a ray that would go to Embree
-// goes to `unblocked` instead when it passes every mesh's bound: nothing can block it.
+// goes to `unblocked` instead when it passes every mesh's bound: nothing can block it. A ray
+// that leaves a bare face of its own mesh (LitSurfaces::kLeavesMesh, PhysicalMesh::bareFaces)
+// cannot meet that mesh, and skips its bound.
 
 #include <embree3/rtcore.h>
 

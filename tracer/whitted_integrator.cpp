@@ -632,8 +632,12 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
       if (scene_.lights().empty()) return;
       const std::uint8_t staticLights =
           generation == 0 && cache_ ? cachedStaticLights(i, path.pixel) : 0;
+      const unsigned prim = rays_.primID(i);
+      const bool leavesMesh = !mesh.bareFaces.empty() &&
+                              (mesh.bareFaces[prim] & (h.frontFace ? PhysicalMesh::kFrontBare
+                                                                   : PhysicalMesh::kBackBare)) != 0;
       lit_.push(h.position, h.shadingNormal, h.geometricNormal, weightedAlbedo, path.pixel,
-                staticLights);
+                staticLights, LitSurfaces::meshFlags(geomID, leavesMesh));
       if (m.specular.maxCoeff() > 0.0f) {
         lit_.setHighlight(reflect(d, h.shadingNormal), weight.cwiseProduct(m.specular),
                           m.shininess);

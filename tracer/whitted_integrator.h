@@ -42,7 +42,8 @@ struct RenderOptions {
   // (the reference the SIMD shading kernels' test compares with, bit for bit).
   bool packetShading = true;
   // A first generation's shadow rays that pass every mesh's bounding sphere (and a flat mesh's
-  // plane) add their light without a trip through Embree (PhysicalScene::occluders). false:
+  // plane; their own mesh's skipped where they leave a bare face of it) add their light without
+  // a trip through Embree (PhysicalScene::occluders). false:
   // every ray is traced (the reference the test compares with, bit for bit).
   bool boundShadowRays = true;
 

@@ -61,7 +61,7 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
     for (int f = 0; f < StagedRays::kFields; ++f)
       dynField[f] = job.dynamic->field(static_cast<StagedRays::Field>(f));
   }
-  if (job.cachedBit || job.occluders) {
+  if (job.cachedBit || (job.occluders && !job.parkPassing)) {
     freeField[0] = job.unblocked->field(StagedRays::kR);
     freeField[1] = job.unblocked->field(StagedRays::kG);
     freeField[2] = job.unblocked->field(StagedRays::kB);
@@ -162,6 +162,7 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
     const V values[StagedRays::kFields] = {
         ax, ay, az, lx, ly, lz, tfar, contributionR, contributionG, contributionB};
     auto keep = reaches;
+    V tfarOut = tfar;
     if (job.cachedBit) {
       // Known static answers: blocked by a static surface (no ray), or clear (a ray against the
       // dynamic objects only).
@@ -215,19 +216,25 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
       }
       const auto free = hn::AndNot(meets, keep);
       if (!hn::AllFalse(d, free)) {
-        counts.passedOccluders += addFree(values, pixel, free);
-        keep = hn::And(keep, meets);
-        if (hn::AllFalse(d, keep)) continue;
+        if (job.parkPassing) {
+          // Kept in their place, parked: Embree skips them.
+          counts.passedOccluders += static_cast<long>(hn::CountTrue(d, free));
+          tfarOut = hn::IfThenElse(free, hn::Set(d, kParkedTfar), tfar);
+        } else {
+          counts.passedOccluders += addFree(values, pixel, free);
+          keep = hn::And(keep, meets);
+          if (hn::AllFalse(d, keep)) continue;
+        }
       }
     }
     for (int f = 0; f < StagedRays::kFields; ++f)
-      CompressAppend(d, values[f], keep, outField[f] + kept);
+      CompressAppend(d, f == StagedRays::kTfar ? tfarOut : values[f], keep, outField[f] + kept);
     CompressAppend(d, pixel, keep, reinterpret_cast<float*>(out.pixels()) + kept);
     kept += hn::CountTrue(d, keep);
   }
   out.setSize(kept);
   if (job.cachedBit) job.dynamic->setSize(keptDynamic);
-  if (job.cachedBit || job.occluders) job.unblocked->setSize(keptFree);
+  if (job.cachedBit || (job.occluders && !job.parkPassing)) job.unblocked->setSize(keptFree);
   return counts;
 }
 

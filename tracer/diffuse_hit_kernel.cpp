@@ -168,7 +168,17 @@ bool ShadeDiffuseLanes(const RTCRayHit16& packet, unsigned geomID, const Physica
       store(hn::Set(d, material.specular.z()), LitSurfaces::kSb);
       store(hn::Set(d, material.shininess), LitSurfaces::kShininess);
     }
-    const auto flags = hn::Set(di, highlight ? LitSurfaces::kHighlight : 0);
+    auto flags = hn::Set(
+        di, (highlight ? LitSurfaces::kHighlight : 0) | LitSurfaces::meshFlags(geomID, false));
+    if (!mesh.bareFaces.empty()) {
+      // The face the ray met: the back one where the normal was turned round.
+      const auto bare = hn::GatherIndex(di, mesh.bareFaces.data(), prim);
+      const auto side =
+          hn::IfThenElse(hn::RebindMask(di, back), hn::Set(di, PhysicalMesh::kBackBare),
+                         hn::Set(di, PhysicalMesh::kFrontBare));
+      flags = hn::IfThenElse(hn::Ne(hn::And(bare, side), hn::Zero(di)),
+                             hn::Or(flags, hn::Set(di, LitSurfaces::kLeavesMesh)), flags);
+    }
     if constexpr (kMasked) {
       hn::BlendedStore(flags, mineI, di, lit->mutableFlags() + first + j);
     } else {

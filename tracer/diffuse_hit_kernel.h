@@ -18,9 +18,9 @@
 namespace parallax {
 
 // Writes the surfaces of the packet's lanes that met mesh `geomID` into `lit`, lane k at index
-// first + k (the caller extends `lit`; pixels and flags but the highlight bit are left to it).
-// wholePacket: every lane met this mesh (no masking). Returns false, touching nothing, where the
-// CPU's vectors do not divide a packet.
+// first + k (the caller extends `lit`; pixels, and the flags but the highlight and mesh bits, are
+// left to it). wholePacket: every lane met this mesh (no masking). Returns false, touching
+// nothing, where the CPU's vectors do not divide a packet.
 bool shadeDiffusePacket(const RTCRayHit16& packet, unsigned geomID, const PhysicalMesh& mesh,
                         const Material& material, LitSurfaces* lit, size_t first, bool wholePacket);
 

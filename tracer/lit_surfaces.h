@@ -6,6 +6,7 @@
 // the kernel reads whole vectors.
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -27,10 +28,20 @@ class LitSurfaces {
     kFields
     // clang-format on
   };
-  // flags(): bit 0 the surface has a highlight; bits 8..15 the frame cache's answers for the
-  // static lights (StaticHit::lights()), 0 when it has none.
+  // flags(): bit 0 the surface has a highlight; bit 1 it lies on a bare face of its mesh
+  // (PhysicalMesh::bareFaces, the side its shadow rays leave by), so they cannot meet that mesh
+  // again; bits 8..15 the frame cache's answers for the static lights (StaticHit::lights()), 0
+  // when it has none; bits 16..30 its mesh (geomID, kOtherMesh past that).
   static constexpr std::int32_t kHighlight = 1;
+  static constexpr std::int32_t kLeavesMesh = 2;
   static constexpr int kStaticLightsShift = 8;
+  static constexpr int kMeshShift = 16;
+  static constexpr std::int32_t kOtherMesh = 0x7fff;
+  // The mesh bits of flags() for a surface on mesh `geomID`.
+  static std::int32_t meshFlags(unsigned geomID, bool leavesMesh) {
+    return static_cast<std::int32_t>(std::min<unsigned>(geomID, kOtherMesh)) << kMeshShift |
+           (leavesMesh ? kLeavesMesh : 0);
+  }
   static constexpr size_t kPadding = 64;
 
   // Room for n surfaces; size() becomes 0 (the memory is kept from tile to tile).
@@ -44,10 +55,11 @@ class LitSurfaces {
   }
   size_t size() const { return size_; }
 
-  // Appends a surface; reflected, specular and shininess are read only with a highlight.
+  // Appends a surface (`meshFlags`: meshFlags()); reflected, specular and shininess are read only
+  // with a highlight.
   void push(const Eigen::Vector3f& position, const Eigen::Vector3f& normal,
             const Eigen::Vector3f& geometric, const Rgb& diffuse, int pixel,
-            std::uint8_t staticLights) {
+            std::uint8_t staticLights, std::int32_t meshFlags) {
     const size_t i = size_++;
     float* f = floats_.data();
     const size_t s = stride();
@@ -56,7 +68,7 @@ class LitSurfaces {
     set3(f + kGx * s + i, s, geometric);
     set3(f + kDr * s + i, s, diffuse);
     pixels_[i] = pixel;
-    flags_[i] = static_cast<std::int32_t>(staticLights) << kStaticLightsShift;
+    flags_[i] = static_cast<std::int32_t>(staticLights) << kStaticLightsShift | meshFlags;
   }
   // The last surface pushed has a Phong highlight.
   void setHighlight(const Eigen::Vector3f& reflected, const Rgb& specular, float shininess) {

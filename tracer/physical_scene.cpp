@@ -214,6 +214,7 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox,
   if (dynamicScene_) rtcCommitScene(dynamicScene_);
   if (split()) boundDynamicMeshes();
   boundOccluders();
+  markBareFaces();
   throwIfEmbreeFailed("the scene build");
   if (counters_.trianglesBuilt == 0) {
     boundsMin_ = boundsMax_ = Eigen::Vector3f::Zero();
@@ -290,6 +291,52 @@ void PhysicalScene::boundOccluders() {
       bound.planeMargin = static_cast<float>(deviation + 16.0 * kEpsilon * reach);
     }
     occluders_.push_back(bound);
+  }
+}
+
+void PhysicalScene::markBareFaces() {
+  if (occluders_.empty()) return;
+  // Every triangle against every vertex: bounded, so a dense mesh costs no more than this.
+  constexpr double kMaxWork = 1 << 20;
+  constexpr double kEpsilon = std::numeric_limits<float>::epsilon();
+  for (PhysicalMesh& mesh : meshes_) {
+    mesh.bareFaces.clear();
+    // Shadow rays leave diffuse surfaces only.
+    if (materials_[static_cast<size_t>(mesh.material)].kind != MaterialKind::kDiffuse) continue;
+    std::vector<std::uint8_t> used(mesh.positions.size(), 0);
+    for (const auto& t : mesh.triangles)
+      for (std::uint32_t index : t) used[index] = 1;
+    std::vector<Eigen::Vector3d> corners;
+    double extent = 0.0;
+    for (size_t v = 0; v < used.size(); ++v) {
+      if (!used[v]) continue;
+      corners.push_back(mesh.positions[v].cast<double>());
+      extent = std::max(extent, corners.back().cwiseAbs().maxCoeff());
+    }
+    if (static_cast<double>(mesh.triangles.size()) * static_cast<double>(corners.size()) > kMaxWork)
+      continue;
+    // A corner in front of a triangle's plane by less than the float rounding of the corners
+    // (as for a flat mesh's plane, boundOccluders) counts as on it: a shadow ray starts
+    // offsetRayOrigin's step off its face (hundreds of ulps, Wächter and Binder's offset, which
+    // already keeps Embree from finding the face it leaves) and moves away from the plane.
+    const double tolerance = 16.0 * kEpsilon * extent;
+    mesh.bareFaces.assign(mesh.triangles.size(), 0);
+    for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+      const Eigen::Vector3d p0 = mesh.positions[mesh.triangles[t][0]].cast<double>();
+      const Eigen::Vector3d n = (mesh.positions[mesh.triangles[t][1]].cast<double>() - p0)
+                                    .cross(mesh.positions[mesh.triangles[t][2]].cast<double>() - p0)
+                                    .normalized();
+      if (!n.allFinite()) continue;
+      bool front = true, back = true;
+      for (const Eigen::Vector3d& corner : corners) {
+        const double height = n.dot(corner - p0);
+        front = front && height <= tolerance;
+        back = back && height >= -tolerance;
+        if (!front && !back) break;
+      }
+      mesh.bareFaces[t] =
+          (front ? PhysicalMesh::kFrontBare : 0) | (back ? PhysicalMesh::kBackBare : 0);
+    }
   }
 }
 

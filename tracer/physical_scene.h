@@ -47,6 +47,13 @@ struct PhysicalMesh {
   // (twice the area). Computed once here rather than at every hit.
   std::vector<Eigen::Vector3f> faceNormals;
   std::vector<float> crossLengths;
+  // Per triangle, the faces (kFrontBare: the CCW side, kBackBare: the other) the whole mesh lies
+  // behind, as far as float rounding tells: a shadow ray that leaves such a face cannot meet
+  // this mesh again. A flat mesh's triangles are bare on both sides, a convex mesh's on the
+  // outside, a torus's on the outside of its outer half. Only for the meshes of a scene with
+  // occluders() that a shadow ray can leave (diffuse ones); empty otherwise (none bare).
+  static constexpr std::int32_t kFrontBare = 1, kBackBare = 2;
+  std::vector<std::int32_t> bareFaces;
   int material = 0;
 };
 
@@ -152,6 +159,7 @@ class PhysicalScene {
   std::vector<Eigen::Vector4f> dynamicSpheres_;
   void boundDynamicMeshes();
   void boundOccluders();
+  void markBareFaces();
   std::vector<OccluderBound> occluders_;
   std::vector<int> instanceMeshes_;
   std::vector<int> meshInstances_;  // per mesh: its Scene instance

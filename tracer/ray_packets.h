@@ -134,8 +134,10 @@ class OcclusionPackets {
   // Exactly the rays of `staged` (origin, direction, tfar), a 64-byte copy per field and packet.
   void assign(const StagedRays& staged);
 
-  // Embree sets tfar to -inf on an occluded ray.
-  bool occluded(size_t i) const { return !(packets_[i / 16].tfar[i % 16] >= 0.0f); }
+  // Embree sets tfar to -inf on an occluded ray (a parked one, tfar below tnear, it skips).
+  bool occluded(size_t i) const {
+    return packets_[i / 16].tfar[i % 16] == -std::numeric_limits<float>::infinity();
+  }
   RTCRay get(size_t i) const;
   void set(size_t i, const RTCRay& r);
 

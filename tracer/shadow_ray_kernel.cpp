@@ -43,6 +43,7 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
   const V worldPerPhysical = hn::Set(d, job.worldPerPhysical);
   const V infinity = hn::Set(d, std::numeric_limits<float>::infinity());
   const auto highlightBit = hn::Set(di, LitSurfaces::kHighlight);
+  const auto leavesBit = hn::Set(di, LitSurfaces::kLeavesMesh);
   const auto knownBit =
       hn::Set(di, static_cast<int>(StaticHit::kLightsKnown) << LitSurfaces::kStaticLightsShift);
   const auto cachedBit =
@@ -60,7 +61,7 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
     for (int f = 0; f < StagedRays::kFields; ++f)
       dynField[f] = job.dynamic->field(static_cast<StagedRays::Field>(f));
   }
-  if (job.cachedBit || job.occluders) {
+  if (job.cachedBit || (job.occluders && !job.parkPassing)) {
     freeField[0] = job.unblocked->field(StagedRays::kR);
     freeField[1] = job.unblocked->field(StagedRays::kG);
     freeField[2] = job.unblocked->field(StagedRays::kB);
@@ -161,6 +162,7 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
     const V values[StagedRays::kFields] = {
         ax, ay, az, lx, ly, lz, tfar, contributionR, contributionG, contributionB};
     auto keep = reaches;
+    V tfarOut = tfar;
     if (job.cachedBit) {
       // Known static answers: blocked by a static surface (no ray), or clear (a ray against the
       // dynamic objects only).
@@ -189,11 +191,17 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
     }
     if (hn::AllFalse(d, keep)) continue;
     if (job.occluders) {
-      // Only rays that may meet some mesh's bound go to Embree.
+      // Only rays that may meet some mesh's bound go to Embree. A ray that leaves a bare face
+      // of its own mesh cannot meet that mesh: its bound is not asked (it holds the ray's start).
+      const auto ownMesh =
+          hn::IfThenElse(hn::Ne(hn::And(flags, leavesBit), hn::Zero(di)),
+                         hn::ShiftRight<LitSurfaces::kMeshShift>(flags), hn::Set(di, -1));
       auto meets = hn::Lt(zero, zero);
       for (size_t k = 0; k < job.occluderCount; ++k) {
         const OccluderBound& bound = job.occluders[k];
-        auto may = MayMeetSphere(d, ax, ay, az, lx, ly, lz, tfar, bound.sphere);
+        const auto others =
+            hn::RebindMask(d, hn::Ne(ownMesh, hn::Set(di, static_cast<std::int32_t>(k))));
+        auto may = hn::And(others, MayMeetSphere(d, ax, ay, az, lx, ly, lz, tfar, bound.sphere));
         if (planeSide[k] == 2) {
           may = hn::And(
               may, MayCrossPlane(d, ax, ay, az, lx, ly, lz, tfar, bound.plane, bound.planeMargin));
@@ -208,19 +216,25 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
       }
       const auto free = hn::AndNot(meets, keep);
       if (!hn::AllFalse(d, free)) {
-        counts.passedOccluders += addFree(values, pixel, free);
-        keep = hn::And(keep, meets);
-        if (hn::AllFalse(d, keep)) continue;
+        if (job.parkPassing) {
+          // Kept in their place, parked: Embree skips them.
+          counts.passedOccluders += static_cast<long>(hn::CountTrue(d, free));
+          tfarOut = hn::IfThenElse(free, hn::Set(d, kParkedTfar), tfar);
+        } else {
+          counts.passedOccluders += addFree(values, pixel, free);
+          keep = hn::And(keep, meets);
+          if (hn::AllFalse(d, keep)) continue;
+        }
       }
     }
     for (int f = 0; f < StagedRays::kFields; ++f)
-      CompressAppend(d, values[f], keep, outField[f] + kept);
+      CompressAppend(d, f == StagedRays::kTfar ? tfarOut : values[f], keep, outField[f] + kept);
     CompressAppend(d, pixel, keep, reinterpret_cast<float*>(out.pixels()) + kept);
     kept += hn::CountTrue(d, keep);
   }
   out.setSize(kept);
   if (job.cachedBit) job.dynamic->setSize(keptDynamic);
-  if (job.cachedBit || job.occluders) job.unblocked->setSize(keptFree);
+  if (job.cachedBit || (job.occluders && !job.parkPassing)) job.unblocked->setSize(keptFree);
   return counts;
 }
 

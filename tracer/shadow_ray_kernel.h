@@ -15,7 +15,12 @@
 //
 // With `occluders` (PhysicalScene::occluders, a first generation's rays: one a pixel toward the
 // light, so the order their light is added in does not matter), a ray that would go to Embree
-// goes to `unblocked` instead when it passes every mesh's bound: nothing can block it.
+// goes to `unblocked` instead when it passes every mesh's bound: nothing can block it. A ray
+// that leaves a bare face of its own mesh (LitSurfaces::kLeavesMesh, PhysicalMesh::bareFaces)
+// cannot meet that mesh, and skips its bound. With `parkPassing` (a later generation's rays: a
+// pixel may have two toward one light, whose light must be added in ray order) such a ray stays
+// in `rays`, in its place, parked: tfar kParkedTfar, below tnear 0, so Embree skips it, and
+// OcclusionPackets::occluded reads it as clear.
 
 #include <embree3/rtcore.h>
 
@@ -41,7 +46,12 @@ struct ShadowRayJob {
   std::size_t sphereCount = 0;
   const OccluderBound* occluders = nullptr;  // occluderCount of them; null: no test
   std::size_t occluderCount = 0;
+  bool parkPassing = false;  // rays that pass every bound stay in `rays`, parked
 };
+
+// A parked shadow ray's tfar: below its tnear of 0, so Embree leaves it (and its tfar) alone;
+// finite, so it is not the −∞ of a blocked ray.
+inline constexpr float kParkedTfar = -1.0f;
 
 struct ShadowRayCounts {
   long answered = 0;         // the frame cache answered them: blocked by a static surface

@@ -69,6 +69,7 @@ struct ShadowBatch {
   // with glass shadows; a state is reset when the filter first meets its ray).
   std::vector<ShadowTransmittance> transmittance;
   std::vector<std::uint8_t> seen;
+  size_t parked = 0;  // rays that pass every bound, kept in place but not traced
 
   // The staged rays as packets, none of them met by the glass filter yet.
   void load(bool glass) {
@@ -370,13 +371,15 @@ void TileRenderer::makeShadowRays(const PhysicalLight& light, int lightIndex, in
                                          (cache_->lightsValid >> lightIndex & 1u)
                                      ? static_cast<std::uint8_t>(1u << lightIndex)
                                      : 0;
-  // A first generation's rays that pass every mesh's bound need no trace (one a pixel toward
-  // this light: their light is added now, not after the traced ones, to the same sums).
-  const bool bounded =
-      options_.boundShadowRays && generation == 0 && !build && !scene_.occluders().empty();
+  // Rays that pass every mesh's bound need no trace. A first generation's (one a pixel toward
+  // this light) have their light added now, not after the traced ones, to the same sums; a later
+  // generation's stay among the traced ones, parked, so that a pixel's two rays (glass's two
+  // branches) add their light in the same order.
+  const bool bounded = options_.boundShadowRays && !build && !scene_.occluders().empty();
+  const bool parked = bounded && generation > 0;
   shadows_.staged.reserve(n);
   dynamicShadows_.staged.reserve(cachedBit ? n : 0);
-  unblocked_.reserve(cachedBit || bounded ? n : 0);
+  unblocked_.reserve(cachedBit || (bounded && !parked) ? n : 0);
   ShadowRayJob job;
   job.surfaces = &lit_;
   job.light = &light;
@@ -391,8 +394,10 @@ void TileRenderer::makeShadowRays(const PhysicalLight& light, int lightIndex, in
   if (bounded) {
     job.occluders = scene_.occluders().data();
     job.occluderCount = scene_.occluders().size();
+    job.parkPassing = parked;
   }
   const ShadowRayCounts counts = parallax::makeShadowRays(job);
+  shadows_.parked = parked ? static_cast<size_t>(counts.passedOccluders) : 0;
   c->cache.shadowAnswered += counts.answered;
   c->cache.shadowPassedDynamic += counts.passedDynamic;
   c->shadowPassedBounds += counts.passedOccluders;
@@ -413,10 +418,11 @@ void TileRenderer::traceShadowRays(ShadowBatch& batch, RTCScene scene, bool cohe
   float* red = batch.staged.field(StagedRays::kR);
   float* green = batch.staged.field(StagedRays::kG);
   float* blue = batch.staged.field(StagedRays::kB);
+  const bool traced = rays.size() > batch.parked;  // else every ray is parked
   if (glassShadows_) {
     ShadowQueryContext query = shadowQueryContext(coherent, &scene_, batch.transmittance.data(),
                                                   batch.seen.data(), &c->glassShadowHits);
-    occludedPackets(scene, rays, options_.traversal, &query);
+    if (traced) occludedPackets(scene, rays, options_.traversal, &query);
     clock->lap(RenderPhase::kOcclude);
     // What the glass let through, folded into the light of the rays that crossed some (most
     // cross none: no exp() for them, and their flags are skipped eight at a time); the same
@@ -439,7 +445,7 @@ void TileRenderer::traceShadowRays(ShadowBatch& batch, RTCScene scene, bool cohe
     }
   } else {
     // No glass: the plain query, no per-ray state.
-    occludedPackets(scene, rays, options_.traversal, coherent);
+    if (traced) occludedPackets(scene, rays, options_.traversal, coherent);
     clock->lap(RenderPhase::kOcclude);
   }
   if (generation == 0 && options_.packetShading) {
@@ -452,7 +458,7 @@ void TileRenderer::traceShadowRays(ShadowBatch& batch, RTCScene scene, bool cohe
     }
   }
   clock->lap(RenderPhase::kGather);
-  c->shadow += static_cast<long>(rays.size());
+  c->shadow += static_cast<long>(rays.size() - batch.parked);
 }
 
 // Building: the static geometry's answer for each ray toward static light `lightIndex`.
@@ -632,8 +638,12 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
       if (scene_.lights().empty()) return;
       const std::uint8_t staticLights =
           generation == 0 && cache_ ? cachedStaticLights(i, path.pixel) : 0;
+      const unsigned prim = rays_.primID(i);
+      const bool leavesMesh = !mesh.bareFaces.empty() &&
+                              (mesh.bareFaces[prim] & (h.frontFace ? PhysicalMesh::kFrontBare
+                                                                   : PhysicalMesh::kBackBare)) != 0;
       lit_.push(h.position, h.shadingNormal, h.geometricNormal, weightedAlbedo, path.pixel,
-                staticLights);
+                staticLights, LitSurfaces::meshFlags(geomID, leavesMesh));
       if (m.specular.maxCoeff() > 0.0f) {
         lit_.setHighlight(reflect(d, h.shadingNormal), weight.cwiseProduct(m.specular),
                           m.shininess);

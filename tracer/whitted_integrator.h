@@ -41,8 +41,9 @@ struct RenderOptions {
   // false: every hit through the scalar shading, and every shadow ray's light added one by one
   // (the reference the SIMD shading kernels' test compares with, bit for bit).
   bool packetShading = true;
-  // A first generation's shadow rays that pass every mesh's bounding sphere (and a flat mesh's
-  // plane) add their light without a trip through Embree (PhysicalScene::occluders). false:
+  // Shadow rays that pass every mesh's bounding sphere (and a flat mesh's plane; their own
+  // mesh's skipped where they leave a bare face of it) add their light without a trip through
+  // Embree (PhysicalScene::occluders). false:
   // every ray is traced (the reference the test compares with, bit for bit).
   bool boundShadowRays = true;
 
@@ -73,7 +74,7 @@ struct RenderCounters {
   // Glass surfaces shadow rays met and passed through (calls of the glass filter, per ray and
   // surface, duplicates from the BVH's spatial splits included): not extra rays.
   long glassShadowHits = 0;
-  // First-generation shadow rays not traced: they pass every mesh's bound (boundShadowRays).
+  // Shadow rays not traced: they pass every mesh's bound (boundShadowRays).
   long shadowPassedBounds = 0;
   long textureLookups = 0;
   FrameCacheCounters cache;  // what the frame cache saved (zero without one)

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Core>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -140,6 +142,79 @@ TEST(ShadowRayBounds, ShapesWithPointLightsEqualTracingEveryRay) {
     EXPECT_GT(withBounds.shadowPassedBounds, 1000) << "curvature " << curvature;
     EXPECT_EQ(withBounds.shadow + withBounds.shadowPassedBounds, without.shadow);
   }
+}
+
+// A torus lit across its ring, so that its inner half shadows itself, on a floor beside a ball
+// and a box: the torus's outer half, the ball, the box and the floor have bare faces (their
+// shadow rays are not tested against their own mesh), the torus's inner half has none.
+const char* const kSelfShadowing = R"(
+local white = px.diffuse{color = {0.7, 0.7, 0.7}}
+local gold = px.phong{color = {0.8, 0.6, 0.2}, specular = {0.6, 0.6, 0.5}, shininess = 60}
+px.grid{width = 2, height = 2, nx = 4, ny = 4, material = white,
+        transform = px.rotate_x(-math.pi / 2)}
+local torus = px.torus{major = 0.4, minor = 0.12, material = gold}
+px.sphere{radius = 0.15, material = white, transform = px.translate(0.7, 0.3, 0.3)}
+px.box{size = {0.2, 0.3, 0.2}, material = gold, transform = px.translate(-0.7, 0.15, 0.2)}
+px.directional{direction = {1, -0.15, -0.2}, color = {0.5, 0.5, 0.5}}
+px.directional{direction = {0.2, -0.5, -1}, color = {0.3, 0.3, 0.3}}
+px.point{position = {-0.1, 0.5, 0.4}, color = {0.2, 0.2, 0.2}}
+px.world_box{min = {-1, -0.1, -1}, max = {1, 1.2, 1}}
+function update(t, dt)
+  px.set_transform(torus, px.translate(0, 0.5, 0) * px.rotate_y(0.7 * t) * px.rotate_x(1.2 + 0.2 * t))
+end
+)";
+
+TEST(ShadowRayBounds, TorusShadowingItselfEqualsTracingEveryRay) {
+  TempFolder folder;
+  const Tally t = playBothWays(folder.write("torus.lua", kSelfShadowing), 6, 0.4);
+  EXPECT_GT(t.passed, 1000);
+  EXPECT_GT(t.traced, 1000);
+}
+
+// A face is bare only if every corner of its mesh lies behind it (checked here in double, with
+// a tolerance of a few float ulps of the scene's size); a flat mesh's faces are bare on both
+// sides, a convex mesh's on the outside, and a torus's outside only on part of it.
+TEST(ShadowRayBounds, BareFacesHaveTheirWholeMeshBehind) {
+  TempFolder folder;
+  ScriptOptions options;
+  options.quiet = true;
+  ScriptedScene script(folder.write("torus.lua", kSelfShadowing), options);
+  ASSERT_TRUE(script.setTime(0.3)) << script.lastError();
+  const PhysicalScene scene(script.scene(), smallDisplay().model.displayableBox);
+  ASSERT_EQ(scene.meshes().size(), 4u);
+  std::vector<size_t> front(4, 0), back(4, 0);
+  for (size_t m = 0; m < scene.meshes().size(); ++m) {
+    const PhysicalMesh& mesh = scene.meshes()[m];
+    ASSERT_EQ(mesh.bareFaces.size(), mesh.triangles.size()) << "mesh " << m;
+    for (size_t t = 0; t < mesh.triangles.size(); ++t) {
+      const int bare = mesh.bareFaces[t];
+      front[m] += (bare & PhysicalMesh::kFrontBare) ? 1 : 0;
+      back[m] += (bare & PhysicalMesh::kBackBare) ? 1 : 0;
+      const Eigen::Vector3d p0 = mesh.positions[mesh.triangles[t][0]].cast<double>();
+      const Eigen::Vector3d n = mesh.faceNormals[t].cast<double>();
+      for (const auto& corners : mesh.triangles) {
+        for (std::uint32_t c : corners) {
+          const double height = n.dot(mesh.positions[c].cast<double>() - p0);
+          if (bare & PhysicalMesh::kFrontBare) {
+            ASSERT_LE(height, 1e-5) << "mesh " << m;
+          }
+          if (bare & PhysicalMesh::kBackBare) {
+            ASSERT_GE(height, -1e-5) << "mesh " << m;
+          }
+        }
+      }
+    }
+  }
+  const size_t floor = 0, torus = 1, ball = 2, box = 3;
+  EXPECT_EQ(front[floor], scene.meshes()[floor].triangles.size());
+  EXPECT_EQ(back[floor], scene.meshes()[floor].triangles.size());
+  EXPECT_GT(front[torus], scene.meshes()[torus].triangles.size() / 4);
+  EXPECT_LT(front[torus], scene.meshes()[torus].triangles.size() * 3 / 4);
+  EXPECT_EQ(back[torus], 0u);
+  EXPECT_EQ(front[ball], scene.meshes()[ball].triangles.size());
+  EXPECT_EQ(back[ball], 0u);
+  EXPECT_EQ(front[box], scene.meshes()[box].triangles.size());
+  EXPECT_EQ(back[box], 0u);
 }
 
 // More meshes than kMaxOccluders: no bounds, every ray traced.

@@ -47,6 +47,25 @@ TEST(StructuredLight, LowContrastIsNotDecoded) {
   EXPECT_FALSE(decodePixel(flat, 64, options).has_value());
 }
 
+// A camera at `centre` aimed at the screen's centre.
+CameraPose stationAt(const Eigen::Vector3d& centre) {
+  CameraPose pose;
+  pose.centre = centre;
+  pose.physicalFromCamera = aimCameraAt(pose.centre, Eigen::Vector3d::Zero());
+  return pose;
+}
+
+// A sensor that records the light as it arrives (the lens blur kept): no ambient light, noise,
+// response curve or markers.
+CameraRenderOptions linearNoiseless() {
+  CameraRenderOptions render;
+  render.ambient = 0.0;
+  render.noiseSigma = 0.0;
+  render.gamma = 1.0;
+  render.fiducialRadiusM = 0.0;
+  return render;
+}
+
 // The simulated camera sees every module whose lobe reaches a pixel, however many there are:
 // with a white image on one module of three, a pixel's light is the sum of those modules'
 // lobe weights, even where dark modules between them are stronger. (It once kept only the
@@ -54,15 +73,9 @@ TEST(StructuredLight, LowContrastIsNotDecoded) {
 TEST(StructuredLight, TheSimulatedCameraSeesEveryLitModulesLobe) {
   const DisplayModel truth = makeGroundTruth(resolveDisplay("demo"), {});
   const CameraIntrinsics intrinsics = CameraIntrinsics::centred(320, 180, 350.0, -0.05);
-  CameraPose pose;
-  pose.centre = {-1.6, 0.0, 2.0};  // an oblique station, where the stripes crowd
-  pose.physicalFromCamera = aimCameraAt(pose.centre, Eigen::Vector3d::Zero());
-  CameraRenderOptions render;
-  render.ambient = 0.0;
+  const CameraPose pose = stationAt({-1.6, 0.0, 2.0});  // oblique, where the stripes crowd
+  CameraRenderOptions render = linearNoiseless();
   render.blurSigmaPx = 0.0;
-  render.noiseSigma = 0.0;
-  render.gamma = 1.0;
-  render.fiducialRadiusM = 0.0;
   const StationView view = viewFromStation(truth, intrinsics, pose, render);
   std::vector<cv::Mat> images(truth.modules.size());
   for (size_t m = 1; m < truth.modules.size(); m += 3) {
@@ -133,14 +146,8 @@ double unblurredLight(const DisplayModel& truth, const CameraIntrinsics& intrins
 TEST(StructuredLight, TheLensBlursTheContinuousImageBeforeThePixelsSampleIt) {
   const DisplayModel truth = makeGroundTruth(resolveDisplay("demo"), {});
   const CameraIntrinsics intrinsics = CameraIntrinsics::centred(640, 360, 700.0, -0.04);
-  CameraPose pose;
-  pose.centre = {0.2, 0.0, 10.0};
-  pose.physicalFromCamera = aimCameraAt(pose.centre, Eigen::Vector3d::Zero());
-  CameraRenderOptions render;
-  render.ambient = 0.0;
-  render.noiseSigma = 0.0;
-  render.gamma = 1.0;
-  render.fiducialRadiusM = 0.0;
+  const CameraPose pose = stationAt({0.2, 0.0, 10.0});
+  CameraRenderOptions render = linearNoiseless();
   render.minLobeWeight = 1e-4;
   const StationView view = viewFromStation(truth, intrinsics, pose, render);
   EXPECT_GE(view.supersampling, 3);

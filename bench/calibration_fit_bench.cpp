@@ -365,6 +365,7 @@ int decoderError(const DisplayModel& nominal, const std::string& display,
       "camera px RMS\n",
       result.model.screen.curvature, k, result.curvatureStdDev, result.correspondenceSigmaPx,
       result.stripeSigmaMm, result.fiducialRmsPx);
+  for (const std::string& note : result.notes) std::printf("note: %s\n", note.c_str());
   for (const UnreliableDecode& d : result.unreliableDecodes) {
     std::printf("decode left out: station %d module %d, %d of %d gross errors (typical %.1f%%)\n",
                 d.station, d.module, d.grossErrors, d.correspondences, 100.0 * d.typicalShare);

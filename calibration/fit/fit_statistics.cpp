@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "calibration/fit/decode_resolution.h"
+
 namespace parallax::fit {
 namespace {
 
@@ -164,6 +166,25 @@ void summarizeResiduals(const FitInputs& in, const FitState& state, const Corres
         "module's lobe it shifts the decoded patterns toward the lobe's peak, which the fit reads "
         "as cameras nearer the screen (by several mm for a 0.6 px blur) "
         "and its σ do not count");
+
+  // ---- stations that see the modules too coarsely for their patterns (decode_resolution.h) ----
+  {
+    std::string stations;
+    double least = 0.0, most = 0.0;
+    for (const StationResolution& r : decodeResolution(obs.correspondences)) {
+      if (!(r.modulePxACameraPx > kCoarseModulePxACameraPx)) continue;
+      least = stations.empty() ? r.modulePxACameraPx : std::min(least, r.modulePxACameraPx);
+      most = std::max(most, r.modulePxACameraPx);
+      stations += fmt::format("{}{}", stations.empty() ? "" : ", ", r.station);
+    }
+    if (!stations.empty())
+      result->notes.push_back(fmt::format(
+          "station(s) {} see the modules coarsely: a camera pixel spans {:.1f}-{:.1f} module "
+          "pixels (the default 16-px phase period, under {:.0f} camera pixels), so their decodes "
+          "are noisy and biased beyond what the σ count; nearer stations or a longer lens give "
+          "finer ones",
+          stations, least, most, 16.0 / kCoarseModulePxACameraPx));
+  }
 
   // ---- the transfer check: stripes that the assumed transfer cannot explain ----
   const double stripeSigma = robustSigma(stripeAbs);

@@ -189,8 +189,13 @@ cv::Mat renderFrame(const StationView& view, const std::vector<cv::Mat>& moduleI
 
 cv::Mat cameraPixelLight(const cv::Mat& renderLight, const StationView& view, double blurSigmaPx) {
   const int s = view.supersampling;
-  cv::Mat blurred = renderLight;
-  if (blurSigmaPx > 0.0) cv::GaussianBlur(renderLight, blurred, cv::Size(0, 0), blurSigmaPx * s);
+  // Into new buffers: the caller's light and the view's markers stay as they were (the view
+  // renders every frame of its station).
+  cv::Mat blurred;
+  if (blurSigmaPx > 0.0)
+    cv::GaussianBlur(renderLight, blurred, cv::Size(0, 0), blurSigmaPx * s);
+  else
+    blurred = renderLight;
   const int width = view.width / s, height = view.height / s;
   cv::Mat light(height, width, renderLight.type());
   const size_t bytes = renderLight.elemSize();
@@ -199,8 +204,11 @@ cv::Mat cameraPixelLight(const cv::Mat& renderLight, const StationView& view, do
       std::memcpy(light.ptr(y, x), blurred.ptr(y * s + s / 2, x * s + s / 2), bytes);
   }
   if (!view.markers.empty()) {
-    cv::Mat markers = view.markers;
-    if (blurSigmaPx > 0.0) cv::GaussianBlur(view.markers, markers, cv::Size(0, 0), blurSigmaPx);
+    cv::Mat markers;
+    if (blurSigmaPx > 0.0)
+      cv::GaussianBlur(view.markers, markers, cv::Size(0, 0), blurSigmaPx);
+    else
+      markers = view.markers.clone();
     if (light.channels() == 3) cv::cvtColor(markers, markers, cv::COLOR_GRAY2BGR);
     light += markers;
   }

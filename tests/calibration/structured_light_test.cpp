@@ -199,6 +199,26 @@ TEST(StructuredLight, TheLensBlursTheContinuousImageBeforeThePixelsSampleIt) {
   EXPECT_LT(worst, 0.01 * brightest) << "of " << brightest;
 }
 
+// A view renders every frame of its station: rendering one leaves the view as it was, so a far
+// station's second picture of the same images is the first (its markers once blurred in place,
+// a little more with every frame).
+TEST(StructuredLight, AFarStationsPicturesDoNotChangeFromFrameToFrame) {
+  const DisplayModel truth = makeGroundTruth(resolveDisplay("demo"), {});
+  const CameraIntrinsics intrinsics = CameraIntrinsics::centred(640, 360, 700.0, -0.04);
+  CameraRenderOptions render;
+  render.noiseSigma = 0.0;
+  const StationView view = viewFromStation(truth, intrinsics, stationAt({0.2, 0.0, 10.0}), render);
+  ASSERT_GT(view.supersampling, 1);
+  ASSERT_FALSE(view.markers.empty());
+  std::vector<cv::Mat> images;
+  for (const OpticalModule& m : truth.modules)
+    images.emplace_back(m.height, m.width, CV_32F, cv::Scalar(0.5f));
+  SeededRandom random(2);
+  const cv::Mat first = renderFrame(view, images, render, random);
+  const cv::Mat second = renderFrame(view, images, render, random);
+  EXPECT_EQ(cv::norm(first, second, cv::NORM_INF), 0.0);
+}
+
 TEST(StructuredLight, ThroughTheSimulatedCameraDecodesWhereTheLightComesFrom) {
   // Demo display, one station at the centre of the observer line, every third module showing
   // its patterns (neighbouring lobes overlap at 1.5× the module pitch; every third one does not).

@@ -198,6 +198,7 @@ std::vector<ClusterScore> stationModuleScores(const FitProblem& built,
   std::vector<Cluster> clusters;
   std::vector<size_t> clusterOfRow(residuals.size());
   std::unordered_map<std::int64_t, size_t> index;
+  std::vector<std::pair<int, double>> nonzeros;
   size_t row = 0;
   for (size_t b = 0; b < built.residualBlocks.size(); ++b) {
     const auto rows = static_cast<size_t>(
@@ -210,9 +211,20 @@ std::vector<ClusterScore> stationModuleScores(const FitProblem& built,
       clusters.push_back({-1, Eigen::VectorXd::Zero(size), Eigen::MatrixXd::Zero(size, size)});
     Cluster& c = clusters[it->second];
     for (size_t r = row; r < row + rows; ++r) {
-      const Eigen::VectorXd j = clusterRow(jacobian, r, sharedStart, sharedSize, &c.module);
-      c.score += model.weights[r] * residuals[r] * j;
-      c.information.noalias() += model.weights[r] * j * j.transpose();
+      // The row's few nonzeros (its module's and its camera's), not the dense outer product.
+      nonzeros.clear();
+      for (int k = jacobian.rows[r]; k < jacobian.rows[r + 1]; ++k) {
+        const int col = jacobian.cols[static_cast<size_t>(k)];
+        if (col < sharedStart) c.module = col / kModuleTangentSize;
+        nonzeros.emplace_back(
+            col < sharedStart ? col % kModuleTangentSize : kModuleTangentSize + col - sharedStart,
+            jacobian.values[static_cast<size_t>(k)]);
+      }
+      const double w = model.weights[r];
+      for (const auto& [i, vi] : nonzeros) {
+        c.score[i] += w * residuals[r] * vi;
+        for (const auto& [k, vk] : nonzeros) c.information(i, k) += w * vi * vk;
+      }
       clusterOfRow[r] = it->second;
     }
     row += rows;

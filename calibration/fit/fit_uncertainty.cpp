@@ -18,23 +18,31 @@ constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 // rotation's σ in degrees is twice its tangent's.
 constexpr double kTangentToRotationDeg = 2.0 * kRadToDeg;
 
-ClusterScore zeroScore(int sharedSize) {
-  return {-1, Eigen::VectorXd::Zero(kModuleTangentSize), Eigen::VectorXd::Zero(sharedSize), {}};
-}
-
-// Adds weight × row r of the Jacobian to `score`, split as its columns [modules | shared].
-void addJacobianRow(const ceres::CRSMatrix& jacobian, size_t r, double weight, int sharedStart,
-                    ClusterScore* score) {
+// Row r of the Jacobian over one cluster's parameters [its module | shared]: its nonzeros as
+// (index, value) into `entries`, and the module it touches into `module` (left as it is when
+// it touches none).
+void clusterRowEntries(const ceres::CRSMatrix& jacobian, size_t r, int sharedStart, int* module,
+                       std::vector<std::pair<int, double>>* entries) {
+  entries->clear();
   for (int k = jacobian.rows[r]; k < jacobian.rows[r + 1]; ++k) {
     const int col = jacobian.cols[static_cast<size_t>(k)];
-    const double v = jacobian.values[static_cast<size_t>(k)] * weight;
-    if (col >= sharedStart) {
-      score->sharedPart[col - sharedStart] += v;
-    } else {
-      score->module = col / kModuleTangentSize;
-      score->modulePart[col % kModuleTangentSize] += v;
-    }
+    if (col < sharedStart) *module = col / kModuleTangentSize;
+    entries->emplace_back(
+        col < sharedStart ? col % kModuleTangentSize : kModuleTangentSize + col - sharedStart,
+        jacobian.values[static_cast<size_t>(k)]);
   }
+}
+
+// The sum of a group's rows over its cluster's parameters [module | shared], and its module.
+Eigen::VectorXd groupRowSum(const ceres::CRSMatrix& jacobian, const std::vector<int>& members,
+                            int sharedStart, int sharedSize, int* module) {
+  Eigen::VectorXd sum = Eigen::VectorXd::Zero(kModuleTangentSize + sharedSize);
+  std::vector<std::pair<int, double>> entries;
+  for (int r : members) {
+    clusterRowEntries(jacobian, static_cast<size_t>(r), sharedStart, module, &entries);
+    for (const auto& [i, v] : entries) sum[i] += v;
+  }
+  return sum;
 }
 
 // What the σ-normalised rows of a group (FitProblem::groupOf, per axis) share: each group's
@@ -133,10 +141,10 @@ InformationBlocks sharedErrorInformation(const SharedErrorModel& model,
   const int sharedStart = moduleCount * kModuleTangentSize;
   for (const SharedErrorModel::Group& g : model.groups) {
     if (g.coefficient <= 0.0) continue;
-    ClusterScore sum = zeroScore(sharedSize);
-    for (int r : g.members)
-      addJacobianRow(jacobian, static_cast<size_t>(r), 1.0, sharedStart, &sum);
-    subtractCommonPart(sum.modulePart, sum.sharedPart, sum.module, g.coefficient, &info);
+    int module = -1;
+    const Eigen::VectorXd sum = groupRowSum(jacobian, g.members, sharedStart, sharedSize, &module);
+    subtractCommonPart(sum.head(kModuleTangentSize), sum.tail(sharedSize), module, g.coefficient,
+                       &info);
   }
   return info;
 }
@@ -161,24 +169,6 @@ Eigen::MatrixXd crossInformation(const SharedErrorModel& model, const ceres::CRS
     for (int r : g.members) addRow(static_cast<size_t>(r), -g.coefficient * sum);
   }
   return out;
-}
-
-// One row of the Jacobian as a dense vector over a cluster's parameters [its module | shared];
-// `module` set when the row touches one.
-Eigen::VectorXd clusterRow(const ceres::CRSMatrix& jacobian, size_t r, int sharedStart,
-                           int sharedSize, int* module) {
-  Eigen::VectorXd row = Eigen::VectorXd::Zero(kModuleTangentSize + sharedSize);
-  for (int k = jacobian.rows[r]; k < jacobian.rows[r + 1]; ++k) {
-    const int col = jacobian.cols[static_cast<size_t>(k)];
-    const double v = jacobian.values[static_cast<size_t>(k)];
-    if (col >= sharedStart) {
-      row[kModuleTangentSize + col - sharedStart] += v;
-    } else {
-      *module = col / kModuleTangentSize;
-      row[col % kModuleTangentSize] += v;
-    }
-  }
-  return row;
 }
 
 // The score Σ JᵀΩ⁻¹r and the information JᵀΩ⁻¹J (under `model`) of the decoded rows of each
@@ -212,14 +202,7 @@ std::vector<ClusterScore> stationModuleScores(const FitProblem& built,
     Cluster& c = clusters[it->second];
     for (size_t r = row; r < row + rows; ++r) {
       // The row's few nonzeros (its module's and its camera's), not the dense outer product.
-      nonzeros.clear();
-      for (int k = jacobian.rows[r]; k < jacobian.rows[r + 1]; ++k) {
-        const int col = jacobian.cols[static_cast<size_t>(k)];
-        if (col < sharedStart) c.module = col / kModuleTangentSize;
-        nonzeros.emplace_back(
-            col < sharedStart ? col % kModuleTangentSize : kModuleTangentSize + col - sharedStart,
-            jacobian.values[static_cast<size_t>(k)]);
-      }
+      clusterRowEntries(jacobian, r, sharedStart, &c.module, &nonzeros);
       const double w = model.weights[r];
       for (const auto& [i, vi] : nonzeros) {
         c.score[i] += w * residuals[r] * vi;
@@ -233,10 +216,8 @@ std::vector<ClusterScore> stationModuleScores(const FitProblem& built,
   for (const SharedErrorModel::Group& g : model.groups) {
     if (g.coefficient <= 0.0 || g.members.empty()) continue;
     Cluster& c = clusters[clusterOfRow[static_cast<size_t>(g.members.front())]];
-    Eigen::VectorXd sum = Eigen::VectorXd::Zero(size);
     int ignored = -1;
-    for (int r : g.members)
-      sum += clusterRow(jacobian, static_cast<size_t>(r), sharedStart, sharedSize, &ignored);
+    const Eigen::VectorXd sum = groupRowSum(jacobian, g.members, sharedStart, sharedSize, &ignored);
     c.score -= g.coefficient * g.sum * sum;
     c.information.noalias() -= g.coefficient * sum * sum.transpose();
   }

@@ -17,10 +17,11 @@
 // for every frame of a station), so rendering a frame is a weighted lookup.
 // A real lens blurs the continuous image before the pixels sample it; blurring the rendered
 // samples instead is the same only while the patterns have many samples a period. From far
-// away a camera pixel spans several module pixels (about 7 on demo from 10 m, two a 16-px
-// phase period), and the blurred samples then shift each decoded position by less than the
-// continuous blur does (the decoder's correction, capture_decoder's blurShift, assumes the
-// latter): a bias every decode shares, which put the fitted screen curvature 2σ off at 10 m. So
+// away a camera pixel spans several module pixels (4.3 on demo from 10 m with a 640×360
+// camera: four samples a 16-px phase period), and the blurred samples then shift each decoded
+// position by less than the continuous blur does (the decoder's correction, capture_decoder's
+// blurShift, assumes the latter): a bias every decode shares, which put the fitted screen
+// curvature 0.8–3.8σ off at 10 m. So
 // a station that far is rendered finer (`supersampling` render pixels a camera pixel's side,
 // odd, so that one sits at each camera pixel's centre), blurred there, and sampled at the
 // camera pixels' centres.

@@ -156,6 +156,9 @@ int ScriptSandbox::openSafeLibraries(lua_State* L) {
   lua_setglobal(L, "print");
   lua_pushcfunction(L, &ScriptSandbox::luaRequire);
   lua_setglobal(L, "require");
+  lua_getglobal(L, "setmetatable");
+  lua_pushcclosure(L, &ScriptSandbox::luaSetMetatable, 1);
+  lua_setglobal(L, "setmetatable");
   lua_getglobal(L, LUA_STRLIBNAME);
   lua_pushnil(L);
   lua_setfield(L, -2, "dump");
@@ -190,6 +193,27 @@ int ScriptSandbox::luaRandomSeed(lua_State* L) {
   lua_pushinteger(L, seed);
   lua_call(L, 1, 0);
   return 0;
+}
+
+int ScriptSandbox::luaSetMetatable(lua_State* L) {
+  // Lua runs finalizers with hooks off, so the instruction budget cannot stop a __gc that
+  // loops: it would hang whoever triggers the collection (the daemon's conductor). A table is
+  // only marked for finalization when its metatable has __gc at this moment, so refusing that
+  // here keeps every finalizer out, however the metatable changes later.
+  if (lua_type(L, 2) == LUA_TTABLE) {
+    lua_pushstring(L, "__gc");
+    const bool finalizer = lua_rawget(L, 2) != LUA_TNIL;
+    lua_pop(L, 1);
+    if (finalizer) {
+      return luaL_error(L,
+                        "setmetatable: __gc finalizers are not available in scene scripts (they "
+                        "run outside the instruction budget)");
+    }
+  }
+  lua_pushvalue(L, lua_upvalueindex(1));
+  lua_insert(L, 1);
+  lua_call(L, lua_gettop(L) - 1, LUA_MULTRET);
+  return lua_gettop(L);
 }
 
 int ScriptSandbox::luaNoPatterns(lua_State* L) {

@@ -9,6 +9,8 @@
 //     swallow it, and a memory cap enforced by the allocator;
 //   - Lua patterns (string.find/match/gmatch/gsub) are refused: their backtracking can run
 //     for hours inside one C call, where no budget can reach; plain string.find is allowed;
+//   - setmetatable refuses a __gc field: Lua runs finalizers with hooks off, out of the
+//     budget's reach;
 //   - math.random is seeded the same way every time, so a script is deterministic.
 // Every failure becomes an InputError naming the script (or module) and line; the host and
 // the sandbox stay usable afterwards.
@@ -87,6 +89,7 @@ class ScriptSandbox {
   static int luaPrint(lua_State* L);
   static int luaRandomSeed(lua_State* L);
   static int luaNoPatterns(lua_State* L);
+  static int luaSetMetatable(lua_State* L);
   static int luaPlainFind(lua_State* L);
   void recordWhere();
   // Pops the error at the top of the stack and throws it as an InputError.

@@ -71,6 +71,18 @@ INSTANTIATE_TEST_SUITE_P(
         Escape{"symlink out", R"(px.texture{path = "passwd_link"})",
                "leads outside the script's folder"},
         Escape{"endless loop", "while true do end", "instruction budget"},
+        // Lua runs finalizers with hooks off: this one would loop for ever at the next
+        // collection, out of the budget's reach.
+        Escape{"endless finalizer",
+               "setmetatable({}, {__gc = function() while true do end end}) local t = {} for i "
+               "= 1, 1e5 do t[i] = {} end",
+               "__gc finalizers are not available"},
+        // A __gc present when the metatable is set marks the table; refusing any value there
+        // keeps a function put in later from running.
+        Escape{"finalizer put in later",
+               "local mt = {__gc = true} setmetatable({}, mt) mt.__gc = function() while true do "
+               "end end",
+               "__gc finalizers are not available"},
         Escape{"endless loop in pcall", "while true do pcall(function() while true do end end) end",
                "instruction budget"},
         Escape{"memory bomb",
@@ -120,6 +132,15 @@ TEST(Sandbox, MetamethodsOnTheGlobalsDoNotReachTheHost) {
           "function update(t) end\nsetmetatable(_G, {__index = function() error(\"boom\") end})"),
       "g.lua", folder.path(), smallLimits());
   EXPECT_NO_THROW(script->setTime(1.0));
+}
+
+TEST(Sandbox, SetmetatableWithoutFinalizerStillWorks) {
+  TempFolder folder;
+  EXPECT_EQ(
+      loadError(withPrelude("local v = setmetatable({}, {__index = function() return 7 end})\n"
+                            "assert(v.anything == 7)"),
+                folder.path()),
+      "");
 }
 
 TEST(Sandbox, PlainFindStillWorks) {

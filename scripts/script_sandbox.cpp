@@ -262,9 +262,10 @@ int ScriptSandbox::luaLoad(lua_State* L) {
 }
 
 int ScriptSandbox::luaPrint(lua_State* L) {
+  // Counted before the buffer, which takes a stack slot of its own.
+  const int n = lua_gettop(L);
   luaL_Buffer buffer;
   luaL_buffinit(L, &buffer);
-  const int n = lua_gettop(L);
   for (int i = 1; i <= n; ++i) {
     if (i > 1) luaL_addchar(&buffer, '\t');
     luaL_tolstring(L, i, nullptr);

@@ -143,6 +143,18 @@ TEST(Sandbox, SetmetatableWithoutFinalizerStillWorks) {
       "");
 }
 
+TEST(Sandbox, PrintWritesItsArgumentsOnly) {
+  TempFolder folder;
+  ScriptOptions options = smallLimits();
+  options.quiet = false;
+  ::testing::internal::CaptureStderr();
+  const std::string error = loadError(withPrelude("print(\"a\", 2)"), folder.path(), options);
+  const std::string printed = ::testing::internal::GetCapturedStderr();
+  EXPECT_EQ(error, "");
+  // The string buffer's own stack slot was once printed too ("a\t2\tuserdata: 0x...").
+  EXPECT_EQ(printed, "[script] a\t2\n");
+}
+
 TEST(Sandbox, PlainFindStillWorks) {
   TempFolder folder;
   EXPECT_EQ(

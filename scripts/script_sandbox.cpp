@@ -44,6 +44,7 @@ void ScriptLimits::validate() const {
   positive(loadAllocationBytes >= memoryBytes, "limits.loadAllocationBytes (at least memoryBytes)");
   positive(updateAllocationBytes > 0, "limits.updateAllocationBytes");
   positive(maxTriangles > 0, "limits.maxTriangles");
+  positive(maxInstances > 0, "limits.maxInstances");
   positive(maxTexturePixels > 0, "limits.maxTexturePixels");
   positive(maxSourceBytes > 0, "limits.maxSourceBytes");
 }

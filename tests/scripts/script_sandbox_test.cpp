@@ -134,6 +134,31 @@ TEST(Sandbox, MetamethodsOnTheGlobalsDoNotReachTheHost) {
   EXPECT_NO_THROW(script->setTime(1.0));
 }
 
+// Every object is an Embree instance of its own (about 4 KB and a BVH build each): their count
+// has a limit of its own, not the triangles' 4 million.
+TEST(Sandbox, ObjectsAreCountedAgainstTheirOwnLimit) {
+  TempFolder folder;
+  ScriptOptions options = smallLimits();
+  options.limits.maxInstances = 5;
+  // The prelude's box is the first object: four more fit.
+  EXPECT_EQ(loadError(withPrelude("local b = px.box{material = m}\n"
+                                  "for i = 1, 3 do px.instance(b, px.translate(i, 0, 0)) end"),
+                      folder.path(), options),
+            "");
+  const std::string instances =
+      loadError(withPrelude("local b = px.box{material = m}\n"
+                            "for i = 1, 4 do px.instance(b, px.translate(i, 0, 0)) end"),
+                folder.path(), options);
+  EXPECT_NE(instances.find("attempt.lua:4: px.instance: 6 objects would pass the scene's limit "
+                           "of 5"),
+            std::string::npos)
+      << instances;
+  const std::string shapes =
+      loadError(withPrelude("for i = 1, 5 do px.sphere{material = m} end"), folder.path(), options);
+  EXPECT_NE(shapes.find("attempt.lua:3: px.sphere: 6 objects would pass"), std::string::npos)
+      << shapes;
+}
+
 TEST(Sandbox, SetmetatableWithoutFinalizerStillWorks) {
   TempFolder folder;
   EXPECT_EQ(

@@ -21,6 +21,7 @@
 #include "common/input_error.h"
 #include "tracer/model_animation_import.h"
 #include "tracer/scene_fixtures.h"
+#include "tracer/texture_image.h"
 
 namespace parallax {
 namespace {
@@ -70,8 +71,14 @@ bool decodeEmbedded(const aiTexture& embedded, Texture* out, std::string* error)
   }
   const OIIO::ImageSpec spec = input->spec();
   if (spec.width <= 0 || spec.height <= 0 || spec.width > 65536 || spec.height > 65536 ||
-      spec.nchannels <= 0) {
-    *error = "unsupported embedded image size";
+      spec.nchannels <= 0 || spec.nchannels > 4) {
+    *error = "unsupported embedded image size or channel count";
+    return false;
+  }
+  // A few compressed bytes can claim a huge picture: its size is checked before it is decoded.
+  if (static_cast<long>(spec.width) * spec.height > TextureImage::kMaxFilePixels) {
+    *error = fmt::format("{}x{} pixels, more than the {} a texture may have", spec.width,
+                         spec.height, TextureImage::kMaxFilePixels);
     return false;
   }
   std::vector<float> data(static_cast<size_t>(spec.width) * static_cast<size_t>(spec.height) *

@@ -2,11 +2,13 @@
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <assimp/Importer.hpp>
@@ -33,6 +35,23 @@ std::string lower(std::string s) {
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return s;
 }
+
+// The files a model names (an OBJ's mtllib, a glTF's buffers, ...) are opened by assimp
+// itself: only regular ones, so that one naming a FIFO or a device cannot block the loader
+// (and the daemon's conductor with it) for ever.
+class RegularFilesOnly : public Assimp::DefaultIOSystem {
+ public:
+  using DefaultIOSystem::Exists;
+  using DefaultIOSystem::Open;
+  bool Exists(const char* file) const override {
+    struct stat st;
+    return ::stat(file, &st) == 0 && S_ISREG(st.st_mode);
+  }
+  Assimp::IOStream* Open(const char* file, const char* mode) override {
+    if (!Exists(file)) return nullptr;
+    return DefaultIOSystem::Open(file, mode);
+  }
+};
 
 Eigen::Matrix4d toEigen(const aiMatrix4x4& m) {
   Eigen::Matrix4d out;
@@ -147,6 +166,7 @@ ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& opt
   if (fs::file_size(path, ec) == 0)
     throw InputError({path, "", 0}, "the model file is empty (0 bytes)");
   Assimp::Importer importer;
+  importer.SetIOHandler(new RegularFilesOnly);  // the importer owns it
   // Drop points and lines (nothing a ray can hit); triangulate quads and polygons; make normals
   // where the file has none; reject NaN data; merge identical vertices so smooth normals smooth.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,

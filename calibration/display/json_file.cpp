@@ -21,6 +21,21 @@ json readJsonFile(const std::string& path, size_t maxBytes) {
     const size_t colon = reason.find(": ");
     if (colon != std::string::npos) reason = reason.substr(colon + 2);
     throw InputError({path, "", line}, "not valid JSON: " + reason);
+  } catch (const json::out_of_range& e) {
+    // A number beyond a double ("1e400") is refused while parsing, without a byte position:
+    // its line is where its text first appears.
+    std::string reason = e.what();
+    const size_t colon = reason.find("] ");
+    if (colon != std::string::npos) reason = reason.substr(colon + 2);
+    int line = 0;
+    const size_t open = reason.find('\''), close = reason.rfind('\'');
+    if (open != std::string::npos && close > open + 1) {
+      const size_t at = text.find(reason.substr(open + 1, close - open - 1));
+      if (at != std::string::npos)
+        line = 1 + static_cast<int>(
+                       std::count(text.begin(), text.begin() + static_cast<long>(at), '\n'));
+    }
+    throw InputError({path, "", line}, "not valid JSON: " + reason);
   }
 }
 

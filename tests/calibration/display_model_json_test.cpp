@@ -164,6 +164,28 @@ TEST(DisplayModelJson, SyntaxErrorsNameTheFileAndLine) {
   std::filesystem::remove(path);
 }
 
+// A number beyond a double is refused by the parser as out of range, not as a syntax error:
+// it once escaped as "[json.exception.out_of_range.406] number overflow parsing '1e400'",
+// without the file.
+TEST(DisplayModelJson, ANumberBeyondADoubleNamesTheFileAndLine) {
+  const std::string path = temporaryPath("overflow.json");
+  {
+    std::ofstream out(path);
+    out << "{\n  \"format\": \"parallax-display\",\n  \"version\": 1,\n  \"screen\": {\"width\": "
+           "1e400}\n}\n";
+  }
+  try {
+    loadDisplayModel(path);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.location().file, path);
+    EXPECT_EQ(e.location().line, 4) << e.what();
+    EXPECT_NE(std::string(e.what()).find("number overflow parsing '1e400'"), std::string::npos)
+        << e.what();
+  }
+  std::filesystem::remove(path);
+}
+
 TEST(DisplayModelJson, FieldErrorsFromAFileNameTheFile) {
   const std::string path = temporaryPath("bad_field.json");
   json j = displayModelToJson(testing::smallDisplay(0.0, ScreenTransfer::kConical, 2));

@@ -561,8 +561,8 @@ std::string sceneApiMarkdown() {
   std::string text =
       "# Scene script API\n\n"
       "Generated from the binding's registry (`parallax scene-api`); do not edit by hand.\n\n"
-      "A scene script is Lua 5.4 in a sandbox (no io, os, debug, package, binary chunks; `require` "
-      "only\n"
+      "A scene script is Lua 5.4 in a sandbox (no io, os, debug, package, binary chunks, `__gc`\n"
+      "finalizers; `require` only "
       "finds modules of the scene library and the script's folder). It builds the scene through "
       "the\n"
       "global table `px` and may define `update(t, dt)`, called with the animation time in "

@@ -130,7 +130,19 @@ void checkTriangleBudget(lua_State* L, const SceneBuild& b, long adding) {
   }
 }
 
+void checkInstanceBudget(lua_State* L, const SceneBuild& b, size_t adding) {
+  const long limit = ScriptSandbox::of(L).limits().maxInstances;
+  const size_t total = b.scene.instances.size() + adding;
+  if (total > static_cast<size_t>(limit)) {
+    throw ScriptArgumentError(
+        fmt::format("{} objects would pass the scene's limit of {} (px.instance, px.model's "
+                    "parts and every shape count)",
+                    total, limit));
+  }
+}
+
 int addObject(lua_State* L, SceneBuild& b, Mesh mesh, const Placement& p) {
+  checkInstanceBudget(L, b, 1);
   mesh.material = p.material;
   mesh.name = p.name;
   const int meshIndex = b.scene.addMesh(std::move(mesh), false);
@@ -312,6 +324,7 @@ int apiModel(lua_State* L, SceneBuild& b) {
   for (size_t i = b.scene.meshes.size(); i < scratch.meshes.size(); ++i)
     added += static_cast<long>(scratch.meshes[i].triangles.size());
   checkTriangleBudget(L, b, added);
+  checkInstanceBudget(L, b, scratch.instances.size() - b.scene.instances.size());
   const size_t firstInstance = b.scene.instances.size();
   b.scene = std::move(scratch);
   b.models.push_back(std::move(animation));
@@ -328,10 +341,7 @@ int apiInstance(lua_State* L, SceneBuild& b) {
   const int object = lua::toHandle(L, 1, HandleKind::kObject, "object");
   const Eigen::Affine3d t = lua::toTransform(L, 2, "transform");
   const int mesh = b.scene.instances.at(static_cast<size_t>(object)).mesh;
-  checkTriangleBudget(L, b, 0);
-  if (b.scene.instances.size() >= static_cast<size_t>(ScriptSandbox::of(L).limits().maxTriangles)) {
-    throw ScriptArgumentError("too many instances");
-  }
+  checkInstanceBudget(L, b, 1);
   pushHandle(L, HandleKind::kObject, b.scene.addInstance(mesh, t));
   return 1;
 }

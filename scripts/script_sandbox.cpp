@@ -44,6 +44,7 @@ void ScriptLimits::validate() const {
   positive(loadAllocationBytes >= memoryBytes, "limits.loadAllocationBytes (at least memoryBytes)");
   positive(updateAllocationBytes > 0, "limits.updateAllocationBytes");
   positive(maxTriangles > 0, "limits.maxTriangles");
+  positive(maxInstances > 0, "limits.maxInstances");
   positive(maxTexturePixels > 0, "limits.maxTexturePixels");
   positive(maxSourceBytes > 0, "limits.maxSourceBytes");
 }
@@ -156,6 +157,9 @@ int ScriptSandbox::openSafeLibraries(lua_State* L) {
   lua_setglobal(L, "print");
   lua_pushcfunction(L, &ScriptSandbox::luaRequire);
   lua_setglobal(L, "require");
+  lua_getglobal(L, "setmetatable");
+  lua_pushcclosure(L, &ScriptSandbox::luaSetMetatable, 1);
+  lua_setglobal(L, "setmetatable");
   lua_getglobal(L, LUA_STRLIBNAME);
   lua_pushnil(L);
   lua_setfield(L, -2, "dump");
@@ -190,6 +194,27 @@ int ScriptSandbox::luaRandomSeed(lua_State* L) {
   lua_pushinteger(L, seed);
   lua_call(L, 1, 0);
   return 0;
+}
+
+int ScriptSandbox::luaSetMetatable(lua_State* L) {
+  // Lua runs finalizers with hooks off, so the instruction budget cannot stop a __gc that
+  // loops: it would hang whoever triggers the collection (the daemon's conductor). A table is
+  // only marked for finalization when its metatable has __gc at this moment, so refusing that
+  // here keeps every finalizer out, however the metatable changes later.
+  if (lua_type(L, 2) == LUA_TTABLE) {
+    lua_pushstring(L, "__gc");
+    const bool finalizer = lua_rawget(L, 2) != LUA_TNIL;
+    lua_pop(L, 1);
+    if (finalizer) {
+      return luaL_error(L,
+                        "setmetatable: __gc finalizers are not available in scene scripts (they "
+                        "run outside the instruction budget)");
+    }
+  }
+  lua_pushvalue(L, lua_upvalueindex(1));
+  lua_insert(L, 1);
+  lua_call(L, lua_gettop(L) - 1, LUA_MULTRET);
+  return lua_gettop(L);
 }
 
 int ScriptSandbox::luaNoPatterns(lua_State* L) {
@@ -238,9 +263,10 @@ int ScriptSandbox::luaLoad(lua_State* L) {
 }
 
 int ScriptSandbox::luaPrint(lua_State* L) {
+  // Counted before the buffer, which takes a stack slot of its own.
+  const int n = lua_gettop(L);
   luaL_Buffer buffer;
   luaL_buffinit(L, &buffer);
-  const int n = lua_gettop(L);
   for (int i = 1; i <= n; ++i) {
     if (i > 1) luaL_addchar(&buffer, '\t');
     luaL_tolstring(L, i, nullptr);

@@ -9,6 +9,8 @@
 //     swallow it, and a memory cap enforced by the allocator;
 //   - Lua patterns (string.find/match/gmatch/gsub) are refused: their backtracking can run
 //     for hours inside one C call, where no budget can reach; plain string.find is allowed;
+//   - setmetatable refuses a __gc field: Lua runs finalizers with hooks off, out of the
+//     budget's reach;
 //   - math.random is seeded the same way every time, so a script is deterministic.
 // Every failure becomes an InputError naming the script (or module) and line; the host and
 // the sandbox stay usable afterwards.
@@ -37,6 +39,9 @@ struct ScriptLimits {
   std::size_t updateAllocationBytes = std::size_t{1} << 30;
   // What the binding itself allocates on the script's behalf (outside the Lua heap).
   long maxTriangles = 4'000'000;
+  // Each instance is an Embree geometry of its own, about 4 KB and a BVH build: 400,000 took
+  // 1.7 GB and 21 s to build, where 4 million triangles in one mesh take a fraction of that.
+  long maxInstances = 100'000;
   long maxTexturePixels = 16L << 20;
   std::uintmax_t maxSourceBytes = 1u << 20;  // a script or module file
 
@@ -87,6 +92,7 @@ class ScriptSandbox {
   static int luaPrint(lua_State* L);
   static int luaRandomSeed(lua_State* L);
   static int luaNoPatterns(lua_State* L);
+  static int luaSetMetatable(lua_State* L);
   static int luaPlainFind(lua_State* L);
   void recordWhere();
   // Pops the error at the top of the stack and throws it as an InputError.

@@ -2,11 +2,13 @@
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
+#include <assimp/DefaultIOSystem.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <assimp/Importer.hpp>
@@ -21,6 +23,7 @@
 #include "common/input_error.h"
 #include "tracer/model_animation_import.h"
 #include "tracer/scene_fixtures.h"
+#include "tracer/texture_image.h"
 
 namespace parallax {
 namespace {
@@ -32,6 +35,23 @@ std::string lower(std::string s) {
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
   return s;
 }
+
+// The files a model names (an OBJ's mtllib, a glTF's buffers, ...) are opened by assimp
+// itself: only regular ones, so that one naming a FIFO or a device cannot block the loader
+// (and the daemon's conductor with it) for ever.
+class RegularFilesOnly : public Assimp::DefaultIOSystem {
+ public:
+  using DefaultIOSystem::Exists;
+  using DefaultIOSystem::Open;
+  bool Exists(const char* file) const override {
+    struct stat st;
+    return ::stat(file, &st) == 0 && S_ISREG(st.st_mode);
+  }
+  Assimp::IOStream* Open(const char* file, const char* mode) override {
+    if (!Exists(file)) return nullptr;
+    return DefaultIOSystem::Open(file, mode);
+  }
+};
 
 Eigen::Matrix4d toEigen(const aiMatrix4x4& m) {
   Eigen::Matrix4d out;
@@ -70,8 +90,14 @@ bool decodeEmbedded(const aiTexture& embedded, Texture* out, std::string* error)
   }
   const OIIO::ImageSpec spec = input->spec();
   if (spec.width <= 0 || spec.height <= 0 || spec.width > 65536 || spec.height > 65536 ||
-      spec.nchannels <= 0) {
-    *error = "unsupported embedded image size";
+      spec.nchannels <= 0 || spec.nchannels > 4) {
+    *error = "unsupported embedded image size or channel count";
+    return false;
+  }
+  // A few compressed bytes can claim a huge picture: its size is checked before it is decoded.
+  if (static_cast<long>(spec.width) * spec.height > TextureImage::kMaxFilePixels) {
+    *error = fmt::format("{}x{} pixels, more than the {} a texture may have", spec.width,
+                         spec.height, TextureImage::kMaxFilePixels);
     return false;
   }
   std::vector<float> data(static_cast<size_t>(spec.width) * static_cast<size_t>(spec.height) *
@@ -140,6 +166,7 @@ ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& opt
   if (fs::file_size(path, ec) == 0)
     throw InputError({path, "", 0}, "the model file is empty (0 bytes)");
   Assimp::Importer importer;
+  importer.SetIOHandler(new RegularFilesOnly);  // the importer owns it
   // Drop points and lines (nothing a ray can hit); triangulate quads and polygons; make normals
   // where the file has none; reject NaN data; merge identical vertices so smooth normals smooth.
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE,

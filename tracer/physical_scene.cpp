@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -475,6 +476,7 @@ bool sameTexture(const Texture& a, const Texture& b) {
 void PhysicalScene::loadTextures(const Scene& scene, PhysicalScene* previous) {
   textures_.resize(scene.textures.size());
   textureSources_.resize(scene.textures.size());
+  long filePixels = 0;  // of the texture files loaded so far, against kMaxScenePixels
   for (size_t i = 0; i < scene.textures.size(); ++i) {
     const Texture& t = scene.textures[i];
     TextureSource& source = textureSources_[i];
@@ -495,6 +497,8 @@ void PhysicalScene::loadTextures(const Scene& scene, PhysicalScene* previous) {
       if (before.used && sameTexture(before.texture, t) && before.modified == source.modified &&
           before.size == source.size && i < previous->textures_.size()) {
         textures_[i] = std::move(previous->textures_[i]);
+        if (!t.path.empty() && before.failure.empty())
+          filePixels += static_cast<long>(textures_[i].width()) * textures_[i].height();
         previous->textureSources_[i].used = false;  // moved out: not there to take twice
         source.failure = before.failure;
         ++counters_.texturesReused;
@@ -513,7 +517,10 @@ void PhysicalScene::loadTextures(const Scene& scene, PhysicalScene* previous) {
       continue;
     }
     std::string error;
-    if (TextureImage::load(t.path, t.srgb, &textures_[i], &error)) {
+    const long budget =
+        std::min(TextureImage::kMaxFilePixels, TextureImage::kMaxScenePixels - filePixels);
+    if (TextureImage::load(t.path, t.srgb, budget, &textures_[i], &error)) {
+      filePixels += static_cast<long>(textures_[i].width()) * textures_[i].height();
       ++counters_.texturesLoaded;
     } else {
       ++counters_.texturesFailed;

@@ -2,6 +2,7 @@
 
 #include <OpenImageIO/imagebuf.h>
 #include <OpenImageIO/imagebufalgo.h>
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
@@ -37,19 +38,32 @@ TextureImage TextureImage::constant(const Rgb& color) {
   return TextureImage(1, 1, {color.x(), color.y(), color.z()});
 }
 
-bool TextureImage::load(const std::string& path, bool srgb, TextureImage* out, std::string* error) {
-  OIIO::ImageBuf source(path);
-  if (!source.read(0, 0, true, OIIO::TypeDesc::FLOAT)) {
-    *error = source.geterror();
-    if (error->empty()) *error = "cannot read the image";
+bool TextureImage::load(const std::string& path, bool srgb, long maxPixels, TextureImage* out,
+                        std::string* error) {
+  OIIO::ImageBuf source;
+  const auto failed = [&](const std::string& why) {
+    *error = why.empty() ? "cannot read the image" : why;
     return false;
+  };
+  // The header first: the size is checked before the pixels are allocated and decoded.
+  if (!source.init_spec(path, 0, 0)) return failed(source.geterror());
+  const OIIO::ImageSpec header = source.spec();
+  if (header.width <= 0 || header.height <= 0 || header.nchannels <= 0 || header.width > 65536 ||
+      header.height > 65536) {
+    return failed("unsupported image size or channel count");
   }
+  const long pixels = static_cast<long>(header.width) * header.height;
+  if (pixels > maxPixels) {
+    return failed(fmt::format(
+        "{}x{} is {} pixels, more than the {} left for it (at most {} a texture file, {} all of "
+        "a scene's together)",
+        header.width, header.height, pixels, maxPixels, kMaxFilePixels, kMaxScenePixels));
+  }
+  // Only the channels used (grey, or RGB; alpha and the rest are ignored) are read.
+  const int channels = header.nchannels >= 3 ? 3 : 1;
+  if (!source.read(0, 0, 0, channels, true, OIIO::TypeDesc::FLOAT))
+    return failed(source.geterror());
   const OIIO::ImageSpec& spec = source.spec();
-  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || spec.width > 65536 ||
-      spec.height > 65536) {
-    *error = "unsupported image size or channel count";
-    return false;
-  }
   const bool decode =
       srgb && (spec.format == OIIO::TypeDesc::UINT8 || spec.format == OIIO::TypeDesc::UINT16);
   std::vector<float> rgb(static_cast<size_t>(spec.width) * static_cast<size_t>(spec.height) * 3);

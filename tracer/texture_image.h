@@ -22,9 +22,16 @@ class TextureImage {
   TextureImage(int width, int height, std::vector<float> rgb);
   // A 1×1 texture of one colour (the fallback of a texture that failed to load).
   static TextureImage constant(const Rgb& color);
+  // The most pixels one texture file may have, and a scene's texture files together: a small
+  // compressed file can claim a huge picture, which costs 16 bytes a pixel here with its
+  // pyramid (and up to as much again while it is read).
+  static constexpr long kMaxFilePixels = 16L << 20;   // 4096 x 4096
+  static constexpr long kMaxScenePixels = 64L << 20;  // about 1 GiB
   // Reads through OpenImageIO; 8- and 16-bit files are sRGB-decoded when `srgb`. Returns false
-  // and fills `error` when the file cannot be read.
-  static bool load(const std::string& path, bool srgb, TextureImage* out, std::string* error);
+  // and fills `error` when the file cannot be read, or when its header says it has more than
+  // `maxPixels` pixels (checked before any pixel is read).
+  static bool load(const std::string& path, bool srgb, long maxPixels, TextureImage* out,
+                   std::string* error);
 
   int width() const { return levels_.empty() ? 0 : levels_[0].width; }
   int height() const { return levels_.empty() ? 0 : levels_[0].height; }

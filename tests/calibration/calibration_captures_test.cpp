@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
@@ -177,6 +178,70 @@ TEST(CalibrationCaptures, BadFoldersNameTheFileAndField) {
   }
   std::ofstream(dir / "camera.json") << camera;
   EXPECT_EQ(errorOf(dir.string()), "");
+  fs::remove_all(dir);
+}
+
+// CRC-32 as PNG chunks carry it (bitwise: a test needs no table).
+uint32_t pngCrc(const std::string& bytes) {
+  uint32_t crc = 0xffffffffu;
+  for (unsigned char b : bytes) {
+    crc ^= b;
+    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xedb88320u & (0u - (crc & 1u)));
+  }
+  return crc ^ 0xffffffffu;
+}
+
+std::string pngChunk(const std::string& type, const std::string& data) {
+  auto be32 = [](uint32_t v) {
+    return std::string{static_cast<char>(v >> 24), static_cast<char>(v >> 16),
+                       static_cast<char>(v >> 8), static_cast<char>(v)};
+  };
+  return be32(static_cast<uint32_t>(data.size())) + type + data + be32(pngCrc(type + data));
+}
+
+TEST(CalibrationCaptures, APictureIsSizedFromItsHeaderBeforeItIsDecoded) {
+  const Small s = small();
+  const fs::path dir = freshDir("plx-captures-header");
+  saveCaptures(s.captures, dir.string());
+  const fs::path picture = dir / "set000_c03.png";
+
+  // A PNG whose header claims 30000x30000 grey pixels (900 MB decoded) in a few bytes: named
+  // by its header's size, never handed to the decoder (which allocated the whole picture first
+  // and then said only that it could not read it).
+  const std::string ihdr{0, 0, 0x75, 0x30, 0, 0, 0x75, 0x30, 8, 0, 0, 0, 0};
+  {
+    std::ofstream(picture, std::ios::binary)
+        << std::string("\x89PNG\r\n\x1a\n", 8) + pngChunk("IHDR", ihdr) +
+               pngChunk("IDAT", std::string("\x78\x9c\x03\x00\x00\x00\x00\x01", 8)) +
+               pngChunk("IEND", "");
+  }
+  std::string error = errorOf(dir.string());
+  EXPECT_NE(error.find("set000_c03.png: is 30000x30000, the camera's pictures are 200x112"),
+            std::string::npos)
+      << error;
+
+  // A JPEG's size comes from its frame header: the right size is read, another one named.
+  const cv::Mat grey(112, 200, CV_8U, cv::Scalar(90));
+  std::vector<unsigned char> jpeg;
+  ASSERT_TRUE(cv::imencode(".jpg", grey, jpeg));
+  std::ofstream(picture, std::ios::binary)
+      .write(reinterpret_cast<const char*>(jpeg.data()), static_cast<std::streamsize>(jpeg.size()));
+  EXPECT_EQ(errorOf(dir.string()), "");
+  ASSERT_TRUE(cv::imencode(".jpg", cv::Mat(64, 80, CV_8U, cv::Scalar(90)), jpeg));
+  std::ofstream(picture, std::ios::binary)
+      .write(reinterpret_cast<const char*>(jpeg.data()), static_cast<std::streamsize>(jpeg.size()));
+  error = errorOf(dir.string());
+  EXPECT_NE(error.find("is 80x64"), std::string::npos) << error;
+
+  // Any other format is refused by name (a BMP of the right size included).
+  std::vector<unsigned char> bmp;
+  ASSERT_TRUE(cv::imencode(".bmp", grey, bmp));
+  std::ofstream(picture, std::ios::binary)
+      .write(reinterpret_cast<const char*>(bmp.data()), static_cast<std::streamsize>(bmp.size()));
+  error = errorOf(dir.string());
+  EXPECT_NE(error.find("set000_c03.png: cannot read the picture: not a PNG or JPEG file"),
+            std::string::npos)
+      << error;
   fs::remove_all(dir);
 }
 

@@ -71,6 +71,18 @@ INSTANTIATE_TEST_SUITE_P(
         Escape{"symlink out", R"(px.texture{path = "passwd_link"})",
                "leads outside the script's folder"},
         Escape{"endless loop", "while true do end", "instruction budget"},
+        // Lua runs finalizers with hooks off: this one would loop for ever at the next
+        // collection, out of the budget's reach.
+        Escape{"endless finalizer",
+               "setmetatable({}, {__gc = function() while true do end end}) local t = {} for i "
+               "= 1, 1e5 do t[i] = {} end",
+               "__gc finalizers are not available"},
+        // A __gc present when the metatable is set marks the table; refusing any value there
+        // keeps a function put in later from running.
+        Escape{"finalizer put in later",
+               "local mt = {__gc = true} setmetatable({}, mt) mt.__gc = function() while true do "
+               "end end",
+               "__gc finalizers are not available"},
         Escape{"endless loop in pcall", "while true do pcall(function() while true do end end) end",
                "instruction budget"},
         Escape{"memory bomb",
@@ -120,6 +132,52 @@ TEST(Sandbox, MetamethodsOnTheGlobalsDoNotReachTheHost) {
           "function update(t) end\nsetmetatable(_G, {__index = function() error(\"boom\") end})"),
       "g.lua", folder.path(), smallLimits());
   EXPECT_NO_THROW(script->setTime(1.0));
+}
+
+// Every object is an Embree instance of its own (about 4 KB and a BVH build each): their count
+// has a limit of its own, not the triangles' 4 million.
+TEST(Sandbox, ObjectsAreCountedAgainstTheirOwnLimit) {
+  TempFolder folder;
+  ScriptOptions options = smallLimits();
+  options.limits.maxInstances = 5;
+  // The prelude's box is the first object: four more fit.
+  EXPECT_EQ(loadError(withPrelude("local b = px.box{material = m}\n"
+                                  "for i = 1, 3 do px.instance(b, px.translate(i, 0, 0)) end"),
+                      folder.path(), options),
+            "");
+  const std::string instances =
+      loadError(withPrelude("local b = px.box{material = m}\n"
+                            "for i = 1, 4 do px.instance(b, px.translate(i, 0, 0)) end"),
+                folder.path(), options);
+  EXPECT_NE(instances.find("attempt.lua:4: px.instance: 6 objects would pass the scene's limit "
+                           "of 5"),
+            std::string::npos)
+      << instances;
+  const std::string shapes =
+      loadError(withPrelude("for i = 1, 5 do px.sphere{material = m} end"), folder.path(), options);
+  EXPECT_NE(shapes.find("attempt.lua:3: px.sphere: 6 objects would pass"), std::string::npos)
+      << shapes;
+}
+
+TEST(Sandbox, SetmetatableWithoutFinalizerStillWorks) {
+  TempFolder folder;
+  EXPECT_EQ(
+      loadError(withPrelude("local v = setmetatable({}, {__index = function() return 7 end})\n"
+                            "assert(v.anything == 7)"),
+                folder.path()),
+      "");
+}
+
+TEST(Sandbox, PrintWritesItsArgumentsOnly) {
+  TempFolder folder;
+  ScriptOptions options = smallLimits();
+  options.quiet = false;
+  ::testing::internal::CaptureStderr();
+  const std::string error = loadError(withPrelude("print(\"a\", 2)"), folder.path(), options);
+  const std::string printed = ::testing::internal::GetCapturedStderr();
+  EXPECT_EQ(error, "");
+  // The string buffer's own stack slot was once printed too ("a\t2\tuserdata: 0x...").
+  EXPECT_EQ(printed, "[script] a\t2\n");
 }
 
 TEST(Sandbox, PlainFindStillWorks) {

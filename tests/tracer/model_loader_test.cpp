@@ -4,10 +4,16 @@
 
 #include "tracer/model_loader.h"
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
+#include <atomic>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include "common/input_error.h"
 #include "tests/assimp_test_models.h"
@@ -152,6 +158,33 @@ TEST(ModelLoader, EmptyAndTruncatedFilesAreClearErrorsNotCrashes) {
       }
     }
   }
+  fs::remove_all(dir.parent_path());
+}
+
+// A model names other files (an OBJ its mtllib): assimp opens only regular ones, so a FIFO
+// there is passed over with assimp's warning instead of blocking the loader for ever (a helper
+// opens the FIFO's other end after 5 s to let a blocked load go, and the test then fails).
+TEST(ModelLoader, AFileTheModelNamesThatIsNotRegularIsNotOpened) {
+  const fs::path dir = scratch("fifo");
+  const fs::path fifo = dir / "blocking.mtl";
+  fs::remove(fifo);
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  { std::ofstream(dir / "tri.obj") << "mtllib blocking.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"; }
+  std::atomic<bool> done{false}, blocked{false};
+  std::thread unblock([&] {
+    for (int i = 0; i < 100 && !done; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    if (done) return;
+    blocked = true;
+    const int fd = ::open(fifo.c_str(), O_WRONLY | O_NONBLOCK);
+    if (fd >= 0) ::close(fd);
+  });
+  ModelLoadReport report;
+  const Scene scene = loadModelScene((dir / "tri.obj").string(), &report);
+  done = true;
+  unblock.join();
+  EXPECT_FALSE(blocked) << "the loader waited on the FIFO its model named";
+  EXPECT_EQ(scene.triangleCount(), 1);
   fs::remove_all(dir.parent_path());
 }
 

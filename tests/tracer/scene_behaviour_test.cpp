@@ -5,10 +5,14 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
 #include <limits>
 
 #include "common/input_error.h"
 #include "tests/tracer/tracer_test_util.h"
+#include "tracer/frame.h"
 #include "tracer/mesh_shapes.h"
 #include "tracer/scene_fixtures.h"
 #include "tracer/texture_image.h"
@@ -249,6 +253,63 @@ TEST(Textures, RenderedPixelsShowTheTexelColour) {
   EXPECT_GT(checked, 1000);
   EXPECT_GT(counters.textureLookups, 1000);
   EXPECT_EQ(physical.counters().texturesLoaded, 1);
+}
+
+// CRC-32 as PNG chunks carry it (bitwise: a test needs no table).
+uint32_t pngCrc(const std::string& bytes) {
+  uint32_t crc = 0xffffffffu;
+  for (unsigned char b : bytes) {
+    crc ^= b;
+    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xedb88320u & (0u - (crc & 1u)));
+  }
+  return crc ^ 0xffffffffu;
+}
+
+std::string pngChunk(const std::string& type, const std::string& data) {
+  auto be32 = [](uint32_t v) {
+    return std::string{static_cast<char>(v >> 24), static_cast<char>(v >> 16),
+                       static_cast<char>(v >> 8), static_cast<char>(v)};
+  };
+  return be32(static_cast<uint32_t>(data.size())) + type + data + be32(pngCrc(type + data));
+}
+
+// A texture file's size is checked from its header, before its pixels are allocated: a PNG of
+// a few bytes claiming 30000x30000 grey pixels (10.8 GB as the tracer's floats; a 782 KB
+// 16384x16384 one took 8 GB and 44 s to load before) is refused and named, the fallback used.
+TEST(Textures, AFileIsSizedFromItsHeaderBeforeItsPixelsAreRead) {
+  const std::string bomb = ::testing::TempDir() + "parallax_texture_bomb.png";
+  {
+    const std::string ihdr{0, 0, 0x75, 0x30, 0, 0, 0x75, 0x30, 8, 0, 0, 0, 0};
+    std::ofstream(bomb, std::ios::binary)
+        << std::string("\x89PNG\r\n\x1a\n", 8) + pngChunk("IHDR", ihdr) +
+               pngChunk("IDAT", std::string("\x78\x9c\x03\x00\x00\x00\x00\x01", 8)) +
+               pngChunk("IEND", "");
+  }
+  TextureImage image;
+  std::string error;
+  EXPECT_FALSE(TextureImage::load(bomb, true, TextureImage::kMaxFilePixels, &image, &error));
+  EXPECT_NE(error.find("30000x30000 is 900000000 pixels"), std::string::npos) << error;
+
+  Scene scene;
+  const int tex = scene.addTextureFile(bomb, Rgb(0.25f, 0.5f, 0.75f));
+  scene.addMaterial(Material::makeEmissive(Rgb::Ones(), tex));
+  scene.addMesh(makeGrid(2, 2, 1, 1));
+  scene.worldBox = Box3{Eigen::Vector3d::Constant(-1), Eigen::Vector3d::Constant(1)};
+  const PhysicalScene physical(scene, smallDisplay(1, 32, 24).displayableBox);
+  EXPECT_EQ(physical.counters().texturesFailed, 1);
+  ASSERT_FALSE(physical.warnings().empty());
+  EXPECT_NE(physical.warnings()[0].find(bomb + ": 30000x30000"), std::string::npos)
+      << physical.warnings()[0];
+  std::filesystem::remove(bomb);
+
+  // The limit holds exactly: an 8x4 picture loads within 32 pixels, not within 31.
+  const std::string small = ::testing::TempDir() + "parallax_texture_8x4.png";
+  writePng(Frame(8, 4), small);
+  EXPECT_TRUE(TextureImage::load(small, true, 32, &image, &error)) << error;
+  EXPECT_EQ(image.width(), 8);
+  EXPECT_FALSE(TextureImage::load(small, true, 31, &image, &error));
+  EXPECT_NE(error.find("8x4 is 32 pixels"), std::string::npos) << error;
+  std::filesystem::remove(small);
 }
 
 // Counters: a diffuse scene without lights traces primary rays only and loads no textures.

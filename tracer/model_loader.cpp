@@ -15,6 +15,7 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 #include <map>
 #include <set>
@@ -22,6 +23,7 @@
 #include "calibration/display/srgb_transfer.h"
 #include "common/input_error.h"
 #include "tracer/model_animation_import.h"
+#include "tracer/ply_header_check.h"
 #include "tracer/scene_fixtures.h"
 #include "tracer/texture_image.h"
 
@@ -165,6 +167,15 @@ ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& opt
   if (!fs::is_regular_file(path, ec)) throw InputError({path, "", 0}, "no such model file");
   if (fs::file_size(path, ec) == 0)
     throw InputError({path, "", 0}, "the model file is empty (0 bytes)");
+  {
+    // The header is all the check needs: the first 64 KiB (a header longer than that is left
+    // to assimp).
+    std::string head(64 << 10, '\0');
+    std::ifstream in(path, std::ios::binary);
+    in.read(head.data(), static_cast<std::streamsize>(head.size()));
+    head.resize(static_cast<size_t>(in.gcount()));
+    requirePlyCountsFit(path, head, static_cast<double>(fs::file_size(path, ec)));
+  }
   Assimp::Importer importer;
   importer.SetIOHandler(new RegularFilesOnly);  // the importer owns it
   // Drop points and lines (nothing a ray can hit); triangulate quads and polygons; make normals

@@ -188,6 +188,38 @@ TEST(ModelLoader, AFileTheModelNamesThatIsNotRegularIsNotOpened) {
   fs::remove_all(dir.parent_path());
 }
 
+// A PLY header's element counts are believed by assimp, which reserved and looped for them: 300
+// million vertices promised in a few hundred bytes took more than 120 s and 3.6 GB. Counts the
+// file cannot hold are refused at once, naming the element; real PLY files still load.
+TEST(ModelLoader, APlyHeaderPromisingMoreThanTheFileHoldsIsRefused) {
+  const fs::path dir = scratch("ply");
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 300000000\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  { std::ofstream(dir / "liar.ply") << header << "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"; }
+  try {
+    loadModelScene((dir / "liar.ply").string());
+    FAIL() << "the promised counts were believed";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.location().field, "element vertex") << e.what();
+    EXPECT_NE(std::string(e.what()).find("liar.ply"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("promises 300000000"), std::string::npos) << e.what();
+  }
+  // Exactly what the header says, the last line without its newline: read.
+  {
+    std::ofstream(dir / "exact.ply")
+        << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+           "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+           "0 0 0\n1 0 0\n0 1 0\n3 0 1 2";
+  }
+  EXPECT_EQ(loadModelScene((dir / "exact.ply").string()).triangleCount(), 1);
+  if (fs::exists(models() / "PLY" / "cube_binary.ply")) {
+    EXPECT_EQ(loadModelScene((models() / "PLY" / "cube_binary.ply").string()).triangleCount(), 12);
+    EXPECT_EQ(loadModelScene((models() / "PLY" / "cube.ply").string()).triangleCount(), 12);
+  }
+  fs::remove_all(dir.parent_path());
+}
+
 TEST(ModelLoader, WindowsPathsResolveCaseInsensitively) {
   const fs::path dir = scratch("paths");
   fs::create_directories(dir / "Textures");

@@ -32,6 +32,15 @@ bool validModuleName(const char* name, std::size_t length) {
   return true;
 }
 
+// The end of a checking wrapper: calls the library function it wraps (its upvalue 1) with the
+// wrapper's arguments and returns what that returns.
+int callWrapped(lua_State* L) {
+  lua_pushvalue(L, lua_upvalueindex(1));
+  lua_insert(L, 1);
+  lua_call(L, lua_gettop(L) - 1, LUA_MULTRET);
+  return lua_gettop(L);
+}
+
 }  // namespace
 
 void ScriptLimits::validate() const {
@@ -211,10 +220,7 @@ int ScriptSandbox::luaSetMetatable(lua_State* L) {
                         "run outside the instruction budget)");
     }
   }
-  lua_pushvalue(L, lua_upvalueindex(1));
-  lua_insert(L, 1);
-  lua_call(L, lua_gettop(L) - 1, LUA_MULTRET);
-  return lua_gettop(L);
+  return callWrapped(L);
 }
 
 int ScriptSandbox::luaNoPatterns(lua_State* L) {
@@ -232,10 +238,7 @@ int ScriptSandbox::luaPlainFind(lua_State* L) {
                       "cannot be bounded); "
                       "pass true as the fourth argument");
   }
-  lua_pushvalue(L, lua_upvalueindex(1));
-  lua_insert(L, 1);
-  lua_call(L, lua_gettop(L) - 1, LUA_MULTRET);
-  return lua_gettop(L);
+  return callWrapped(L);
 }
 
 int ScriptSandbox::luaLoad(lua_State* L) {

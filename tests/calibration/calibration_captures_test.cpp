@@ -15,6 +15,7 @@
 #include "calibration/simulation/ground_truth.h"
 #include "calibration/simulation/simulated_session.h"
 #include "common/input_error.h"
+#include "tests/png_header_bomb.h"
 
 namespace parallax {
 namespace {
@@ -181,24 +182,6 @@ TEST(CalibrationCaptures, BadFoldersNameTheFileAndField) {
   fs::remove_all(dir);
 }
 
-// CRC-32 as PNG chunks carry it (bitwise: a test needs no table).
-uint32_t pngCrc(const std::string& bytes) {
-  uint32_t crc = 0xffffffffu;
-  for (unsigned char b : bytes) {
-    crc ^= b;
-    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xedb88320u & (0u - (crc & 1u)));
-  }
-  return crc ^ 0xffffffffu;
-}
-
-std::string pngChunk(const std::string& type, const std::string& data) {
-  auto be32 = [](uint32_t v) {
-    return std::string{static_cast<char>(v >> 24), static_cast<char>(v >> 16),
-                       static_cast<char>(v >> 8), static_cast<char>(v)};
-  };
-  return be32(static_cast<uint32_t>(data.size())) + type + data + be32(pngCrc(type + data));
-}
-
 TEST(CalibrationCaptures, APictureIsSizedFromItsHeaderBeforeItIsDecoded) {
   const Small s = small();
   const fs::path dir = freshDir("plx-captures-header");
@@ -208,13 +191,7 @@ TEST(CalibrationCaptures, APictureIsSizedFromItsHeaderBeforeItIsDecoded) {
   // A PNG whose header claims 30000x30000 grey pixels (900 MB decoded) in a few bytes: named
   // by its header's size, never handed to the decoder (which allocated the whole picture first
   // and then said only that it could not read it).
-  const std::string ihdr{0, 0, 0x75, 0x30, 0, 0, 0x75, 0x30, 8, 0, 0, 0, 0};
-  {
-    std::ofstream(picture, std::ios::binary)
-        << std::string("\x89PNG\r\n\x1a\n", 8) + pngChunk("IHDR", ihdr) +
-               pngChunk("IDAT", std::string("\x78\x9c\x03\x00\x00\x00\x00\x01", 8)) +
-               pngChunk("IEND", "");
-  }
+  writePngClaiming30000Squared(picture.string());
   std::string error = errorOf(dir.string());
   EXPECT_NE(error.find("set000_c03.png: is 30000x30000, the camera's pictures are 200x112"),
             std::string::npos)

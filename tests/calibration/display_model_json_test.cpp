@@ -148,42 +148,41 @@ INSTANTIATE_TEST_SUITE_P(
                  "screen.curvature", "outside the physical range"}),
     [](const ::testing::TestParamInfo<BadInput>& p) { return p.param.name; });
 
-TEST(DisplayModelJson, SyntaxErrorsNameTheFileAndLine) {
-  const std::string path = temporaryPath("broken.json");
-  {
-    std::ofstream out(path);
-    out << "{\n  \"format\": \"parallax-display\",\n  \"version\": 1,\n  \"screen\": {,\n}\n";
-  }
+// Loads `text` as a display file named `name`: the error it raises, which names the file.
+std::string loadErrorOf(const std::string& name, const std::string& text, int* line) {
+  const std::string path = temporaryPath(name);
+  std::ofstream(path) << text;
+  std::string what = "(loaded without an error)";
   try {
     loadDisplayModel(path);
-    FAIL();
   } catch (const InputError& e) {
     EXPECT_EQ(e.location().file, path);
-    EXPECT_EQ(e.location().line, 4) << e.what();
+    *line = e.location().line;
+    what = e.what();
   }
   std::filesystem::remove(path);
+  return what;
+}
+
+TEST(DisplayModelJson, SyntaxErrorsNameTheFileAndLine) {
+  int line = 0;
+  const std::string what = loadErrorOf(
+      "broken.json",
+      "{\n  \"format\": \"parallax-display\",\n  \"version\": 1,\n  \"screen\": {,\n}\n", &line);
+  EXPECT_EQ(line, 4) << what;
 }
 
 // A number beyond a double is refused by the parser as out of range, not as a syntax error:
 // it once escaped as "[json.exception.out_of_range.406] number overflow parsing '1e400'",
 // without the file.
 TEST(DisplayModelJson, ANumberBeyondADoubleNamesTheFileAndLine) {
-  const std::string path = temporaryPath("overflow.json");
-  {
-    std::ofstream out(path);
-    out << "{\n  \"format\": \"parallax-display\",\n  \"version\": 1,\n  \"screen\": {\"width\": "
-           "1e400}\n}\n";
-  }
-  try {
-    loadDisplayModel(path);
-    FAIL();
-  } catch (const InputError& e) {
-    EXPECT_EQ(e.location().file, path);
-    EXPECT_EQ(e.location().line, 4) << e.what();
-    EXPECT_NE(std::string(e.what()).find("number overflow parsing '1e400'"), std::string::npos)
-        << e.what();
-  }
-  std::filesystem::remove(path);
+  int line = 0;
+  const std::string what = loadErrorOf("overflow.json",
+                                       "{\n  \"format\": \"parallax-display\",\n  \"version\": "
+                                       "1,\n  \"screen\": {\"width\": 1e400}\n}\n",
+                                       &line);
+  EXPECT_EQ(line, 4) << what;
+  EXPECT_NE(what.find("number overflow parsing '1e400'"), std::string::npos) << what;
 }
 
 TEST(DisplayModelJson, FieldErrorsFromAFileNameTheFile) {

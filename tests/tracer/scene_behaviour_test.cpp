@@ -11,6 +11,7 @@
 #include <limits>
 
 #include "common/input_error.h"
+#include "tests/png_header_bomb.h"
 #include "tests/tracer/tracer_test_util.h"
 #include "tracer/frame.h"
 #include "tracer/mesh_shapes.h"
@@ -255,36 +256,12 @@ TEST(Textures, RenderedPixelsShowTheTexelColour) {
   EXPECT_EQ(physical.counters().texturesLoaded, 1);
 }
 
-// CRC-32 as PNG chunks carry it (bitwise: a test needs no table).
-uint32_t pngCrc(const std::string& bytes) {
-  uint32_t crc = 0xffffffffu;
-  for (unsigned char b : bytes) {
-    crc ^= b;
-    for (int k = 0; k < 8; ++k) crc = (crc >> 1) ^ (0xedb88320u & (0u - (crc & 1u)));
-  }
-  return crc ^ 0xffffffffu;
-}
-
-std::string pngChunk(const std::string& type, const std::string& data) {
-  auto be32 = [](uint32_t v) {
-    return std::string{static_cast<char>(v >> 24), static_cast<char>(v >> 16),
-                       static_cast<char>(v >> 8), static_cast<char>(v)};
-  };
-  return be32(static_cast<uint32_t>(data.size())) + type + data + be32(pngCrc(type + data));
-}
-
 // A texture file's size is checked from its header, before its pixels are allocated: a PNG of
 // a few bytes claiming 30000x30000 grey pixels (10.8 GB as the tracer's floats; a 782 KB
 // 16384x16384 one took 8 GB and 44 s to load before) is refused and named, the fallback used.
 TEST(Textures, AFileIsSizedFromItsHeaderBeforeItsPixelsAreRead) {
   const std::string bomb = ::testing::TempDir() + "parallax_texture_bomb.png";
-  {
-    const std::string ihdr{0, 0, 0x75, 0x30, 0, 0, 0x75, 0x30, 8, 0, 0, 0, 0};
-    std::ofstream(bomb, std::ios::binary)
-        << std::string("\x89PNG\r\n\x1a\n", 8) + pngChunk("IHDR", ihdr) +
-               pngChunk("IDAT", std::string("\x78\x9c\x03\x00\x00\x00\x00\x01", 8)) +
-               pngChunk("IEND", "");
-  }
+  writePngClaiming30000Squared(bomb);
   TextureImage image;
   std::string error;
   EXPECT_FALSE(TextureImage::load(bomb, true, TextureImage::kMaxFilePixels, &image, &error));

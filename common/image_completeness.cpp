@@ -12,12 +12,15 @@ namespace {
 
 constexpr std::string_view kPngSignature("\x89PNG\r\n\x1a\n", 8);
 
-uint32_t bigEndian32(std::string_view bytes, size_t at) {
-  const auto b = [&](size_t i) {
-    return static_cast<uint32_t>(static_cast<uint8_t>(bytes[at + i]));
-  };
-  return b(0) << 24 | b(1) << 16 | b(2) << 8 | b(3);
+// The `count`-byte big-endian number at `at` (PNG and JPEG store theirs so).
+uint32_t bigEndian(std::string_view bytes, size_t at, int count) {
+  uint32_t value = 0;
+  for (int i = 0; i < count; ++i)
+    value = value << 8 | static_cast<uint8_t>(bytes[at + static_cast<size_t>(i)]);
+  return value;
 }
+
+uint32_t bigEndian32(std::string_view bytes, size_t at) { return bigEndian(bytes, at, 4); }
 
 void requireCompletePng(const std::string& path, std::string_view bytes) {
   const auto fail = [&](const std::string& why) { throw InputError({path, "", 0}, why); };
@@ -44,6 +47,44 @@ void requireCompletePng(const std::string& path, std::string_view bytes) {
 }
 
 }  // namespace
+
+bool imageHeaderSize(std::string_view bytes, uint32_t* width, uint32_t* height) {
+  // PNG: IHDR is the first chunk (its CRC is requireCompleteImage's to check).
+  if (bytes.size() >= 24 && bytes.substr(0, kPngSignature.size()) == kPngSignature &&
+      bytes.substr(12, 4) == "IHDR") {
+    *width = bigEndian32(bytes, 16);
+    *height = bigEndian32(bytes, 20);
+    return true;
+  }
+  if (bytes.size() < 4 || bytes.substr(0, 2) != "\xff\xd8") return false;
+  // JPEG: walk the marker segments up to the frame header (SOF0..SOF15 but DHT, JPG, DAC).
+  size_t at = 2;
+  while (at + 4 <= bytes.size()) {
+    if (static_cast<uint8_t>(bytes[at]) != 0xff) return false;
+    const uint8_t marker = static_cast<uint8_t>(bytes[at + 1]);
+    if (marker == 0xff) {  // fill byte
+      ++at;
+      continue;
+    }
+    if (marker == 0x01 || (marker >= 0xd0 && marker <= 0xd7)) {  // no length field
+      at += 2;
+      continue;
+    }
+    if (marker == 0xd9 || marker == 0xda) return false;  // end or scan before any frame
+    const uint32_t length = bigEndian(bytes, at + 2, 2);
+    const bool frame =
+        marker >= 0xc0 && marker <= 0xcf && marker != 0xc4 && marker != 0xc8 && marker != 0xcc;
+    if (frame) {
+      if (length < 7 || at + 9 > bytes.size()) return false;
+      *height = bigEndian(bytes, at + 5, 2);
+      *width = bigEndian(bytes, at + 7, 2);
+      return true;
+    }
+    if (length < 2) return false;
+    at += 2 + length;
+  }
+  return false;
+}
 
 void requireCompleteImage(const std::string& path, std::string_view bytes) {
   if (bytes.substr(0, kPngSignature.size()) == kPngSignature) {

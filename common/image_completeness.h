@@ -4,6 +4,7 @@
 // error we give. Checking the container first turns a truncated or damaged PNG or JPEG into
 // one InputError naming the file and the byte where it goes wrong, before any decoder sees it.
 
+#include <cstdint>
 #include <string>
 #include <string_view>
 
@@ -13,5 +14,11 @@ namespace parallax {
 // CRC, to an IEND chunk, or a JPEG that does not end with its end-of-image marker. Other
 // formats are left to their decoder.
 void requireCompleteImage(const std::string& path, std::string_view bytes);
+
+// The size a PNG or JPEG says it has, read from its header (the PNG's IHDR, the JPEG's frame
+// header) before anything is decoded: a few kilobytes of zlib can claim 30000x30000 pixels,
+// which a decoder would allocate (a GiB) before anyone checks the size. False for any other
+// format, or a JPEG with no frame header before its first scan.
+bool imageHeaderSize(std::string_view bytes, uint32_t* width, uint32_t* height);
 
 }  // namespace parallax

@@ -165,8 +165,8 @@ ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& opt
                             ModelAnimation* animation) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw InputError({path, "", 0}, "no such model file");
-  if (fs::file_size(path, ec) == 0)
-    throw InputError({path, "", 0}, "the model file is empty (0 bytes)");
+  const std::uintmax_t fileSize = fs::file_size(path, ec);
+  if (fileSize == 0) throw InputError({path, "", 0}, "the model file is empty (0 bytes)");
   {
     // The header is all the check needs: the first 64 KiB (a header longer than that is left
     // to assimp).
@@ -174,7 +174,7 @@ ModelLoadReport appendModel(const std::string& path, const ModelLoadOptions& opt
     std::ifstream in(path, std::ios::binary);
     in.read(head.data(), static_cast<std::streamsize>(head.size()));
     head.resize(static_cast<size_t>(in.gcount()));
-    requirePlyCountsFit(path, head, static_cast<double>(fs::file_size(path, ec)));
+    requirePlyCountsFit(path, head, static_cast<double>(fileSize));
   }
   Assimp::Importer importer;
   importer.SetIOHandler(new RegularFilesOnly);  // the importer owns it

@@ -30,8 +30,7 @@ struct Element {
 
 }  // namespace
 
-void requirePlyCountsFit(const std::string& path, std::string_view head, double fileSize) {
-  const std::string_view& bytes = head;
+void requirePlyCountsFit(const std::string& path, std::string_view bytes, double fileSize) {
   if (bytes.substr(0, 4) != "ply\n" && bytes.substr(0, 5) != "ply\r\n") return;
   const size_t end = bytes.find("end_header");
   if (end == std::string_view::npos) return;  // assimp says what is wrong with it

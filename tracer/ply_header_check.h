@@ -8,10 +8,10 @@
 
 namespace parallax {
 
-// Throws InputError({path, "element NAME"}) when `head` (the file's first bytes, its header
+// Throws InputError({path, "element NAME"}) when `bytes` (the file's first bytes, its header
 // whole) is a PLY header promising more elements than a file of `fileSize` bytes could hold
 // after it (each ASCII value needs at least two bytes, each binary one its type's size).
 // Anything that is not a PLY header, or not all of one, is left to assimp.
-void requirePlyCountsFit(const std::string& path, std::string_view head, double fileSize);
+void requirePlyCountsFit(const std::string& path, std::string_view bytes, double fileSize);
 
 }  // namespace parallax

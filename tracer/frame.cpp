@@ -110,10 +110,13 @@ const SrgbEncoder& srgbEncoder() {
 
 std::vector<std::uint8_t> Frame::toSrgb8() const {
   std::vector<std::uint8_t> out(pixels.size() * 3);
-  static_assert(sizeof(Rgb) == 3 * sizeof(float), "Rgb must be 3 packed floats");
-  if (!pixels.empty())
-    encodeSrgbChannels(pixels.front().data(), out.size(), srgbEncoder().table(), out.data());
+  if (!pixels.empty()) encodeSrgb8(pixels.data(), pixels.size(), out.data());
   return out;
+}
+
+void encodeSrgb8(const Rgb* pixels, size_t count, std::uint8_t* out) {
+  static_assert(sizeof(Rgb) == 3 * sizeof(float), "Rgb must be 3 packed floats");
+  if (count > 0) encodeSrgbChannels(pixels->data(), 3 * count, srgbEncoder().table(), out);
 }
 
 namespace {

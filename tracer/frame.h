@@ -32,6 +32,9 @@ struct Frame {
   std::vector<std::uint8_t> toSrgb8() const;
 };
 
+// The bytes toSrgb8 gives `count` pixels (3 a pixel into `out`): a part of a frame.
+void encodeSrgb8(const Rgb* pixels, size_t count, std::uint8_t* out);
+
 std::uint8_t srgb8FromLinear(float linear);
 
 // What a module shows of 8-bit sRGB bytes (RGB RGB ..., row-major), back in linear light.

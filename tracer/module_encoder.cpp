@@ -274,8 +274,19 @@ bool cpuHasAvx2() {
 std::vector<std::uint8_t> ModuleEncoder::encode(const Frame& frame) const {
   PARALLAX_CHECK_OP(frame.width, ==, width_);
   PARALLAX_CHECK_OP(frame.height, ==, height_);
-  static_assert(sizeof(Rgb) == 3 * sizeof(float), "Rgb must be 3 packed floats");
   std::vector<std::uint8_t> out(frame.pixels.size() * 3);
+  for (int y = 0; y < height_; ++y)
+    encodeRow(frame, y, 0, width_,
+              out.data() + static_cast<size_t>(y) * static_cast<size_t>(width_) * 3);
+  return out;
+}
+
+void ModuleEncoder::encodeRow(const Frame& frame, int y, int begin, int end,
+                              std::uint8_t* rowBytes) const {
+  PARALLAX_CHECK_OP(frame.width, ==, width_);
+  PARALLAX_CHECK_OP(frame.height, ==, height_);
+  PARALLAX_CHECK(y >= 0 && y < height_ && begin >= 0 && begin <= end && end <= width_);
+  static_assert(sizeof(Rgb) == 3 * sizeof(float), "Rgb must be 3 packed floats");
   KernelConstants k;
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c) k.matrix[r][c] = correction_.driveFromContent(r, c);
@@ -292,38 +303,36 @@ std::vector<std::uint8_t> ModuleEncoder::encode(const Frame& frame) const {
 
   alignas(32) float drive[3][kBlock];
   alignas(32) std::int32_t bin[3][kBlock];
-  for (int y = 0; y < height_; ++y) {
-    const RowGain g = rowGain(y);
-    const float* in = frame.pixels[static_cast<size_t>(y) * static_cast<size_t>(width_)].data();
-    std::uint8_t* bytes = out.data() + static_cast<size_t>(y) * static_cast<size_t>(width_) * 3;
-    for (int x0 = 0; x0 < width_; x0 += kBlock) {
-      const int n = std::min(kBlock, width_ - x0);
-      const float *above = g.above + x0, *below = g.below + x0;
-      int j = avx2 ? kernelAvx2(k, in + 3 * x0, above, below, g.fraction, n, drive, bin)
-                   : kernelSse2(k, in + 3 * x0, above, below, g.fraction, 0, n, drive, bin);
-      for (; j < n; ++j) {
-        float d[3];
-        driveOf(frame.at(x0 + j, y), g.at(x0 + j), d);
-        for (int c = 0; c < 3; ++c) {
-          drive[c][j] = d[c];
-          bin[c][j] = static_cast<std::int32_t>(bitsOf(d[c]) >> shift_) + k.binBase[c];
-        }
-      }
-      // The code at the bin's lowest drive, one step up if the drive passed the next code's
-      // threshold inside the bin.
-      std::uint8_t* o = bytes + 3 * x0;
-      for (int i = 0; i < n; ++i) {
-        // Written out per channel: GCC keeps a three-step inner loop otherwise.
-        const int red = codes[bin[0][i]], green = codes[bin[1][i]], blue = codes[bin[2][i]];
-        o[3 * i + 0] = static_cast<std::uint8_t>(red + (drive[0][i] >= thresholds[red + 1]));
-        o[3 * i + 1] =
-            static_cast<std::uint8_t>(green + (drive[1][i] >= thresholds[kStride + green + 1]));
-        o[3 * i + 2] =
-            static_cast<std::uint8_t>(blue + (drive[2][i] >= thresholds[2 * kStride + blue + 1]));
+  const RowGain g = rowGain(y);
+  const float* in = frame.pixels[static_cast<size_t>(y) * static_cast<size_t>(width_)].data();
+  // A pixel's bytes depend on its value and its column's gain only, so a row's blocks may start
+  // at any column.
+  for (int x0 = begin; x0 < end; x0 += kBlock) {
+    const int n = std::min(kBlock, end - x0);
+    const float *above = g.above + x0, *below = g.below + x0;
+    int j = avx2 ? kernelAvx2(k, in + 3 * x0, above, below, g.fraction, n, drive, bin)
+                 : kernelSse2(k, in + 3 * x0, above, below, g.fraction, 0, n, drive, bin);
+    for (; j < n; ++j) {
+      float d[3];
+      driveOf(frame.at(x0 + j, y), g.at(x0 + j), d);
+      for (int c = 0; c < 3; ++c) {
+        drive[c][j] = d[c];
+        bin[c][j] = static_cast<std::int32_t>(bitsOf(d[c]) >> shift_) + k.binBase[c];
       }
     }
+    // The code at the bin's lowest drive, one step up if the drive passed the next code's
+    // threshold inside the bin.
+    std::uint8_t* o = rowBytes + 3 * x0;
+    for (int i = 0; i < n; ++i) {
+      // Written out per channel: GCC keeps a three-step inner loop otherwise.
+      const int red = codes[bin[0][i]], green = codes[bin[1][i]], blue = codes[bin[2][i]];
+      o[3 * i + 0] = static_cast<std::uint8_t>(red + (drive[0][i] >= thresholds[red + 1]));
+      o[3 * i + 1] =
+          static_cast<std::uint8_t>(green + (drive[1][i] >= thresholds[kStride + green + 1]));
+      o[3 * i + 2] =
+          static_cast<std::uint8_t>(blue + (drive[2][i] >= thresholds[2 * kStride + blue + 1]));
+    }
   }
-  return out;
 }
 
 Frame ModuleEncoder::decode(const std::vector<std::uint8_t>& bytes) const {

@@ -27,6 +27,9 @@ class ModuleEncoder {
 
   // RGB RGB ... row-major, the bytes the module is sent. CHECKs the frame's size.
   std::vector<std::uint8_t> encode(const Frame& frame) const;
+  // Row y's columns [begin, end) into `rowBytes` (the row's first byte, 3 a pixel): the bytes
+  // encode() gives them (a frame rendered only inside its scene's footprint).
+  void encodeRow(const Frame& frame, int y, int begin, int end, std::uint8_t* rowBytes) const;
 
   // The same bytes by the definition (nearest code by search, no tables): the test's reference.
   std::vector<std::uint8_t> encodeReference(const Frame& frame) const;

@@ -106,7 +106,8 @@ class TileRenderer {
  public:
   TileRenderer(const PhysicalScene& scene, const RayTextures& textures,
                const RenderOptions& options, int depth, Frame* frame, RayLog* log,
-               TileBuffers* buffers, const StaticVisibilityView* cache)
+               TileBuffers* buffers, const StaticVisibilityView* cache,
+               const SceneFootprint* footprint)
       : scene_(scene),
         textures_(textures),
         options_(options),
@@ -127,7 +128,8 @@ class TileRenderer {
         cachedHits_(buffers->cachedHits),
         primaryLights_(buffers->primaryLights),
         primaryStaged_(buffers->primary),
-        cache_(cache) {}
+        cache_(cache),
+        footprint_(footprint) {}
 
   void render(int x0, int x1, int y0, int y1, RenderCounters* c);
 
@@ -183,6 +185,8 @@ class TileRenderer {
   // The frame cache: null without one; build mode fills it from the static scene, else the
   // first generation reads it and traces against the dynamic instances only.
   const StaticVisibilityView* cache_;
+  // Only the pixels inside it are written (null: every pixel).
+  const SceneFootprint* footprint_;
 };
 
 // o and s − o of a compact ray. A flat screen (the common case) needs no sag and its square root.
@@ -228,7 +232,9 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
   // the rest of the row is black, as the kernel would write it, without reading its rays.
   constexpr size_t kLine = 64;
   const auto liveColumns = [&](int row) {
-    const auto [first, last] = textures_.unmaskedColumns(row);
+    const auto [first, last] = footprint_
+                                   ? std::pair{footprint_->row(row).begin, footprint_->row(row).end}
+                                   : textures_.unmaskedColumns(row);
     const int begin = std::clamp(first, x0, x1);
     return std::pair<int, int>{begin, std::clamp(last, begin, x1)};
   };
@@ -268,12 +274,22 @@ void TileRenderer::initialRays(int x0, int x1, int y0, int y1, RenderCounters* c
   for (int row = y0; row < y1; ++row) {
     const auto [begin, end] = liveColumns(row);
     Rgb* line = &frame_->at(0, row);
-    // Masked pixels are black: +0.0f is all zero bits, so memset writes them as whole vectors
-    // where std::fill stored each 12-byte Rgb as two moves (3-5% of initialRays on demo).
-    static_assert(sizeof(Rgb) == 3 * sizeof(float));
-    std::memset(static_cast<void*>(line + x0), 0, sizeof(Rgb) * static_cast<size_t>(begin - x0));
-    std::memset(static_cast<void*>(line + end), 0, sizeof(Rgb) * static_cast<size_t>(x1 - end));
-    c->masked += (begin - x0) + (x1 - end);
+    if (footprint_) {
+      // Outside the footprint nothing is written; its pixels are counted once, by the row's
+      // first tile.
+      if (x0 == 0) {
+        c->masked += footprint_->row(row).masked;
+        c->missedBounds += footprint_->row(row).missed;
+        c->outsideFootprint += footprint_->row(row).masked + footprint_->row(row).missed;
+      }
+    } else {
+      // Masked pixels are black: +0.0f is all zero bits, so memset writes them as whole vectors
+      // where std::fill stored each 12-byte Rgb as two moves (3-5% of initialRays on demo).
+      static_assert(sizeof(Rgb) == 3 * sizeof(float));
+      std::memset(static_cast<void*>(line + x0), 0, sizeof(Rgb) * static_cast<size_t>(begin - x0));
+      std::memset(static_cast<void*>(line + end), 0, sizeof(Rgb) * static_cast<size_t>(x1 - end));
+      c->masked += (begin - x0) + (x1 - end);
+    }
     if (begin == end) continue;
     job.count = end - begin;
     job.rays = &textures_.at(begin, row);
@@ -910,6 +926,7 @@ RenderCounters& RenderCounters::operator+=(const RenderCounters& o) {
   pruned += o.pruned;
   glassShadowHits += o.glassShadowHits;
   shadowPassedBounds += o.shadowPassedBounds;
+  outsideFootprint += o.outsideFootprint;
   textureLookups += o.textureLookups;
   cache += o.cache;
   deepest = std::max(deepest, o.deepest);
@@ -931,6 +948,22 @@ std::vector<std::string> RenderCounters::lines() const {
                   glassShadowHits),
       fmt::format("  shadow rays not traced: {} pass every object's bounds", shadowPassedBounds),
   };
+  if (outsideFootprint > 0) {
+    out.push_back(fmt::format(
+        "  pixels outside the scene's footprint (neither read nor written, their bytes kept from "
+        "before): {}",
+        outsideFootprint));
+  }
+  double phaseTotal = 0.0;
+  for (double ms : phaseThreadMs) phaseTotal += ms;
+  if (phaseTotal > 0.0) {
+    std::string split = fmt::format("  thread time {:.0f} ms:", phaseTotal);
+    for (int i = 0; i < kRenderPhases; ++i) {
+      split += fmt::format(" {} {:.0f}{}", renderPhaseName(static_cast<RenderPhase>(i)),
+                           phaseThreadMs[i], i + 1 < kRenderPhases ? "," : "");
+    }
+    out.push_back(split);
+  }
   if (cache.pixelsReused + cache.primaryDynamicOnly > 0) {
     out.push_back(fmt::format(
         "  frame cache: {} primary hits reused ({} primary rays traced against the dynamic "
@@ -947,7 +980,8 @@ namespace {
 
 void renderTiles(const PhysicalScene& scene, const RayTextures& textures,
                  const RenderOptions& options, Frame* frame, RenderCounters* counters, RayLog* log,
-                 const StaticVisibilityView* cache) {
+                 const StaticVisibilityView* cache, const SceneFootprint* footprint = nullptr,
+                 const TileDone* tileDone = nullptr) {
   options.validate();
   if (options.samplesPerPixel != 1) {
     throw InputError(
@@ -961,6 +995,11 @@ void renderTiles(const PhysicalScene& scene, const RayTextures& textures,
   }
   int depth = scene.features().depth;
   if (options.maxDepth > 0) depth = std::min(depth, options.maxDepth);
+  if (footprint) {
+    PARALLAX_CHECK_OP(footprint->width(), ==, textures.width());
+    PARALLAX_CHECK_OP(footprint->height(), ==, textures.height());
+    PARALLAX_CHECK(footprint->holds(scene.boundsMin(), scene.boundsMax()));
+  }
   if (cache) {
     PARALLAX_CHECK(scene.split());
     PARALLAX_CHECK(!cache->build || scene.staticHandle() != nullptr);
@@ -972,9 +1011,14 @@ void renderTiles(const PhysicalScene& scene, const RayTextures& textures,
   tbb::parallel_for(
       range,
       [&](const tbb::blocked_range2d<int>& tile) {
-        TileRenderer renderer(scene, textures, options, depth, frame, log, &threadBuffers(), cache);
+        TileRenderer renderer(scene, textures, options, depth, frame, log, &threadBuffers(), cache,
+                              footprint);
         renderer.render(tile.cols().begin(), tile.cols().end(), tile.rows().begin(),
                         tile.rows().end(), &perThread.local());
+        if (tileDone) {
+          (*tileDone)(tile.cols().begin(), tile.cols().end(), tile.rows().begin(),
+                      tile.rows().end());
+        }
       },
       tbb::simple_partitioner());
   if (counters) {
@@ -995,6 +1039,13 @@ void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures,
                      const RenderOptions& options, const StaticVisibilityView& cache, Frame* frame,
                      RenderCounters* counters) {
   renderTiles(scene, textures, options, frame, counters, nullptr, &cache);
+}
+
+void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures,
+                     const RenderOptions& options, const SceneFootprint& footprint,
+                     const StaticVisibilityView* cache, Frame* frame, RenderCounters* counters,
+                     const TileDone* tileDone) {
+  renderTiles(scene, textures, options, frame, counters, nullptr, cache, &footprint, tileDone);
 }
 
 Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures,

@@ -8,6 +8,7 @@
 // array and traced together (ray_batch.h), shadow rays likewise, so Embree can use packets or
 // streams; tiles run in parallel under TBB. Every ray it traces is counted.
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,7 @@
 #include "tracer/frame.h"
 #include "tracer/physical_scene.h"
 #include "tracer/ray_batch.h"
+#include "tracer/scene_footprint.h"
 #include "tracer/static_visibility.h"
 
 namespace parallax {
@@ -76,6 +78,9 @@ struct RenderCounters {
   long glassShadowHits = 0;
   // Shadow rays not traced: they pass every mesh's bound (boundShadowRays).
   long shadowPassedBounds = 0;
+  // Pixels outside the scene's footprint (scene_footprint.h): counted among masked and
+  // missedBounds too, yet not even read.
+  long outsideFootprint = 0;
   long textureLookups = 0;
   FrameCacheCounters cache;  // what the frame cache saved (zero without one)
   int deepest = 0;           // highest ray generation traced (1 = primary only)
@@ -104,6 +109,16 @@ void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures,
 void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures,
                      const RenderOptions& options, const StaticVisibilityView& cache, Frame* frame,
                      RenderCounters* counters = nullptr);
+// Called with each tile's columns [x0, x1) and rows [y0, y1) once its pixels are final, on the
+// thread that rendered it (tiles run in parallel): what it does with them is still in cache.
+using TileDone = std::function<void(int x0, int x1, int y0, int y1)>;
+// Only the pixels inside `footprint` (scene_footprint.h; it must hold the scene's bounds) are
+// read and written, the same as a full frame writes them; the others keep what `frame` held.
+// `cache`: the frame cache's view as above, or null. `tileDone`: null, or called per tile.
+void renderFrameInto(const PhysicalScene& scene, const RayTextures& textures,
+                     const RenderOptions& options, const SceneFootprint& footprint,
+                     const StaticVisibilityView* cache, Frame* frame,
+                     RenderCounters* counters = nullptr, const TileDone* tileDone = nullptr);
 // The same into a new frame.
 Frame renderFrame(const PhysicalScene& scene, const RayTextures& textures,
                   const RenderOptions& options, RenderCounters* counters = nullptr,

@@ -46,6 +46,7 @@ struct BenchDaemonArgs {
   double seconds = 10.0;
   double fps = 30.0;
   std::string frameCache = "on,off";
+  std::string footprint = "on";
   std::string scene = "orbit";  // the animated script played
 };
 
@@ -140,7 +141,7 @@ void benchCtlRoundTrip(const std::string& socket) {
 // Plays the animated script on `display`; returns the frame rate and CPU time a frame. The first
 // run of a display also times cornell.lua and `parallax ctl status`.
 PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bool frameCache,
-                     bool firstRun) {
+                     bool footprint, bool firstRun) {
   const fs::path work =
       fs::temp_directory_path() / fmt::format("parallax-bench-daemon-{}", ::getpid());
   fs::create_directories(work);
@@ -151,9 +152,10 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
     std::ofstream config(work / "parallax.toml");
     config << fmt::format(
         "[display]\npreset = \"{}\"\n[scene]\nscript = \"{}\"\nfps = {}\nframe_cache = {}\n"
-        "[calibration]\nauto = false\nfile = \"{}\"\n"
+        "footprint = {}\n[calibration]\nauto = false\nfile = \"{}\"\n"
         "[daemon]\nsocket = \"{}\"\ncache_dir = \"{}\"\nlog_level = \"warn\"\n",
-        display, script, args.fps, frameCache, (work / "calibration.json").string(), socket, cache);
+        display, script, args.fps, frameCache, footprint, (work / "calibration.json").string(),
+        socket, cache);
   }
   std::string daemonPath = siblingBinary("parallaxd");
   const std::string configPath = (work / "parallax.toml").string();
@@ -192,9 +194,10 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
     figures.fps = frames / dt;
     figures.cpuMsPerFrame = 1000.0 * (d1.cpuSeconds - d0.cpuSeconds) / std::max(frames, 1.0);
     std::cout << fmt::format(
-        "{} (frame cache {}): {} modules; start-up to the second frame {:.1f} s (ray textures: {} "
-        "from the cache, {} generated)\n",
-        display, frameCache ? "on" : "off", status["display"]["modules"].get<int>(), startup,
+        "{} (frame cache {}, footprint {}): {} modules; start-up to the second frame {:.1f} s (ray "
+        "textures: {} from the cache, {} generated)\n",
+        display, frameCache ? "on" : "off", footprint ? "on" : "off",
+        status["display"]["modules"].get<int>(), startup,
         status["ray_textures"]["from_cache"].get<int>(),
         status["ray_textures"]["generated"].get<int>());
     std::cout << fmt::format(
@@ -216,6 +219,8 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
       for (const auto& line : last["frame_cache"]["lines"])
         std::cout << line.get<std::string>() << "\n";
     }
+    if (footprint && last.contains("live_pixels"))
+      std::cout << last["live_pixels"]["line"].get<std::string>() << "\n";
     if (!firstRun) {
       askOrNull(socket, {{"request", "shutdown"}});
       ::waitpid(pid, nullptr, 0);
@@ -256,28 +261,46 @@ void runBenchDaemon(const BenchDaemonArgs& args) {
   std::cout << fmt::format("bench daemon: {} hardware threads, load average at start: ",
                            std::thread::hardware_concurrency());
   std::cout << loadAverage() << "\n";
-  std::vector<bool> settings;
-  std::stringstream cacheList(args.frameCache);
-  for (std::string s; std::getline(cacheList, s, ',');) {
-    if (s != "on" && s != "off") throw InputError({"", "--frame-cache", 0}, "on and/or off");
-    settings.push_back(s == "on");
-  }
-  if (settings.empty()) throw InputError({"", "--frame-cache", 0}, "on and/or off");
+  const auto onOff = [](const std::string& text, const char* option) {
+    std::vector<bool> settings;
+    std::stringstream items(text);
+    for (std::string s; std::getline(items, s, ',');) {
+      if (s != "on" && s != "off") throw InputError({"", option, 0}, "on and/or off");
+      settings.push_back(s == "on");
+    }
+    if (settings.empty()) throw InputError({"", option, 0}, "on and/or off");
+    return settings;
+  };
+  const std::vector<bool> caches = onOff(args.frameCache, "--frame-cache");
+  const std::vector<bool> footprints = onOff(args.footprint, "--footprint");
+  // Two daemons one after the other: the frame rates drift with the machine's load, the CPU
+  // time a frame much less.
+  const auto ratio = [](const std::string& what, const PlayFigures& on, const PlayFigures& off) {
+    std::cout << fmt::format(
+        "  {} on/off {:.2f} / {:.2f} fps = {:.2f}x; parallaxd CPU a frame {:.0f} / {:.0f} ms = "
+        "{:.2f}x less\n",
+        what, on.fps, off.fps, on.fps / off.fps, on.cpuMsPerFrame, off.cpuMsPerFrame,
+        off.cpuMsPerFrame / on.cpuMsPerFrame);
+  };
   for (std::string display; std::getline(list, display, ',');) {
     if (display != "demo" && display != "default")
       throw InputError({"", "--display", 0}, "demo and/or default");
-    PlayFigures on, off;
-    for (size_t i = 0; i < settings.size(); ++i)
-      (settings[i] ? on : off) = benchOne(display, args, settings[i], i == 0);
-    if (on.fps > 0.0 && off.fps > 0.0) {
-      // Two daemons one after the other: the frame rates drift with the machine's load, the
-      // CPU time a frame much less.
-      std::cout << fmt::format(
-          "  {}: frame cache on/off {:.2f} / {:.2f} fps = {:.2f}x; parallaxd CPU a frame {:.0f} / "
-          "{:.0f} ms = {:.2f}x less\n",
-          display, on.fps, off.fps, on.fps / off.fps, on.cpuMsPerFrame, off.cpuMsPerFrame,
-          off.cpuMsPerFrame / on.cpuMsPerFrame);
+    // [cache][footprint]
+    PlayFigures figures[2][2];
+    bool ran[2][2] = {};
+    bool first = true;
+    for (bool cache : caches) {
+      for (bool footprint : footprints) {
+        figures[cache][footprint] = benchOne(display, args, cache, footprint, first);
+        ran[cache][footprint] = true;
+        first = false;
+      }
     }
+    const bool cache = caches.front(), footprint = footprints.front();
+    if (ran[1][footprint] && ran[0][footprint])
+      ratio(display + ": frame cache", figures[1][footprint], figures[0][footprint]);
+    if (ran[cache][1] && ran[cache][0])
+      ratio(display + ": footprint", figures[cache][1], figures[cache][0]);
   }
 }
 
@@ -294,6 +317,9 @@ void addBenchDaemonSubcommand(CLI::App* bench) {
                       "the animated script to play: a library name or a .lua file");
   command->add_option("--frame-cache", args->frameCache,
                       "on, off or both (on,off: one daemon each, the ratio)");
+  command->add_option("--footprint", args->footprint,
+                      "trace and encode only the pixels that can show the scene: on, off or "
+                      "both (on,off: one daemon each, the ratio)");
   command->callback([args] { runBenchDaemon(*args); });
 }
 

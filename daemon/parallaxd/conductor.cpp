@@ -159,6 +159,7 @@ void Conductor::applyPhotometry(const std::optional<DisplayColourCorrection>& ph
   }
   photometry_ = photometry;
   encoders_ = std::move(encoders);
+  ++encodersVersion_;
   photometrySource_ = photometry ? source : "";
   // Frames already shown were encoded with the old correction: render them again.
   renderedTexturesVersion_ = 0;

@@ -32,6 +32,7 @@
 #include "daemon/parallaxd/daemon_config.h"
 #include "daemon/parallaxd/daemon_state.h"
 #include "daemon/parallaxd/frame_loss_report.h"
+#include "daemon/parallaxd/live_pixels.h"
 #include "daemon/parallaxd/loop_stats.h"
 #include "daemon/parallaxd/module_ownership.h"
 #include "daemon/parallaxd/ray_texture_cache.h"
@@ -300,6 +301,7 @@ class Conductor {
   // The installed photometric correction and its encoders (one a module; empty: plain sRGB).
   std::optional<DisplayColourCorrection> photometry_;
   std::vector<ModuleEncoder> encoders_;  // this rank's modules (as textures_)
+  uint64_t encodersVersion_ = 0;         // counts the changes of encoders_
   std::string photometrySource_;
   std::string photometryRefused_;  // why a photometry file beside the calibration is not used
   RayTextureCache cache_;
@@ -344,6 +346,8 @@ class Conductor {
   RenderCounters lastCounters_;
   // Animated scenes: the static geometry's primary hits and shadows, kept between frames.
   FrameCache frameCache_;
+  // Animated scenes: which pixels can show the scene, and the bytes of the rest.
+  LivePixels livePixels_;
   // An animated scene's previous frame: the next one takes its textures over.
   std::unique_ptr<PhysicalScene> lastScene_;
 

@@ -85,6 +85,8 @@ double Conductor::playTurn(const nlohmann::json& plan) {
       if (!script_->setTime(sceneTime_)) sceneError_ = script_->lastError();
     }
   }
+  // A reloaded scene's footprint starts from its own bounds, not around the old scene's too.
+  if (plan.contains("reload")) livePixels_.clear();
   if (plan.contains("render")) renderAndPush(workStarted);
   keepLinkAlive();
   if (needsPush_ && link_ && !currentImages_.empty()) {
@@ -126,11 +128,19 @@ void Conductor::renderAndPush(Clock::time_point workStarted) {
     const auto prepareStart = Clock::now();
     const bool cached =
         useCache && frameCache_.prepare(physical, textures_, texturesVersion_, options_.render);
+    // The pixels outside the scene's footprint are the same in every frame of an animated scene.
+    const bool useFootprint = options_.config.scene.footprint && script_->script().animated();
+    if (useFootprint) {
+      livePixels_.prepare(physical, textures_, texturesVersion_, encoders_, encodersVersion_);
+    } else {
+      livePixels_.clear();
+    }
     const double prepareMs =
         std::chrono::duration<double, std::milli>(Clock::now() - prepareStart).count();
     const double cpuStart = processCpuMs();
-    frame = renderDisplayFrame(physical, textures_, options_.render, encoders_,
-                               cached ? &frameCache_ : nullptr);
+    frame =
+        renderDisplayFrame(physical, textures_, options_.render, encoders_,
+                           cached ? &frameCache_ : nullptr, useFootprint ? &livePixels_ : nullptr);
     if (cached) frameCache_.count(frame.counters);
     // The cache's trial compares frames through it with full re-traces by their CPU time, which
     // hardly moves with what else the machine runs.

@@ -218,6 +218,7 @@ void readScene(TableReader& r, SceneConfig* s) {
     r.fail(*n, "script", "must not be empty");
   r.readNumber("fps", &s->fps, 0.1, 240.0);
   r.readBool("frame_cache", &s->frameCache);
+  r.readBool("footprint", &s->footprint);
   if (const toml::table* p = r.subTable("parameters")) {
     TableReader params(*p, r.file(), "scene.parameters.");
     for (const auto& [key, node] : *p) {

@@ -24,7 +24,8 @@
 //                  max_error_px = 3.0, max_observer_mm = 15.0, allow_partial = false
 //                       (the quality gate: calibration/fit/calibration_gate.h)
 //                  (camera = "x.json", the old form, is read as camera_metadata)
-//   [scene]        script = "cornell" | "scene.lua", fps = 30, frame_cache = true,
+//   [scene]        script = "cornell" | "scene.lua", fps = 30, frame_cache = true, footprint =
+//   true,
 //                  [scene.parameters] name = value
 //   [daemon]       socket = "...", cache_dir = "...", log_level = "info"
 //   [link]         ack_timeout_ms = 2000, max_retries = 3, stall_limit_ms = 3000,
@@ -107,6 +108,9 @@ struct SceneConfig {
   // Animated scenes: keep the static geometry's primary hits and shadows between frames
   // (tracer/frame_cache.h); off renders every frame in full (benchmarks compare the two).
   bool frameCache = true;
+  // Animated scenes trace and encode only the pixels that can show the scene, copying the rest
+  // (daemon/parallaxd/live_pixels.h); off: every pixel (benchmarks compare the two).
+  bool footprint = true;
   std::map<std::string, double> parameters;
   bool operator==(const SceneConfig&) const = default;
 };

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "calibration/display/ray_textures.h"
+#include "daemon/parallaxd/live_pixels.h"
 #include "hw/link/image.h"
 #include "tracer/frame.h"
 #include "tracer/frame_cache.h"
@@ -39,10 +40,12 @@ Frame frameShownBy(const hw::Image& image);
 // `encoders`: one per module when a photometric correction is installed, else empty (every
 // module encoded as an ideal sRGB module, as without photometric calibration).
 // `cache`: the frame cache, prepared for this frame and scene (frame_cache.h), or null.
+// `live`: prepared for this frame and scene (live_pixels.h): only the footprints are traced and
+// encoded, the same bytes; null: every pixel.
 DisplayFrame renderDisplayFrame(const PhysicalScene& scene,
                                 const std::vector<RayTextures>& textures,
                                 const RenderOptions& options,
                                 const std::vector<ModuleEncoder>& encoders = {},
-                                FrameCache* cache = nullptr);
+                                FrameCache* cache = nullptr, const LivePixels* live = nullptr);
 
 }  // namespace parallax::daemon

@@ -37,13 +37,6 @@ const Display& smallDisplay() {
   return display;
 }
 
-ScriptOptions scriptOptions() {
-  ScriptOptions options;
-  options.libraryRoot = testing::sceneLibrary();
-  options.quiet = true;
-  return options;
-}
-
 struct Comparison {
   long pixels = 0;
   long differing = 0;  // pixels with any channel off
@@ -116,7 +109,7 @@ void expectSameImages(const Comparison& c) {
 // re-trace: the same images expected; what was compared returned for the test's own checks.
 Comparison playExpectingSameImages(const std::string& path, int frames, double dt,
                                    FrameCache* cache) {
-  ScriptedScene script(path, scriptOptions());
+  ScriptedScene script(path, testing::libraryOptions());
   const Comparison c = playAndCompare(script, frames, dt, cache);
   expectSameImages(c);
   return c;
@@ -233,7 +226,7 @@ end
 TEST(FrameCache, AReloadWithOtherGeometryRebuildsIt) {
   TempFolder folder;
   const std::string path = folder.write("scene.lua", reloadable("2", ""));
-  ScriptedScene script(path, scriptOptions());
+  ScriptedScene script(path, testing::libraryOptions());
   FrameCache cache;
   Comparison c = playAndCompare(script, 5, 0.2, &cache);
   EXPECT_EQ(cache.stats().builds, 1);
@@ -261,7 +254,7 @@ TEST(FrameCache, EveryInstructionSetDrawsTheSameCachedFrames) {
   struct TargetGuard {
     ~TargetGuard() { hwy::SetSupportedTargetsForTest(0); }  // back to what the CPU has
   } guard;
-  ScriptedScene script(testing::sceneLibrary() + "/orbit.lua", scriptOptions());
+  ScriptedScene script(testing::sceneLibrary() + "/orbit.lua", testing::libraryOptions());
   FrameCache cache;
   const Display& display = smallDisplay();
   const RenderOptions options;
@@ -297,7 +290,7 @@ TEST(FrameCache, EveryInstructionSetDrawsTheSameCachedFrames) {
 // its triangles): once the trial has timed frames both ways and the re-traces cost under
 // kMinGain times the cached ones, the records are freed and frames are rendered in full.
 TEST(FrameCache, RecordsThatDoNotPayAreFreedAndTheFramesStayExact) {
-  ScriptedScene script(testing::sceneLibrary() + "/orbit.lua", scriptOptions());
+  ScriptedScene script(testing::sceneLibrary() + "/orbit.lua", testing::libraryOptions());
   FrameCache cache;
   const Costs costs{100.0, 104.0};  // 1.04x: under the 1.1x it must save
   const Comparison c = playAndCompare(script, 12, 0.13, &cache, &costs);
@@ -319,7 +312,7 @@ TEST(FrameCache, RecordsThatDoNotPayAreFreedAndTheFramesStayExact) {
 }
 
 TEST(FrameCache, RecordsThatPayAreKept) {
-  ScriptedScene script(testing::sceneLibrary() + "/sentinel.lua", scriptOptions());
+  ScriptedScene script(testing::sceneLibrary() + "/sentinel.lua", testing::libraryOptions());
   FrameCache cache;
   const Costs costs{100.0, 150.0};
   const Comparison c = playAndCompare(script, 10, 0.4, &cache, &costs);
@@ -338,7 +331,7 @@ TEST(FrameCache, RecordsThatPayAreKept) {
 TEST(FrameCache, ASceneChangeAfterADeclineBuildsAndMeasuresAgain) {
   TempFolder folder;
   const std::string path = folder.write("scene.lua", reloadable("2", ""));
-  ScriptedScene script(path, scriptOptions());
+  ScriptedScene script(path, testing::libraryOptions());
   FrameCache cache;
   const Costs equal{100.0, 100.0};
   const Comparison before = playAndCompare(script, 10, 0.2, &cache, &equal);

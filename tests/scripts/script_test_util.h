@@ -47,6 +47,14 @@ class TempFolder {
   std::filesystem::path path_;
 };
 
+// The library's scenes with the default limits, quietly (scripts played frame after frame).
+inline ScriptOptions libraryOptions() {
+  ScriptOptions options;
+  options.libraryRoot = sceneLibrary();
+  options.quiet = true;
+  return options;
+}
+
 inline ScriptOptions smallLimits() {
   ScriptOptions options;
   options.libraryRoot = sceneLibrary();

@@ -5,9 +5,12 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <optional>
 
 #include "common/check.h"
 #include "tracer/embree_device.h"
@@ -255,6 +258,93 @@ void PhysicalScene::boundDynamicMeshes() {
   for (const auto& group : groups) dynamicSpheres_.push_back(boundingSphere(group, margin));
 }
 
+namespace {
+
+// A sphere inside a closed convex mesh (centre, radius; radius 0 when the mesh is not closed and
+// convex, or too large to check): about the mean of its corners, as far as its nearest face's
+// plane, less a margin far wider than the float rounding of a ray's distance from the centre.
+// Convex: every corner lies behind every face's plane (CCW side out), within the rounding of the
+// corners. Closed: every edge, its ends welded by position, is shared by exactly two faces.
+Eigen::Vector4f coreSphere(const PhysicalMesh& mesh) {
+  constexpr double kMaxWork = 1 << 20;
+  constexpr double kEpsilon = std::numeric_limits<float>::epsilon();
+  const Eigen::Vector4f none = Eigen::Vector4f::Zero();
+  if (mesh.triangles.size() < 4) return none;
+  double extent = 0.0;
+  for (const Eigen::Vector3f& p : mesh.positions)
+    extent = std::max(extent, static_cast<double>(p.cwiseAbs().maxCoeff()));
+  const double tolerance = 16.0 * kEpsilon * extent;
+  // Corners within the tolerance are one (a sphere's seam and poles repeat their corners, a few
+  // ulps apart once transformed): looked up in a grid of cells twice the tolerance wide.
+  const double cell = 2.0 * tolerance;
+  if (!(cell > 0.0)) return none;
+  std::map<std::array<std::int64_t, 3>, std::vector<std::uint32_t>> grid;
+  std::vector<Eigen::Vector3d> corners;
+  std::vector<std::uint32_t> weld(mesh.positions.size());
+  for (size_t v = 0; v < mesh.positions.size(); ++v) {
+    const Eigen::Vector3d p = mesh.positions[v].cast<double>();
+    std::array<std::int64_t, 3> key;
+    for (int k = 0; k < 3; ++k)
+      key[static_cast<size_t>(k)] = static_cast<std::int64_t>(std::floor(p[k] / cell));
+    std::optional<std::uint32_t> found;
+    for (int dx = -1; dx <= 1 && !found; ++dx) {
+      for (int dy = -1; dy <= 1 && !found; ++dy) {
+        for (int dz = -1; dz <= 1 && !found; ++dz) {
+          const auto it = grid.find({key[0] + dx, key[1] + dy, key[2] + dz});
+          if (it == grid.end()) continue;
+          for (std::uint32_t id : it->second) {
+            if ((corners[id] - p).cwiseAbs().maxCoeff() <= tolerance) {
+              found = id;
+              break;
+            }
+          }
+        }
+      }
+    }
+    if (!found) {
+      found = static_cast<std::uint32_t>(corners.size());
+      corners.push_back(p);
+      grid[key].push_back(*found);
+    }
+    weld[v] = *found;
+  }
+  if (static_cast<double>(mesh.triangles.size()) * static_cast<double>(corners.size()) > kMaxWork)
+    return none;
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges;
+  for (const auto& t : mesh.triangles) {
+    for (int k = 0; k < 3; ++k) {
+      std::uint32_t a = weld[t[static_cast<size_t>(k)]],
+                    b = weld[t[static_cast<size_t>((k + 1) % 3)]];
+      if (a == b) return none;
+      if (a > b) std::swap(a, b);
+      ++edges[{a, b}];
+    }
+  }
+  for (const auto& [edge, count] : edges)
+    if (count != 2) return none;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& c : corners) centre += c;
+  centre /= static_cast<double>(corners.size());
+  double radius = std::numeric_limits<double>::infinity();
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3d p0 = mesh.positions[t[0]].cast<double>();
+    const Eigen::Vector3d n = (mesh.positions[t[1]].cast<double>() - p0)
+                                  .cross(mesh.positions[t[2]].cast<double>() - p0)
+                                  .normalized();
+    if (!n.allFinite()) return none;
+    for (const Eigen::Vector3d& c : corners)
+      if (n.dot(c - p0) > tolerance) return none;
+    radius = std::min(radius, -n.dot(centre - p0));
+  }
+  // Far more than the rounding of the kernel's distance test (a few ulps of the scene's size).
+  radius = radius * (1.0 - 1e-3) - 1e3 * tolerance;
+  if (!(radius > 0.0) || !std::isfinite(radius)) return none;
+  return {static_cast<float>(centre.x()), static_cast<float>(centre.y()),
+          static_cast<float>(centre.z()), static_cast<float>(radius)};
+}
+
+}  // namespace
+
 void PhysicalScene::boundOccluders() {
   occluders_.clear();
   if (meshes_.size() > kMaxOccluders) return;
@@ -291,6 +381,9 @@ void PhysicalScene::boundOccluders() {
                      static_cast<float>(n.z()), static_cast<float>(c)};
       bound.planeMargin = static_cast<float>(deviation + 16.0 * kEpsilon * reach);
     }
+    const bool passesLight = glassShadows_ && materials_[static_cast<size_t>(mesh.material)].kind ==
+                                                  MaterialKind::kDielectric;
+    if (!passesLight && !bound.flat()) bound.core = coreSphere(mesh);
     occluders_.push_back(bound);
   }
 }

@@ -67,7 +67,12 @@ struct OccluderBound {
   // for any other mesh.
   Eigen::Vector4f plane = Eigen::Vector4f::Zero();
   float planeMargin = 0.0f;
+  // A closed convex mesh that stops light (not glass): a sphere inside it (centre x, y, z,
+  // radius; radius 0: none). A ray that passes through it crosses the mesh: blocked, with no
+  // trip through Embree.
+  Eigen::Vector4f core = Eigen::Vector4f::Zero();
   bool flat() const { return planeMargin > 0.0f; }
+  bool hasCore() const { return core.w() > 0.0f; }
 };
 
 struct PhysicalLight {

@@ -214,12 +214,37 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
         meets = hn::Or(meets, may);
         if (hn::AllFalse(d, hn::AndNot(meets, keep))) break;  // all go to Embree
       }
+      // A directional light's ray through another mesh's core (a closed convex mesh that stops
+      // light) is blocked: neither traced nor lit.
+      auto blocked = hn::Lt(zero, zero);
+      if constexpr (!kPoint) {
+        const auto candidates = hn::And(keep, meets);
+        for (size_t k = 0; k < job.occluderCount && !hn::AllFalse(d, candidates); ++k) {
+          const OccluderBound& bound = job.occluders[k];
+          if (!bound.hasCore()) continue;
+          const auto others =
+              hn::RebindMask(d, hn::Ne(ownMesh, hn::Set(di, static_cast<std::int32_t>(k))));
+          blocked =
+              hn::Or(blocked, hn::And(hn::And(candidates, others),
+                                      PassesThroughSphere(d, ax, ay, az, lx, ly, lz, bound.core)));
+        }
+      }
+      if (!hn::AllFalse(d, blocked)) {
+        counts.blockedByCores += static_cast<long>(hn::CountTrue(d, blocked));
+        if (job.parkPassing) {
+          // Kept in their place, blocked: tfar −∞ as Embree marks them, and Embree skips them.
+          tfarOut =
+              hn::IfThenElse(blocked, hn::Set(d, -std::numeric_limits<float>::infinity()), tfarOut);
+        } else {
+          keep = hn::AndNot(blocked, keep);
+        }
+      }
       const auto free = hn::AndNot(meets, keep);
       if (!hn::AllFalse(d, free)) {
         if (job.parkPassing) {
           // Kept in their place, parked: Embree skips them.
           counts.passedOccluders += static_cast<long>(hn::CountTrue(d, free));
-          tfarOut = hn::IfThenElse(free, hn::Set(d, kParkedTfar), tfar);
+          tfarOut = hn::IfThenElse(free, hn::Set(d, kParkedTfar), tfarOut);
         } else {
           counts.passedOccluders += addFree(values, pixel, free);
           keep = hn::And(keep, meets);

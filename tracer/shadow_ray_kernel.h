@@ -57,6 +57,7 @@ struct ShadowRayCounts {
   long answered = 0;         // the frame cache answered them: blocked by a static surface
   long passedDynamic = 0;    // the cache's clear rays that pass every dynamic bound
   long passedOccluders = 0;  // rays that pass every mesh's bound (`occluders`)
+  long blockedByCores = 0;   // rays through a mesh's core (OccluderBound::core): blocked
 };
 
 // Makes the rays (job.rays, and with the cache job.dynamic) and lists the light that needs no

@@ -76,6 +76,28 @@ HWY_INLINE auto MayMeetSphere(D d, V ax, V ay, V az, V lx, V ly, V lz, V tfar,
   return hn::Not(hn::Or(passesBeside, hn::Or(behind, beyond)));
 }
 
+// Lanes whose ray (from a along the unit l, to an infinite tfar) certainly passes through
+// `sphere`: its closest approach to the centre lies ahead of a, nearer than the radius by more
+// than the rounding of |w − (w · l) l|² (a few ulps of |w|², with |l| 1 to a few ulps).
+template <class D, class V = hwy::HWY_NAMESPACE::Vec<D>>
+HWY_INLINE auto PassesThroughSphere(D d, V ax, V ay, V az, V lx, V ly, V lz,
+                                    const Eigen::Vector4f& sphere) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  const V wx = hn::Sub(hn::Set(d, sphere.x()), ax);
+  const V wy = hn::Sub(hn::Set(d, sphere.y()), ay);
+  const V wz = hn::Sub(hn::Set(d, sphere.z()), az);
+  const V along = Dot3(wx, wy, wz, lx, ly, lz);
+  const V square = Dot3(wx, wy, wz, wx, wy, wz);
+  const V ox = hn::Sub(wx, hn::Mul(along, lx));
+  const V oy = hn::Sub(wy, hn::Mul(along, ly));
+  const V oz = hn::Sub(wz, hn::Mul(along, lz));
+  const V off = Dot3(ox, oy, oz, ox, oy, oz);
+  const V radius = hn::Set(d, sphere.w());
+  const auto inside =
+      hn::Lt(hn::Add(off, hn::Mul(hn::Set(d, 1e-5f), square)), hn::Mul(radius, radius));
+  return hn::And(inside, hn::Gt(along, hn::Zero(d)));
+}
+
 // n · a − c of the plane n · x = c (`plane`: n, c): a's signed distance from it.
 template <class D, class V = hwy::HWY_NAMESPACE::Vec<D>>
 HWY_INLINE V PlaneDistance(D d, V ax, V ay, V az, const Eigen::Vector4f& plane) {

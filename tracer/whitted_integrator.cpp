@@ -413,10 +413,13 @@ void TileRenderer::makeShadowRays(const PhysicalLight& light, int lightIndex, in
     job.parkPassing = parked;
   }
   const ShadowRayCounts counts = parallax::makeShadowRays(job);
-  shadows_.parked = parked ? static_cast<size_t>(counts.passedOccluders) : 0;
+  // Parked and blocked rays stay in the batch, untraced.
+  shadows_.parked =
+      parked ? static_cast<size_t>(counts.passedOccluders + counts.blockedByCores) : 0;
   c->cache.shadowAnswered += counts.answered;
   c->cache.shadowPassedDynamic += counts.passedDynamic;
   c->shadowPassedBounds += counts.passedOccluders;
+  c->shadowBlockedByCores += counts.blockedByCores;
   // One ray a pixel toward this light, as in the batches: added now or after them, the same.
   if (unblocked_.size() > 0) addLight(unblocked_, frame_->pixels.data());
   shadows_.load(glassShadows_);
@@ -927,6 +930,7 @@ RenderCounters& RenderCounters::operator+=(const RenderCounters& o) {
   glassShadowHits += o.glassShadowHits;
   shadowPassedBounds += o.shadowPassedBounds;
   outsideFootprint += o.outsideFootprint;
+  shadowBlockedByCores += o.shadowBlockedByCores;
   textureLookups += o.textureLookups;
   cache += o.cache;
   deepest = std::max(deepest, o.deepest);
@@ -946,7 +950,9 @@ std::vector<std::string> RenderCounters::lines() const {
           pruned, textureLookups, deepest),
       fmt::format("  glass surfaces shadow rays passed through {} (the glass filter's calls)",
                   glassShadowHits),
-      fmt::format("  shadow rays not traced: {} pass every object's bounds", shadowPassedBounds),
+      fmt::format("  shadow rays not traced: {} pass every object's bounds, {} go through the core "
+                  "of a closed convex object (blocked)",
+                  shadowPassedBounds, shadowBlockedByCores),
   };
   if (outsideFootprint > 0) {
     out.push_back(fmt::format(

@@ -78,6 +78,8 @@ struct RenderCounters {
   long glassShadowHits = 0;
   // Shadow rays not traced: they pass every mesh's bound (boundShadowRays).
   long shadowPassedBounds = 0;
+  // Shadow rays not traced: they go through a closed convex mesh's core (OccluderBound::core).
+  long shadowBlockedByCores = 0;
   // Pixels outside the scene's footprint (scene_footprint.h): counted among masked and
   // missedBounds too, yet not even read.
   long outsideFootprint = 0;

@@ -1,13 +1,18 @@
 // A first generation's shadow rays that pass every mesh's bound (PhysicalScene::occluders: a
-// sphere, and a flat mesh's plane) add their light without a trip through Embree
-// (RenderOptions::boundShadowRays). Nothing could have blocked them, so the frames must be the
-// ones that tracing every ray gives, bit for bit: frame after frame of animated scripts with
-// directional and point lights, glass, a light that grazes the floor and one close above a wall.
+// sphere, and a flat mesh's plane) add their light without a trip through Embree, and those
+// toward a directional light through a closed convex mesh's core add none
+// (RenderOptions::boundShadowRays). Nothing could have blocked the first, and the mesh blocks
+// the second, so the frames must be the ones that tracing every ray gives, bit for bit: frame after
+// frame of animated scripts with directional and point lights, glass, a light that grazes the floor
+// and one close above a wall.
 
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cstdint>
+#include <limits>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -37,8 +42,9 @@ const Display& smallDisplay() {
 struct Tally {
   long pixels = 0;
   long differing = 0;
-  long passed = 0;  // shadow rays not traced
-  long traced = 0;  // shadow rays traced with the bounds, and without them
+  long passed = 0;   // shadow rays not traced: nothing blocks them
+  long blocked = 0;  // shadow rays not traced: a core blocks them
+  long traced = 0;   // shadow rays traced with the bounds, and without them
   long tracedAll = 0;
 };
 
@@ -65,21 +71,25 @@ Tally playBothWays(const std::string& path, int frames, double dt) {
         tally.differing += a.pixels[p] == b.pixels[p] ? 0 : 1;
       }
       EXPECT_EQ(without.shadowPassedBounds, 0);
+      EXPECT_EQ(without.shadowBlockedByCores, 0);
       tally.passed += withBounds.shadowPassedBounds;
+      tally.blocked += withBounds.shadowBlockedByCores;
       tally.traced += withBounds.shadow;
       tally.tracedAll += without.shadow;
     }
   }
   EXPECT_EQ(tally.differing, 0) << tally.differing << " of " << tally.pixels << " pixels, " << path;
-  // Every ray left out is one the full trace made, and found unblocked.
-  EXPECT_EQ(tally.traced + tally.passed, tally.tracedAll) << path;
+  // Every ray left out is one the full trace made, and found unblocked or blocked.
+  EXPECT_EQ(tally.traced + tally.passed + tally.blocked, tally.tracedAll) << path;
   return tally;
 }
 
 TEST(ShadowRayBounds, OrbitFramesEqualTracingEveryRay) {
   const Tally t = playBothWays(testing::sceneLibrary() + "/orbit.lua", 8, 0.37);
-  // Most of the floor's shadow rays pass the wall's plane and the moving objects' spheres.
+  // Most of the floor's shadow rays pass the wall's plane and the moving objects' spheres; the
+  // mirror ball and the beacon block some through their cores.
   EXPECT_GT(t.passed, t.traced);
+  EXPECT_GT(t.blocked, 1000);
 }
 
 // Glass (its shadow rays carry a transmittance), a point light, a phong pillar, a floor that
@@ -140,7 +150,8 @@ TEST(ShadowRayBounds, ShapesWithPointLightsEqualTracingEveryRay) {
     for (size_t p = 0; p < a.pixels.size(); ++p) differing += a.pixels[p] == b.pixels[p] ? 0 : 1;
     EXPECT_EQ(differing, 0) << "curvature " << curvature;
     EXPECT_GT(withBounds.shadowPassedBounds, 1000) << "curvature " << curvature;
-    EXPECT_EQ(withBounds.shadow + withBounds.shadowPassedBounds, without.shadow);
+    EXPECT_EQ(withBounds.shadow + withBounds.shadowPassedBounds + withBounds.shadowBlockedByCores,
+              without.shadow);
   }
 }
 
@@ -215,6 +226,66 @@ TEST(ShadowRayBounds, BareFacesHaveTheirWholeMeshBehind) {
   EXPECT_EQ(back[ball], 0u);
   EXPECT_EQ(front[box], scene.meshes()[box].triangles.size());
   EXPECT_EQ(back[box], 0u);
+}
+
+// A core only where the mesh is closed and convex (the ball and the box, not the floor nor the
+// torus), and Embree finds every ray through it blocked by the mesh, from any side.
+TEST(ShadowRayBounds, CoresLieInsideClosedConvexMeshes) {
+  TempFolder folder;
+  ScriptOptions options;
+  options.quiet = true;
+  ScriptedScene script(folder.write("torus.lua", kSelfShadowing), options);
+  ASSERT_TRUE(script.setTime(0.3)) << script.lastError();
+  const PhysicalScene scene(script.scene(), smallDisplay().model.displayableBox);
+  ASSERT_EQ(scene.occluders().size(), 4u);
+  const size_t floor = 0, torus = 1, ball = 2, box = 3;
+  EXPECT_FALSE(scene.occluders()[floor].hasCore());
+  EXPECT_FALSE(scene.occluders()[torus].hasCore());
+  ASSERT_TRUE(scene.occluders()[ball].hasCore());
+  ASSERT_TRUE(scene.occluders()[box].hasCore());
+  // The ball's core is nearly the ball: most of its shadow is left to the core.
+  float ballRadius = 0.0f;
+  for (const Eigen::Vector3f& p : scene.meshes()[ball].positions)
+    ballRadius = std::max(ballRadius, (p - scene.occluders()[ball].core.head<3>()).norm());
+  EXPECT_GT(scene.occluders()[ball].core.w(), 0.9f * ballRadius);
+  EXPECT_LT(scene.occluders()[ball].core.w(), ballRadius);
+  std::mt19937 random(5);
+  std::normal_distribution<float> gaussian;
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  for (size_t m : {ball, box}) {
+    const Eigen::Vector4f core = scene.occluders()[m].core;
+    for (int i = 0; i < 2000; ++i) {
+      const Eigen::Vector3f l =
+          Eigen::Vector3f(gaussian(random), gaussian(random), gaussian(random)).normalized();
+      // A point of the core's disc across l, and a start two radii of the scene back.
+      Eigen::Vector3f across = Eigen::Vector3f(gaussian(random), gaussian(random), gaussian(random))
+                                   .cross(l)
+                                   .normalized();
+      const Eigen::Vector3f through =
+          core.head<3>() + 0.999f * core.w() * std::sqrt(unit(random)) * across;
+      // Every fourth starts inside the core (a surface of another object inside the mesh):
+      // its ray leaves through a back face, which blocks it as well.
+      const Eigen::Vector3f origin =
+          i % 4 == 0 ? through - 0.5f * core.w() * l : through - 1.5f * l;
+      RTCRay ray;
+      ray.org_x = origin.x();
+      ray.org_y = origin.y();
+      ray.org_z = origin.z();
+      ray.dir_x = l.x();
+      ray.dir_y = l.y();
+      ray.dir_z = l.z();
+      ray.tnear = 0.0f;
+      ray.tfar = std::numeric_limits<float>::infinity();
+      ray.time = 0.0f;
+      ray.mask = 0xFFFFFFFFu;
+      ray.id = 0;
+      ray.flags = 0;
+      RTCIntersectContext context;
+      rtcInitIntersectContext(&context);
+      rtcOccluded1(scene.handle(), &context, &ray);
+      ASSERT_EQ(ray.tfar, -std::numeric_limits<float>::infinity()) << "mesh " << m << ", ray " << i;
+    }
+  }
 }
 
 // More meshes than kMaxOccluders: no bounds, every ray traced.

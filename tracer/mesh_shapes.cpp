@@ -1,7 +1,10 @@
 #include "tracer/mesh_shapes.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
+#include <vector>
 
 #include "common/check.h"
 
@@ -91,6 +94,49 @@ Mesh makeSphere(double radius, int slices, int stacks) {
   return m;
 }
 
+namespace {
+
+// The distance from p to the triangle abc (its nearest point by the triangle's regions: Ericson,
+// Real-Time Collision Detection, 5.1.5).
+double distanceToTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                          const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0.0 && d2 <= 0.0) return (p - a).norm();
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0.0 && d4 <= d3) return (p - b).norm();
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) return (p - (a + d1 / (d1 - d3) * ab)).norm();
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0.0 && d5 <= d6) return (p - c).norm();
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) return (p - (a + d2 / (d2 - d6) * ac)).norm();
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0)
+    return (p - (b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b))).norm();
+  const double denominator = 1.0 / (va + vb + vc);
+  return (p - (a + ab * (vb * denominator) + ac * (vc * denominator))).norm();
+}
+
+// Spheres about `centres` (each inside the closed mesh), as large as their distance from the
+// triangles allows, less 0.1%: a sphere that meets no triangle lies wholly on its centre's side.
+void addInterior(Mesh* m, const std::vector<Eigen::Vector3d>& centres) {
+  for (const Eigen::Vector3d& centre : centres) {
+    double radius = std::numeric_limits<double>::infinity();
+    for (const auto& t : m->triangles) {
+      radius = std::min(radius, distanceToTriangle(centre, m->positions[t[0]], m->positions[t[1]],
+                                                   m->positions[t[2]]));
+    }
+    radius *= 1.0 - 1e-3;
+    if (radius > 0.0 && std::isfinite(radius))
+      m->interior.emplace_back(centre.x(), centre.y(), centre.z(), radius);
+  }
+}
+
+}  // namespace
+
 Mesh makeTorus(double majorRadius, double minorRadius, int segments, int sides) {
   PARALLAX_CHECK(segments >= 3 && sides >= 3);
   Mesh m;
@@ -110,6 +156,14 @@ Mesh makeTorus(double majorRadius, double minorRadius, int segments, int sides) 
     for (int i = 0; i < sides; ++i)
       addQuad(&m, at(i, j), at(i, j + 1), at(i + 1, j + 1), at(i + 1, j));
   }
+  // Along the core circle, on the rings of corners (where the tube is widest).
+  const int beads = std::min(segments, 24);
+  std::vector<Eigen::Vector3d> centres;
+  for (int k = 0; k < beads; ++k) {
+    const double phi = 2.0 * kPi * std::round(static_cast<double>(k) * segments / beads) / segments;
+    centres.push_back(majorRadius * Eigen::Vector3d(std::sin(phi), 0.0, std::cos(phi)));
+  }
+  addInterior(&m, centres);
   return m;
 }
 

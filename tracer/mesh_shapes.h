@@ -13,7 +13,8 @@ Mesh makeGrid(double width, double height, int nx, int ny);
 Mesh makeBox(const Eigen::Vector3d& size);
 // A UV sphere: 2 · slices · (stacks − 1) triangles.
 Mesh makeSphere(double radius, int slices, int stacks);
-// A torus around the y axis: 2 · segments · sides triangles.
+// A torus around the y axis: 2 · segments · sides triangles. Its interior holds up to 24 spheres
+// along its core circle, each as large as its distance from the triangles allows.
 Mesh makeTorus(double majorRadius, double minorRadius, int segments, int sides);
 // A closed cylinder along y from −h/2 to h/2: 4 · slices triangles.
 Mesh makeCylinder(double radius, double height, int slices);

@@ -385,7 +385,30 @@ void PhysicalScene::boundOccluders() {
     }
     const bool passesLight = glassShadows_ && materials_[static_cast<size_t>(mesh.material)].kind ==
                                                   MaterialKind::kDielectric;
-    if (!passesLight && !bound.flat()) bound.core = coreSphere(mesh);
+    if (!passesLight && !bound.flat()) {
+      if (!mesh.interior.empty()) {
+        for (const Eigen::Vector4f& sphere : mesh.interior) {
+          if (bound.coreCount == OccluderBound::kMaxCores) break;
+          bound.cores[static_cast<size_t>(bound.coreCount++)] = sphere;
+        }
+      } else if (const Eigen::Vector4f core = coreSphere(mesh); core.w() > 0.0f) {
+        bound.cores[0] = core;
+        bound.coreCount = 1;
+      }
+      for (int first = 0; first < bound.coreCount; first += OccluderBound::kCoresPerGroup) {
+        const int last = std::min(bound.coreCount, first + OccluderBound::kCoresPerGroup);
+        Eigen::Vector3f centre = Eigen::Vector3f::Zero();
+        for (int c = first; c < last; ++c) centre += bound.cores[static_cast<size_t>(c)].head<3>();
+        centre /= static_cast<float>(last - first);
+        float radius = 0.0f;
+        for (int c = first; c < last; ++c) {
+          const Eigen::Vector4f& core = bound.cores[static_cast<size_t>(c)];
+          radius = std::max(radius, (core.head<3>() - centre).norm() + core.w());
+        }
+        bound.coreGroups[static_cast<size_t>(first / OccluderBound::kCoresPerGroup)] = {
+            centre.x(), centre.y(), centre.z(), radius * (1.0f + 1e-4f) + margin};
+      }
+    }
     occluders_.push_back(bound);
   }
 }
@@ -454,6 +477,9 @@ void PhysicalScene::buildStaticScene() {
 void PhysicalScene::addInstance(const Scene& scene, const Instance& instance, const Box3& clipBox) {
   const Mesh& source = scene.meshes[static_cast<size_t>(instance.mesh)];
   const double tolerance = 1e-6 * clipBox.size().norm();
+  const auto degenerateBefore = counters_.trianglesDegenerate;
+  const auto outsideBefore = counters_.trianglesOutside;
+  const auto clippedBefore = counters_.trianglesClipped;
   PhysicalMesh mesh;
   mesh.material = source.material;
   const bool hasNormals = !source.normals.empty();
@@ -543,6 +569,28 @@ void PhysicalScene::addInstance(const Scene& scene, const Instance& instance, co
     }
   }
   if (mesh.triangles.empty()) return;
+  const bool whole = counters_.trianglesDegenerate == degenerateBefore &&
+                     counters_.trianglesOutside == outsideBefore &&
+                     counters_.trianglesClipped == clippedBefore;
+  if (!source.interior.empty() && whole) {
+    // Every triangle whole (none clipped, none dropped): the shape's interior spheres, where the
+    // instance's transform keeps a sphere a sphere (a rotation, a mirror, one scale).
+    const Eigen::Matrix3d linear = instance.worldFromObject.linear();
+    const Eigen::Matrix3d gram = linear.transpose() * linear;
+    const double scale2 = gram.trace() / 3.0;
+    if (scale2 > 0.0 &&
+        (gram - scale2 * Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <= 1e-9 * scale2) {
+      const double scale = std::sqrt(scale2) * physicalFromWorld_.scale;
+      for (const Eigen::Vector4d& sphere : source.interior) {
+        const Eigen::Vector3d centre =
+            physicalFromWorld_.point(instance.worldFromObject * Eigen::Vector3d(sphere.head<3>()));
+        // The corners' rounding to float moves the faces by ulps: far less than this.
+        const double radius = sphere.w() * scale * (1.0 - 1e-4);
+        mesh.interior.emplace_back(static_cast<float>(centre.x()), static_cast<float>(centre.y()),
+                                   static_cast<float>(centre.z()), static_cast<float>(radius));
+      }
+    }
+  }
   mesh.faceNormals.reserve(mesh.triangles.size());
   mesh.crossLengths.reserve(mesh.triangles.size());
   for (const auto& tri : mesh.triangles) {

@@ -54,6 +54,9 @@ struct PhysicalMesh {
   // occluders() that a shadow ray can leave (diffuse ones); empty otherwise (none bare).
   static constexpr std::int32_t kFrontBare = 1, kBackBare = 2;
   std::vector<std::int32_t> bareFaces;
+  // Mesh::interior in physical space, when the instance's transform keeps spheres spheres and
+  // every triangle was built whole (none clipped or dropped); else empty.
+  std::vector<Eigen::Vector4f> interior;
   int material = 0;
 };
 
@@ -67,12 +70,18 @@ struct OccluderBound {
   // for any other mesh.
   Eigen::Vector4f plane = Eigen::Vector4f::Zero();
   float planeMargin = 0.0f;
-  // A closed convex mesh that stops light (not glass): a sphere inside it (centre x, y, z,
-  // radius; radius 0: none). A ray that passes through it crosses the mesh: blocked, with no
-  // trip through Embree.
-  Eigen::Vector4f core = Eigen::Vector4f::Zero();
+  // A closed mesh that stops light (not glass): spheres inside it (centre x, y, z, radius), one
+  // for a convex mesh, the shape's own for a torus (Mesh::interior). A ray that passes through
+  // one crosses the mesh: blocked, with no trip through Embree.
+  static constexpr int kMaxCores = 24;
+  std::array<Eigen::Vector4f, kMaxCores> cores{};
+  int coreCount = 0;
+  // Cores kCoresPerGroup at a time in a sphere that holds them: a ray that passes one is not
+  // tested against its cores.
+  static constexpr int kCoresPerGroup = 6;
+  std::array<Eigen::Vector4f, kMaxCores / kCoresPerGroup> coreGroups{};
   bool flat() const { return planeMargin > 0.0f; }
-  bool hasCore() const { return core.w() > 0.0f; }
+  bool hasCore() const { return coreCount > 0; }
 };
 
 struct PhysicalLight {

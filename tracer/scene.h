@@ -83,6 +83,9 @@ struct Mesh {
   std::vector<Eigen::Vector2f> uvs;      // empty, or one per position
   std::vector<Rgb> colors;               // empty, or one per position (multiplies the material)
   int material = 0;                      // index into Scene::materials
+  // Spheres inside the closed solid the triangles bound (object space: centre, radius), known
+  // to the shape that made it (mesh_shapes.h): a ray through one crosses the mesh. Empty: none.
+  std::vector<Eigen::Vector4d> interior;
 };
 
 struct Instance {

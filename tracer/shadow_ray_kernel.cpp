@@ -11,6 +11,7 @@
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -222,11 +223,24 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
         for (size_t k = 0; k < job.occluderCount && !hn::AllFalse(d, candidates); ++k) {
           const OccluderBound& bound = job.occluders[k];
           if (!bound.hasCore()) continue;
-          const auto others =
-              hn::RebindMask(d, hn::Ne(ownMesh, hn::Set(di, static_cast<std::int32_t>(k))));
-          blocked =
-              hn::Or(blocked, hn::And(hn::And(candidates, others),
-                                      PassesThroughSphere(d, ax, ay, az, lx, ly, lz, bound.core)));
+          const auto others = hn::And(
+              candidates,
+              hn::RebindMask(d, hn::Ne(ownMesh, hn::Set(di, static_cast<std::int32_t>(k)))));
+          for (int first = 0; first < bound.coreCount; first += OccluderBound::kCoresPerGroup) {
+            const auto group = hn::AndNot(
+                blocked,
+                hn::And(others, MayMeetSphere(d, ax, ay, az, lx, ly, lz, infinity,
+                                              bound.coreGroups[static_cast<size_t>(
+                                                  first / OccluderBound::kCoresPerGroup)])));
+            if (hn::AllFalse(d, group)) continue;
+            const int last = std::min(bound.coreCount, first + OccluderBound::kCoresPerGroup);
+            for (int c = first; c < last; ++c) {
+              blocked =
+                  hn::Or(blocked,
+                         hn::And(group, PassesThroughSphere(d, ax, ay, az, lx, ly, lz,
+                                                            bound.cores[static_cast<size_t>(c)])));
+            }
+          }
         }
       }
       if (!hn::AllFalse(d, blocked)) {

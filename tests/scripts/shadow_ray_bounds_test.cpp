@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cstdint>
 #include <limits>
@@ -22,6 +23,7 @@
 #include "scripts/scripted_scene.h"
 #include "small_display.h"
 #include "tracer/frame.h"
+#include "tracer/mesh_shapes.h"
 #include "tracer/physical_scene.h"
 #include "tracer/scene_fixtures.h"
 #include "tracer/whitted_integrator.h"
@@ -228,43 +230,37 @@ TEST(ShadowRayBounds, BareFacesHaveTheirWholeMeshBehind) {
   EXPECT_EQ(back[box], 0u);
 }
 
-// A core only where the mesh is closed and convex (the ball and the box, not the floor nor the
-// torus), and Embree finds every ray through it blocked by the mesh, from any side.
-TEST(ShadowRayBounds, CoresLieInsideClosedConvexMeshes) {
-  TempFolder folder;
-  ScriptOptions options;
-  options.quiet = true;
-  ScriptedScene script(folder.write("torus.lua", kSelfShadowing), options);
-  ASSERT_TRUE(script.setTime(0.3)) << script.lastError();
-  const PhysicalScene scene(script.scene(), smallDisplay().model.displayableBox);
-  ASSERT_EQ(scene.occluders().size(), 4u);
-  const size_t floor = 0, torus = 1, ball = 2, box = 3;
-  EXPECT_FALSE(scene.occluders()[floor].hasCore());
-  EXPECT_FALSE(scene.occluders()[torus].hasCore());
-  ASSERT_TRUE(scene.occluders()[ball].hasCore());
-  ASSERT_TRUE(scene.occluders()[box].hasCore());
-  // The ball's core is nearly the ball: most of its shadow is left to the core.
-  float ballRadius = 0.0f;
-  for (const Eigen::Vector3f& p : scene.meshes()[ball].positions)
-    ballRadius = std::max(ballRadius, (p - scene.occluders()[ball].core.head<3>()).norm());
-  EXPECT_GT(scene.occluders()[ball].core.w(), 0.9f * ballRadius);
-  EXPECT_LT(scene.occluders()[ball].core.w(), ballRadius);
+// Every ray through a core (Embree's own answer, the mesh alone in its scene) is blocked by the
+// mesh, from outside and from inside it.
+void expectCoresBlock(const Mesh& shape, const Eigen::Affine3d& placed, int expectedCores) {
+  Scene scene;
+  const int white = scene.addMaterial(Material::makeDiffuse({0.7f, 0.7f, 0.7f}));
+  Mesh mesh = shape;
+  mesh.material = white;
+  scene.addMesh(std::move(mesh), true, placed);
+  scene.addLight(Light::makeDirectional({0.2, -1.0, -0.3}, {1.0f, 1.0f, 1.0f}));
+  scene.worldBox = Box3{{-1.5, -1.5, -1.5}, {1.5, 1.5, 1.5}};
+  const PhysicalScene physical(scene, smallDisplay().model.displayableBox);
+  ASSERT_EQ(physical.occluders().size(), 1u) << shape.name;
+  const OccluderBound& bound = physical.occluders()[0];
+  ASSERT_EQ(bound.coreCount, expectedCores) << shape.name;
   std::mt19937 random(5);
   std::normal_distribution<float> gaussian;
   std::uniform_real_distribution<float> unit(0.0f, 1.0f);
-  for (size_t m : {ball, box}) {
-    const Eigen::Vector4f core = scene.occluders()[m].core;
-    for (int i = 0; i < 2000; ++i) {
+  for (int c = 0; c < bound.coreCount; ++c) {
+    const Eigen::Vector4f core = bound.cores[static_cast<size_t>(c)];
+    ASSERT_GT(core.w(), 0.0f);
+    for (int i = 0; i < 500; ++i) {
       const Eigen::Vector3f l =
           Eigen::Vector3f(gaussian(random), gaussian(random), gaussian(random)).normalized();
-      // A point of the core's disc across l, and a start two radii of the scene back.
-      Eigen::Vector3f across = Eigen::Vector3f(gaussian(random), gaussian(random), gaussian(random))
-                                   .cross(l)
-                                   .normalized();
+      // A point of the core's disc across l; the ray starts a scene's width back, or (every
+      // fourth) inside the core, and leaves through a back face.
+      const Eigen::Vector3f across =
+          Eigen::Vector3f(gaussian(random), gaussian(random), gaussian(random))
+              .cross(l)
+              .normalized();
       const Eigen::Vector3f through =
           core.head<3>() + 0.999f * core.w() * std::sqrt(unit(random)) * across;
-      // Every fourth starts inside the core (a surface of another object inside the mesh):
-      // its ray leaves through a back face, which blocks it as well.
       const Eigen::Vector3f origin =
           i % 4 == 0 ? through - 0.5f * core.w() * l : through - 1.5f * l;
       RTCRay ray;
@@ -282,10 +278,53 @@ TEST(ShadowRayBounds, CoresLieInsideClosedConvexMeshes) {
       ray.flags = 0;
       RTCIntersectContext context;
       rtcInitIntersectContext(&context);
-      rtcOccluded1(scene.handle(), &context, &ray);
-      ASSERT_EQ(ray.tfar, -std::numeric_limits<float>::infinity()) << "mesh " << m << ", ray " << i;
+      rtcOccluded1(physical.handle(), &context, &ray);
+      ASSERT_EQ(ray.tfar, -std::numeric_limits<float>::infinity())
+          << shape.name << ", core " << c << ", ray " << i;
     }
   }
+}
+
+// A closed convex mesh gets one core (a UV sphere, a box; its corners welded where they repeat),
+// a torus its own beads along its core circle, turned and scaled alike; an open or flat mesh, a
+// non-uniformly scaled torus and glass none.
+TEST(ShadowRayBounds, CoresLieInsideClosedMeshes) {
+  const Eigen::Affine3d turned = Eigen::Translation3d(0.1, 0.2, -0.1) *
+                                 Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()) *
+                                 Eigen::Scaling(1.3);
+  expectCoresBlock(makeSphere(0.4, 24, 12), turned, 1);
+  expectCoresBlock(makeSphere(0.4, 5, 3), Eigen::Affine3d::Identity(), 1);
+  expectCoresBlock(makeBox({0.5, 0.3, 0.8}), turned, 1);
+  expectCoresBlock(makeTorus(0.5, 0.15, 24, 12), turned, 24);
+  expectCoresBlock(makeTorus(0.5, 0.2, 48, 6), Eigen::Affine3d::Identity(), 24);
+  expectCoresBlock(makeTorus(0.5, 0.15, 5, 4), turned, 5);
+  expectCoresBlock(makeTorus(0.5, 0.15, 24, 12), Eigen::Affine3d(Eigen::Scaling(1.0, 1.5, 1.0)), 0);
+  expectCoresBlock(makeGrid(1.0, 1.0, 2, 2), turned, 0);
+  expectCoresBlock(makeCone(0.4, 0.6, 24), turned, 1);
+
+  // The beads are as wide as the tube allows: most of the torus's shadow is left to them.
+  const Mesh torus = makeTorus(0.5, 0.15, 24, 12);
+  ASSERT_EQ(torus.interior.size(), 24u);
+  for (const Eigen::Vector4d& bead : torus.interior) {
+    EXPECT_GT(bead.w(), 0.9 * 0.15);
+    EXPECT_LT(bead.w(), 0.15);
+  }
+  // Glass lets light through (in a scene with a lit surface to shadow): no core.
+  Scene scene;
+  const int white = scene.addMaterial(Material::makeDiffuse({0.7f, 0.7f, 0.7f}));
+  const int glass = scene.addMaterial(Material::makeDielectric(1.5f));
+  Mesh floor = makeGrid(2.0, 2.0, 2, 2);
+  floor.material = white;
+  scene.addMesh(std::move(floor), true, Eigen::Affine3d(Eigen::Translation3d(0, -0.5, 0)));
+  Mesh ball = makeSphere(0.4, 24, 12);
+  ball.material = glass;
+  scene.addMesh(std::move(ball));
+  scene.addLight(Light::makeDirectional({0.2, -1.0, -0.3}, {1.0f, 1.0f, 1.0f}));
+  scene.worldBox = Box3{{-1.5, -1.5, -1.5}, {1.5, 1.5, 1.5}};
+  const PhysicalScene physical(scene, smallDisplay().model.displayableBox);
+  ASSERT_TRUE(physical.glassShadows());
+  ASSERT_EQ(physical.occluders().size(), 2u);
+  EXPECT_FALSE(physical.occluders()[1].hasCore());
 }
 
 // More meshes than kMaxOccluders: no bounds, every ray traced.

@@ -29,71 +29,6 @@ void addQuad(Mesh* m, std::uint32_t a, std::uint32_t b, std::uint32_t c, std::ui
 
 }  // namespace
 
-Mesh makeGrid(double width, double height, int nx, int ny) {
-  PARALLAX_CHECK(nx >= 1 && ny >= 1);
-  Mesh m;
-  m.name = "grid";
-  for (int j = 0; j <= ny; ++j) {
-    for (int i = 0; i <= nx; ++i) {
-      const double u = static_cast<double>(i) / nx, v = static_cast<double>(j) / ny;
-      addVertex(&m, {(u - 0.5) * width, (v - 0.5) * height, 0.0}, {0, 0, 1}, u, v);
-    }
-  }
-  const auto at = [&](int i, int j) { return static_cast<std::uint32_t>(j * (nx + 1) + i); };
-  for (int j = 0; j < ny; ++j) {
-    for (int i = 0; i < nx; ++i)
-      addQuad(&m, at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-  }
-  return m;
-}
-
-Mesh makeBox(const Eigen::Vector3d& size) {
-  Mesh m;
-  m.name = "box";
-  const Eigen::Vector3d h = 0.5 * size;
-  // Each face: outward normal n and two in-plane axes a, b with a × b = n.
-  const Eigen::Vector3d axes[6][3] = {
-      {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, {{-1, 0, 0}, {0, 0, 1}, {0, 1, 0}},
-      {{0, 1, 0}, {0, 0, 1}, {1, 0, 0}}, {{0, -1, 0}, {1, 0, 0}, {0, 0, 1}},
-      {{0, 0, 1}, {1, 0, 0}, {0, 1, 0}}, {{0, 0, -1}, {0, 1, 0}, {1, 0, 0}}};
-  for (const auto& face : axes) {
-    const Eigen::Vector3d& n = face[0];
-    const Eigen::Vector3d a = face[1].cwiseProduct(h), b = face[2].cwiseProduct(h),
-                          c = n.cwiseProduct(h);
-    const std::uint32_t v0 = addVertex(&m, c - a - b, n, 0, 0);
-    const std::uint32_t v1 = addVertex(&m, c + a - b, n, 1, 0);
-    const std::uint32_t v2 = addVertex(&m, c + a + b, n, 1, 1);
-    const std::uint32_t v3 = addVertex(&m, c - a + b, n, 0, 1);
-    addQuad(&m, v0, v1, v2, v3);
-  }
-  return m;
-}
-
-Mesh makeSphere(double radius, int slices, int stacks) {
-  PARALLAX_CHECK(slices >= 3 && stacks >= 2);
-  Mesh m;
-  m.name = "sphere";
-  for (int j = 0; j <= stacks; ++j) {
-    const double theta = kPi * j / stacks;  // from the north pole (+y)
-    for (int i = 0; i <= slices; ++i) {
-      const double phi = 2.0 * kPi * i / slices;
-      const Eigen::Vector3d n(std::sin(theta) * std::sin(phi), std::cos(theta),
-                              std::sin(theta) * std::cos(phi));
-      addVertex(&m, radius * n, n, static_cast<double>(i) / slices,
-                1.0 - static_cast<double>(j) / stacks);
-    }
-  }
-  const auto at = [&](int i, int j) { return static_cast<std::uint32_t>(j * (slices + 1) + i); };
-  for (int j = 0; j < stacks; ++j) {
-    for (int i = 0; i < slices; ++i) {
-      // Counter-clockwise seen from outside: down the meridian, then along increasing phi.
-      if (j > 0) m.triangles.push_back({at(i, j), at(i, j + 1), at(i + 1, j)});
-      if (j + 1 < stacks) m.triangles.push_back({at(i + 1, j), at(i, j + 1), at(i + 1, j + 1)});
-    }
-  }
-  return m;
-}
-
 namespace {
 
 // The distance from p to the triangle abc (its nearest point by the triangle's regions: Ericson,
@@ -137,6 +72,73 @@ void addInterior(Mesh* m, const std::vector<Eigen::Vector3d>& centres) {
 
 }  // namespace
 
+Mesh makeGrid(double width, double height, int nx, int ny) {
+  PARALLAX_CHECK(nx >= 1 && ny >= 1);
+  Mesh m;
+  m.name = "grid";
+  for (int j = 0; j <= ny; ++j) {
+    for (int i = 0; i <= nx; ++i) {
+      const double u = static_cast<double>(i) / nx, v = static_cast<double>(j) / ny;
+      addVertex(&m, {(u - 0.5) * width, (v - 0.5) * height, 0.0}, {0, 0, 1}, u, v);
+    }
+  }
+  const auto at = [&](int i, int j) { return static_cast<std::uint32_t>(j * (nx + 1) + i); };
+  for (int j = 0; j < ny; ++j) {
+    for (int i = 0; i < nx; ++i)
+      addQuad(&m, at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+  }
+  return m;
+}
+
+Mesh makeBox(const Eigen::Vector3d& size) {
+  Mesh m;
+  m.name = "box";
+  const Eigen::Vector3d h = 0.5 * size;
+  // Each face: outward normal n and two in-plane axes a, b with a × b = n.
+  const Eigen::Vector3d axes[6][3] = {
+      {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, {{-1, 0, 0}, {0, 0, 1}, {0, 1, 0}},
+      {{0, 1, 0}, {0, 0, 1}, {1, 0, 0}}, {{0, -1, 0}, {1, 0, 0}, {0, 0, 1}},
+      {{0, 0, 1}, {1, 0, 0}, {0, 1, 0}}, {{0, 0, -1}, {0, 1, 0}, {1, 0, 0}}};
+  for (const auto& face : axes) {
+    const Eigen::Vector3d& n = face[0];
+    const Eigen::Vector3d a = face[1].cwiseProduct(h), b = face[2].cwiseProduct(h),
+                          c = n.cwiseProduct(h);
+    const std::uint32_t v0 = addVertex(&m, c - a - b, n, 0, 0);
+    const std::uint32_t v1 = addVertex(&m, c + a - b, n, 1, 0);
+    const std::uint32_t v2 = addVertex(&m, c + a + b, n, 1, 1);
+    const std::uint32_t v3 = addVertex(&m, c - a + b, n, 0, 1);
+    addQuad(&m, v0, v1, v2, v3);
+  }
+  addInterior(&m, {Eigen::Vector3d::Zero()});
+  return m;
+}
+
+Mesh makeSphere(double radius, int slices, int stacks) {
+  PARALLAX_CHECK(slices >= 3 && stacks >= 2);
+  Mesh m;
+  m.name = "sphere";
+  for (int j = 0; j <= stacks; ++j) {
+    const double theta = kPi * j / stacks;  // from the north pole (+y)
+    for (int i = 0; i <= slices; ++i) {
+      const double phi = 2.0 * kPi * i / slices;
+      const Eigen::Vector3d n(std::sin(theta) * std::sin(phi), std::cos(theta),
+                              std::sin(theta) * std::cos(phi));
+      addVertex(&m, radius * n, n, static_cast<double>(i) / slices,
+                1.0 - static_cast<double>(j) / stacks);
+    }
+  }
+  const auto at = [&](int i, int j) { return static_cast<std::uint32_t>(j * (slices + 1) + i); };
+  for (int j = 0; j < stacks; ++j) {
+    for (int i = 0; i < slices; ++i) {
+      // Counter-clockwise seen from outside: down the meridian, then along increasing phi.
+      if (j > 0) m.triangles.push_back({at(i, j), at(i, j + 1), at(i + 1, j)});
+      if (j + 1 < stacks) m.triangles.push_back({at(i + 1, j), at(i, j + 1), at(i + 1, j + 1)});
+    }
+  }
+  addInterior(&m, {Eigen::Vector3d::Zero()});  // known here, not worked out every frame
+  return m;
+}
+
 Mesh makeTorus(double majorRadius, double minorRadius, int segments, int sides) {
   PARALLAX_CHECK(segments >= 3 && sides >= 3);
   Mesh m;
@@ -164,6 +166,11 @@ Mesh makeTorus(double majorRadius, double minorRadius, int segments, int sides) 
     centres.push_back(majorRadius * Eigen::Vector3d(std::sin(phi), 0.0, std::cos(phi)));
   }
   addInterior(&m, centres);
+  // Every corner lies minorRadius from the core circle; the faces between them reach no farther
+  // out, and inward no nearer the axis than the chord between two rings' innermost corners.
+  m.ring.inner = (majorRadius - minorRadius) * std::cos(kPi / segments);
+  m.ring.outer = majorRadius + minorRadius;
+  m.ring.halfHeight = minorRadius;
   return m;
 }
 

@@ -398,17 +398,18 @@ void PhysicalScene::boundOccluders() {
       for (int first = 0; first < bound.coreCount; first += OccluderBound::kCoresPerGroup) {
         const int last = std::min(bound.coreCount, first + OccluderBound::kCoresPerGroup);
         Eigen::Vector3f centre = Eigen::Vector3f::Zero();
-        for (int c = first; c < last; ++c) centre += bound.cores[static_cast<size_t>(c)].head<3>();
+        for (int k = first; k < last; ++k) centre += bound.cores[static_cast<size_t>(k)].head<3>();
         centre /= static_cast<float>(last - first);
         float radius = 0.0f;
-        for (int c = first; c < last; ++c) {
-          const Eigen::Vector4f& core = bound.cores[static_cast<size_t>(c)];
+        for (int k = first; k < last; ++k) {
+          const Eigen::Vector4f& core = bound.cores[static_cast<size_t>(k)];
           radius = std::max(radius, (core.head<3>() - centre).norm() + core.w());
         }
         bound.coreGroups[static_cast<size_t>(first / OccluderBound::kCoresPerGroup)] = {
             centre.x(), centre.y(), centre.z(), radius * (1.0f + 1e-4f) + margin};
       }
     }
+    bound.ring = mesh.ring;  // an outer bound: glass's too
     occluders_.push_back(bound);
   }
 }
@@ -572,7 +573,7 @@ void PhysicalScene::addInstance(const Scene& scene, const Instance& instance, co
   const bool whole = counters_.trianglesDegenerate == degenerateBefore &&
                      counters_.trianglesOutside == outsideBefore &&
                      counters_.trianglesClipped == clippedBefore;
-  if (!source.interior.empty() && whole) {
+  if ((!source.interior.empty() || source.ring.halfHeight > 0.0) && whole) {
     // Every triangle whole (none clipped, none dropped): the shape's interior spheres, where the
     // instance's transform keeps a sphere a sphere (a rotation, a mirror, one scale).
     const Eigen::Matrix3d linear = instance.worldFromObject.linear();
@@ -581,6 +582,17 @@ void PhysicalScene::addInstance(const Scene& scene, const Instance& instance, co
     if (scale2 > 0.0 &&
         (gram - scale2 * Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() <= 1e-9 * scale2) {
       const double scale = std::sqrt(scale2) * physicalFromWorld_.scale;
+      if (source.ring.halfHeight > 0.0) {
+        // Wider by far more than the float rounding of the corners and of the kernel's test.
+        const double pad = 1e-3 * (source.ring.outer * scale);
+        const Eigen::Vector3d axis = (linear * source.ring.axis).normalized();
+        mesh.ring.centre =
+            physicalFromWorld_.point(instance.worldFromObject * source.ring.centre).cast<float>();
+        mesh.ring.axis = axis.cast<float>();
+        mesh.ring.inner = static_cast<float>(std::max(0.0, source.ring.inner * scale - pad));
+        mesh.ring.outer = static_cast<float>(source.ring.outer * scale + pad);
+        mesh.ring.halfHeight = static_cast<float>(source.ring.halfHeight * scale + pad);
+      }
       for (const Eigen::Vector4d& sphere : source.interior) {
         const Eigen::Vector3d centre =
             physicalFromWorld_.point(instance.worldFromObject * Eigen::Vector3d(sphere.head<3>()));

@@ -57,6 +57,13 @@ struct PhysicalMesh {
   // Mesh::interior in physical space, when the instance's transform keeps spheres spheres and
   // every triangle was built whole (none clipped or dropped); else empty.
   std::vector<Eigen::Vector4f> interior;
+  // Mesh::ring in physical space, on the same terms (halfHeight 0: none), a little wider.
+  struct Ring {
+    Eigen::Vector3f centre = Eigen::Vector3f::Zero();
+    Eigen::Vector3f axis = Eigen::Vector3f::UnitY();
+    float inner = 0.0f, outer = 0.0f, halfHeight = 0.0f;
+  };
+  Ring ring;
   int material = 0;
 };
 
@@ -80,6 +87,8 @@ struct OccluderBound {
   // tested against its cores.
   static constexpr int kCoresPerGroup = 6;
   std::array<Eigen::Vector4f, kMaxCores / kCoresPerGroup> coreGroups{};
+  // The mesh's ring (PhysicalMesh::ring), when its shape knows one: halfHeight 0 without.
+  PhysicalMesh::Ring ring;
   bool flat() const { return planeMargin > 0.0f; }
   bool hasCore() const { return coreCount > 0; }
 };

@@ -86,6 +86,16 @@ struct Mesh {
   // Spheres inside the closed solid the triangles bound (object space: centre, radius), known
   // to the shape that made it (mesh_shapes.h): a ray through one crosses the mesh. Empty: none.
   std::vector<Eigen::Vector4d> interior;
+  // A ring that holds every triangle (object space), known to the shape that made it: the
+  // points within `halfHeight` of the plane through `centre` across `axis` (unit) whose distance
+  // from the axis is in [inner, outer]. A ray that crosses that slab only inside the inner
+  // radius or only outside the outer one misses the mesh. halfHeight 0: none.
+  struct Ring {
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    Eigen::Vector3d axis = Eigen::Vector3d::UnitY();
+    double inner = 0.0, outer = 0.0, halfHeight = 0.0;
+  };
+  Ring ring;
 };
 
 struct Instance {

@@ -203,6 +203,12 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
         const auto others =
             hn::RebindMask(d, hn::Ne(ownMesh, hn::Set(di, static_cast<std::int32_t>(k))));
         auto may = hn::And(others, MayMeetSphere(d, ax, ay, az, lx, ly, lz, tfar, bound.sphere));
+        if (bound.ring.halfHeight > 0.0f && !hn::AllFalse(d, may)) {
+          may = hn::AndNot(
+              MissesRing(d, ax, ay, az, lx, ly, lz, tfar, bound.ring.centre, bound.ring.axis,
+                         bound.ring.inner, bound.ring.outer, bound.ring.halfHeight),
+              may);
+        }
         if (planeSide[k] == 2) {
           may = hn::And(
               may, MayCrossPlane(d, ax, ay, az, lx, ly, lz, tfar, bound.plane, bound.planeMargin));

@@ -98,6 +98,51 @@ HWY_INLINE auto PassesThroughSphere(D d, V ax, V ay, V az, V lx, V ly, V lz,
   return hn::And(inside, hn::Gt(along, hn::Zero(d)));
 }
 
+// Lanes whose ray (from a along the unit l, for t in [0, tfar]) certainly misses `ring`
+// (PhysicalMesh::Ring): it never enters the ring's slab, or crosses it only nearer the axis than
+// `inner`, or only farther than `outer`. The distance from the axis squared is a quadratic in t:
+// its largest value on the slab's interval is at an end, its smallest at an end or its vertex.
+// Every test is a comparison that NaN makes false (may meet); the ring is padded far beyond the
+// rounding (physical_scene.cpp).
+template <class D, class V = hwy::HWY_NAMESPACE::Vec<D>>
+HWY_INLINE auto MissesRing(D d, V ax, V ay, V az, V lx, V ly, V lz, V tfar,
+                           const Eigen::Vector3f& centre, const Eigen::Vector3f& axis, float inner,
+                           float outer, float halfHeight) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  const V nx = hn::Set(d, axis.x()), ny = hn::Set(d, axis.y()), nz = hn::Set(d, axis.z());
+  const V wx = hn::Sub(ax, hn::Set(d, centre.x()));
+  const V wy = hn::Sub(ay, hn::Set(d, centre.y()));
+  const V wz = hn::Sub(az, hn::Set(d, centre.z()));
+  const V h0 = Dot3(nx, ny, nz, wx, wy, wz);
+  const V hl = Dot3(nx, ny, nz, lx, ly, lz);
+  const V height = hn::Set(d, halfHeight);
+  // The slab's interval [t1, t2] within [0, tfar] (±∞ where the ray runs along the plane).
+  const V ta = hn::Div(hn::Sub(hn::Neg(height), h0), hl);
+  const V tb = hn::Div(hn::Sub(height, h0), hl);
+  const V t1 = hn::Max(hn::Min(ta, tb), hn::Zero(d));
+  const V t2 = hn::Min(hn::Max(ta, tb), tfar);
+  const auto slabMissed = hn::Gt(t1, t2);
+  // Across the axis: q(t) = q0 + t ql.
+  const V q0x = hn::Sub(wx, hn::Mul(h0, nx)), q0y = hn::Sub(wy, hn::Mul(h0, ny)),
+          q0z = hn::Sub(wz, hn::Mul(h0, nz));
+  const V qlx = hn::Sub(lx, hn::Mul(hl, nx)), qly = hn::Sub(ly, hn::Mul(hl, ny)),
+          qlz = hn::Sub(lz, hn::Mul(hl, nz));
+  const V a = Dot3(qlx, qly, qlz, qlx, qly, qlz);
+  const V b = Dot3(q0x, q0y, q0z, qlx, qly, qlz);
+  const V c = Dot3(q0x, q0y, q0z, q0x, q0y, q0z);
+  const auto squared = [&](V t) {
+    return hn::Add(c, hn::Mul(t, hn::Add(hn::Add(b, b), hn::Mul(a, t))));
+  };
+  const V at1 = squared(t1), at2 = squared(t2);
+  const V vertex = hn::Max(t1, hn::Min(t2, hn::Div(hn::Neg(b), a)));
+  const V atVertex = squared(vertex);
+  const V inner2 = hn::Set(d, inner * inner), outer2 = hn::Set(d, outer * outer);
+  const auto inHole = hn::And(hn::Lt(at1, inner2), hn::Lt(at2, inner2));
+  const auto beyond =
+      hn::And(hn::And(hn::Gt(at1, outer2), hn::Gt(at2, outer2)), hn::Gt(atVertex, outer2));
+  return hn::Or(slabMissed, hn::Or(inHole, beyond));
+}
+
 // n · a − c of the plane n · x = c (`plane`: n, c): a's signed distance from it.
 template <class D, class V = hwy::HWY_NAMESPACE::Vec<D>>
 HWY_INLINE V PlaneDistance(D d, V ax, V ay, V az, const Eigen::Vector4f& plane) {

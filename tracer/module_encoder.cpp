@@ -71,6 +71,16 @@ ModuleEncoder::ModuleEncoder(const ModuleColourCorrection& correction, int width
           static_cast<std::uint8_t>(code);
     }
   }
+  // Once here, not per row: a frame rendered in tiles encodes a row a tile.
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) kernel_.matrix[r][c] = correction_.driveFromContent(r, c);
+    kernel_.lift[r] = correction_.lift[r];
+    kernel_.black[r] = correction_.blackDrive[r];
+    // Each channel's table starts binCount_ entries after the previous one's; the first bin is
+    // the smallest drive kept.
+    kernel_.binBase[r] = r * binCount_ - static_cast<int>(bitsOf(kMinDrive) >> shift_);
+  }
+  kernel_.shift = shift_;
 }
 
 void ModuleEncoder::interpolateGainRows() {
@@ -154,20 +164,12 @@ std::vector<std::uint8_t> ModuleEncoder::encodeReference(const Frame& frame) con
 
 namespace {
 
-// What the SIMD kernels need, as plain numbers.
-struct KernelConstants {
-  float matrix[3][3];
-  float lift[3], black[3];
-  int shift;
-  int binBase[3];  // channel c's bin = (drive bits >> shift) + binBase[c]
-};
-
 // Pixels [0, n) of a block, four (SSE2) or eight (AVX2) at a time: deinterleave RGB RGB RGB RGB
 // into R, G, B, then the matrix, the lift, the gain and the black, the clamp (maxps returns the
 // bound for NaN), the bin from the bits. Returns how many pixels it did (the rest are the
 // caller's). The two kernels do the same operations in the same order: the same bytes.
-int kernelSse2(const KernelConstants& k, const float* in, const float* above, const float* below,
-               float fraction, int start, int n, float (*drive)[kBlock],
+int kernelSse2(const EncodeKernelConstants& k, const float* in, const float* above,
+               const float* below, float fraction, int start, int n, float (*drive)[kBlock],
                std::int32_t (*bin)[kBlock]) {
   __m128 m[3][3], lift[3], black[3];
   __m128i binBase[3];
@@ -212,7 +214,7 @@ int kernelSse2(const KernelConstants& k, const float* in, const float* above, co
 
 // The same with eight pixels: each 128-bit lane holds four pixels laid out as in kernelSse2, so
 // the in-lane shuffles are the same.
-__attribute__((target("avx2"))) int kernelAvx2(const KernelConstants& k, const float* in,
+__attribute__((target("avx2"))) int kernelAvx2(const EncodeKernelConstants& k, const float* in,
                                                const float* above, const float* below,
                                                float fraction, int n, float (*drive)[kBlock],
                                                std::int32_t (*bin)[kBlock]) {
@@ -287,16 +289,7 @@ void ModuleEncoder::encodeRow(const Frame& frame, int y, int begin, int end,
   PARALLAX_CHECK_OP(frame.height, ==, height_);
   PARALLAX_CHECK(y >= 0 && y < height_ && begin >= 0 && begin <= end && end <= width_);
   static_assert(sizeof(Rgb) == 3 * sizeof(float), "Rgb must be 3 packed floats");
-  KernelConstants k;
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) k.matrix[r][c] = correction_.driveFromContent(r, c);
-    k.lift[r] = correction_.lift[r];
-    k.black[r] = correction_.blackDrive[r];
-    // Each channel's table starts binCount_ entries after the previous one's; the first bin is
-    // the smallest drive kept.
-    k.binBase[r] = r * binCount_ - static_cast<int>(bitsOf(kMinDrive) >> shift_);
-  }
-  k.shift = shift_;
+  const EncodeKernelConstants& k = kernel_;
   const bool avx2 = useAvx2_ && cpuHasAvx2();
   const std::uint8_t* codes = codes_.data();
   const float* thresholds = thresholds_.data();

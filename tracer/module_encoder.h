@@ -18,6 +18,14 @@
 
 namespace parallax {
 
+// What the encode's SIMD kernels need, as plain numbers (module_encoder.cpp).
+struct EncodeKernelConstants {
+  float matrix[3][3] = {};
+  float lift[3] = {}, black[3] = {};
+  int shift = 0;
+  int binBase[3] = {};  // channel c's bin = (drive bits >> shift) + binBase[c]
+};
+
 class ModuleEncoder {
  public:
   // Throws InputError (from validate) for a malformed correction.
@@ -73,6 +81,7 @@ class ModuleEncoder {
   int shift_ = 15;
   int binCount_ = 0;
   std::vector<std::uint8_t> codes_;
+  EncodeKernelConstants kernel_;  // from the correction and the tables above
 };
 
 }  // namespace parallax

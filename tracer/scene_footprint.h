@@ -37,6 +37,9 @@ class SceneFootprint {
   const FootprintRow& row(int y) const { return rows_[static_cast<size_t>(y)]; }
   // Whether a scene with these bounds renders the same through the footprint.
   bool holds(const Eigen::Vector3f& boundsMin, const Eigen::Vector3f& boundsMax) const;
+  // The box it was made for.
+  const Eigen::Vector3f& boxMin() const { return boxMin_; }
+  const Eigen::Vector3f& boxMax() const { return boxMax_; }
   long livePixels() const { return livePixels_; }  // inside the rows' [begin, end)
   long pixels() const { return static_cast<long>(width_) * height(); }
 

@@ -24,8 +24,8 @@
 //                  max_error_px = 3.0, max_observer_mm = 15.0, allow_partial = false
 //                       (the quality gate: calibration/fit/calibration_gate.h)
 //                  (camera = "x.json", the old form, is read as camera_metadata)
-//   [scene]        script = "cornell" | "scene.lua", fps = 30, frame_cache = true, footprint =
-//   true,
+//   [scene]        script = "cornell" | "scene.lua", fps = 30, frame_cache = true,
+//                  footprint = true,
 //                  [scene.parameters] name = value
 //   [daemon]       socket = "...", cache_dir = "...", log_level = "info"
 //   [link]         ack_timeout_ms = 2000, max_retries = 3, stall_limit_ms = 3000,

@@ -48,34 +48,37 @@ void LivePixels::prepare(const PhysicalScene& scene, const std::vector<RayTextur
                          std::uint64_t encodersVersion) {
   if (!encoders.empty() && encoders.size() != textures.size())
     throw std::invalid_argument("LivePixels: one encoder a module, or none");
+  if (textures.empty()) {
+    clear();
+    return;
+  }
   const Eigen::Vector3f& lo = scene.boundsMin();
   const Eigen::Vector3f& hi = scene.boundsMax();
+  // Every module's footprint is made for the same box.
   const bool sameInputs = modules_.size() == textures.size() &&
                           texturesVersion == texturesVersion_ &&
                           encodersVersion == encodersVersion_ && scene.background() == background_;
-  const bool inBox = (lo.array() >= boxMin_.array()).all() && (hi.array() <= boxMax_.array()).all();
-  if (sameInputs && inBox) return;
+  if (sameInputs && modules_.front().footprint.holds(lo, hi)) return;
   const auto started = std::chrono::steady_clock::now();
+  Eigen::Vector3f boxMin = lo, boxMax = hi;
   if (sameInputs) {
     // The bounds left the box: a bigger one around both, with more room.
-    boxMin_ = boxMin_.cwiseMin(lo);
-    boxMax_ = boxMax_.cwiseMax(hi);
+    boxMin = boxMin.cwiseMin(modules_.front().footprint.boxMin());
+    boxMax = boxMax.cwiseMax(modules_.front().footprint.boxMax());
     margin_ = std::min(kMaxMargin, 2.0f * margin_);
   } else {
-    boxMin_ = lo;
-    boxMax_ = hi;
     margin_ = kFirstMargin;
   }
-  const float pad = margin_ * (boxMax_ - boxMin_).norm();
-  boxMin_ -= Eigen::Vector3f::Constant(pad);
-  boxMax_ += Eigen::Vector3f::Constant(pad);
+  const float pad = margin_ * (boxMax - boxMin).norm();
+  boxMin -= Eigen::Vector3f::Constant(pad);
+  boxMax += Eigen::Vector3f::Constant(pad);
   texturesVersion_ = texturesVersion;
   encodersVersion_ = encodersVersion;
   background_ = scene.background();
   modules_.assign(textures.size(), Module{});
   tbb::parallel_for(size_t{0}, textures.size(), [&](size_t i) {
     Module& m = modules_[i];
-    m.footprint = SceneFootprint(textures[i], boxMin_, boxMax_);
+    m.footprint = SceneFootprint(textures[i], boxMin, boxMax);
     const Frame frame = backdropFrame(textures[i], m.footprint, background_);
     m.backdrop = encoders.empty() ? frame.toSrgb8() : encoders[i].encode(frame);
   });
@@ -142,7 +145,6 @@ void LivePixels::encodeTile(std::size_t module, const Frame& frame, const Module
 void LivePixels::clear() {
   modules_.clear();
   texturesVersion_ = encodersVersion_ = 0;
-  boxMin_ = boxMax_ = Eigen::Vector3f::Zero();
   margin_ = 0.0f;
 }
 

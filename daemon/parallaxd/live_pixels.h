@@ -3,12 +3,12 @@
 // (tracer/scene_footprint.h) and the backdrop, the bytes of everything outside it — black where
 // masked, the background elsewhere, through the module's encoder — which are the same in every
 // frame. A frame then traces and encodes only the footprint and copies the rest from the
-// backdrop: on `demo` and `default` about two pixels in three lie outside. The images are byte
-// for byte those of a full render and encode.
+// backdrop: on `orbit.lua` three pixels in four lie outside, on `demo` and `default`. The images
+// are byte for byte those of a full render and encode.
 //
 //   LivePixels live;  // the conductor's, across frames
-//   if (live.prepare(physical, textures, version, encoders, encodersVersion)) ...
-//     renderDisplayFrame(physical, textures, options, encoders, cache, &live)
+//   live.prepare(physical, textures, texturesVersion, encoders, encodersVersion);
+//   renderDisplayFrame(physical, textures, options, encoders, cache, &live);
 
 #include <cstdint>
 #include <memory>
@@ -67,8 +67,7 @@ class LivePixels {
   std::vector<Module> modules_;
   std::uint64_t texturesVersion_ = 0, encodersVersion_ = 0;
   Rgb background_ = Rgb::Zero();
-  Eigen::Vector3f boxMin_ = Eigen::Vector3f::Zero(), boxMax_ = Eigen::Vector3f::Zero();
-  float margin_ = 0.0f;  // of the box's diagonal, on each side
+  float margin_ = 0.0f;  // of the box's diagonal, on each side (the box: the footprints')
   LivePixelsStats stats_;
 };
 

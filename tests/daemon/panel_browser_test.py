@@ -73,31 +73,43 @@ def preview_digest(driver, with_red=False):
     """SHA-256 of the pixels the preview shows now (read back in the page through a canvas: the
     page's Content-Security-Policy lets nothing fetch its blob URLs); with_red, also the share of
     clearly red pixels (cornell's red wall)."""
-    result = driver.execute_async_script(
-        """
-        const done = arguments[arguments.length - 1];
-        const img = document.getElementById('preview');
-        const canvas = document.createElement('canvas');
-        canvas.width = img.naturalWidth;
-        canvas.height = img.naturalHeight;
-        if (!canvas.width) { done(null); return; }
-        const g = canvas.getContext('2d');
-        g.drawImage(img, 0, 0);
-        const pixels = g.getImageData(0, 0, canvas.width, canvas.height).data;
-        // Cornell's red wall: pixels clearly more red than green and blue.
-        let red = 0;
-        for (let i = 0; i < pixels.length; i += 4)
-          if (pixels[i] > pixels[i + 1] + 40 && pixels[i] > pixels[i + 2] + 40) ++red;
-        crypto.subtle.digest('SHA-256', pixels).then(d => done({
-          sha: Array.from(new Uint8Array(d)).map(b => b.toString(16).padStart(2, '0')).join(''),
-          red: red / (canvas.width * canvas.height),
-          width: canvas.width, height: canvas.height}));
-        """)
+    deadline = time.monotonic() + 10.0
+    while True:
+        result = read_preview(driver)
+        if result or time.monotonic() > deadline:
+            break
+        time.sleep(0.05)  # a newer picture replaced the one being read: read that one
     if not result:
         fail("the preview has no picture")
     if (result["width"], result["height"]) != (640, 360):
         fail(f"the preview is {result['width']}x{result['height']}, not the 640x360 view asked for")
     return result["sha"] if not with_red else (result["sha"], result["red"])
+
+
+def read_preview(driver):
+    return driver.execute_async_script(
+        """
+        const done = arguments[arguments.length - 1];
+        const img = document.getElementById('preview');
+        // The panel may be swapping in a newer picture: read the one it is loading, once decoded.
+        img.decode().then(() => {
+          const canvas = document.createElement('canvas');
+          canvas.width = img.naturalWidth;
+          canvas.height = img.naturalHeight;
+          if (!canvas.width) { done(null); return; }
+          const g = canvas.getContext('2d');
+          g.drawImage(img, 0, 0);
+          const pixels = g.getImageData(0, 0, canvas.width, canvas.height).data;
+          // Cornell's red wall: pixels clearly more red than green and blue.
+          let red = 0;
+          for (let i = 0; i < pixels.length; i += 4)
+            if (pixels[i] > pixels[i + 1] + 40 && pixels[i] > pixels[i + 2] + 40) ++red;
+          crypto.subtle.digest('SHA-256', pixels).then(d => done({
+            sha: Array.from(new Uint8Array(d)).map(b => b.toString(16).padStart(2, '0')).join(''),
+            red: red / (canvas.width * canvas.height),
+            width: canvas.width, height: canvas.height}));
+        }, () => done(null));
+        """)
 
 
 def loads(driver):

@@ -187,6 +187,8 @@ async function requestPreview() {
       const img = $('preview');
       const old = img.src;
       img.src = url;
+      // Counted once the picture is decoded, so a load the page reports is one it can show.
+      await img.decode();
       img.dataset.x = String(x);
       img.dataset.loads = String(Number(img.dataset.loads) + 1);
       if (old.startsWith('blob:')) URL.revokeObjectURL(old);

@@ -15,7 +15,7 @@
 namespace parallax::daemon {
 namespace {
 
-constexpr char kMagic[8] = {'P', 'X', 'R', 'A', 'Y', 'S', '0', '2'};
+constexpr char kMagic[8] = {'P', 'X', 'R', 'A', 'Y', 'S', '0', '3'};  // 03: XXH3 checksums
 
 // The header repeats what the file must be for (size, frame) and carries the checksum of the
 // ray bytes behind it, so a file damaged inside its data (header intact) is caught too.

@@ -110,13 +110,15 @@ nlohmann::json Conductor::statsJson() const {
                       {"shadow_rays_dynamic_only", cache.saved.shadowDynamicOnly},
                       {"shadow_rays_past_dynamic_bounds", cache.saved.shadowPassedDynamic},
                       {"lines", cache.lines()}};
-  const LivePixelsStats& live = livePixels_.stats();
+  const LivePixelsStats live = livePixels_.stats();
   j["live_pixels"] = {{"enabled", options_.config.scene.footprint},
                       {"builds", live.builds},
                       {"last_build_ms", live.lastBuildMs},
                       {"live_pixels", live.livePixels},
                       {"pixels", live.pixels},
                       {"backdrop_bytes", live.backdropBytes},
+                      {"recycled_images", live.recycledImages},
+                      {"new_images", live.newImages},
                       {"line", live.line()}};
   if (link_) {
     const hw::LinkStats& l = link_->stats();

@@ -37,10 +37,23 @@ Frame backdropFrame(const RayTextures& textures, const SceneFootprint& footprint
 std::string LivePixelsStats::line() const {
   if (builds == 0) return "  live pixels: none made (not an animated scene yet)";
   return fmt::format(
-      "  live pixels: {} of {} ({:.0f}%) inside the scene's footprint, the rest copied from the "
-      "backdrop ({:.1f} MiB); {} build(s), the last {:.0f} ms",
+      "  live pixels: {} of {} ({:.0f}%) inside the scene's footprint, the rest from the "
+      "backdrop ({:.1f} MiB); module images {} recycled with the backdrop in place, {} new; {} "
+      "build(s), the last {:.0f} ms",
       livePixels, pixels, pixels > 0 ? 100.0 * static_cast<double>(livePixels) / pixels : 0.0,
-      static_cast<double>(backdropBytes) / (1 << 20), builds, lastBuildMs);
+      static_cast<double>(backdropBytes) / (1 << 20), recycledImages, newImages, builds,
+      lastBuildMs);
+}
+
+LivePixelsStats LivePixels::stats() const {
+  LivePixelsStats stats = stats_;
+  stats.recycledImages = recycledBefore_;
+  stats.newImages = newBefore_;
+  for (const Module& m : modules_) {
+    stats.recycledImages += m.recycled;
+    stats.newImages += m.made;
+  }
+  return stats;
 }
 
 void LivePixels::prepare(const PhysicalScene& scene, const std::vector<RayTextures>& textures,
@@ -75,7 +88,7 @@ void LivePixels::prepare(const PhysicalScene& scene, const std::vector<RayTextur
   texturesVersion_ = texturesVersion;
   encodersVersion_ = encodersVersion;
   background_ = scene.background();
-  modules_.assign(textures.size(), Module{});
+  forget(textures.size());
   tbb::parallel_for(size_t{0}, textures.size(), [&](size_t i) {
     Module& m = modules_[i];
     m.footprint = SceneFootprint(textures[i], boxMin, boxMax);
@@ -98,26 +111,23 @@ std::shared_ptr<hw::Image> LivePixels::startImage(std::size_t module) const {
   const Module& m = modules_.at(module);
   // The conductor holds the frame on show and the link may still hold the one before.
   constexpr size_t kRecent = 3;
-  std::shared_ptr<hw::Image> image;
   for (const std::shared_ptr<hw::Image>& old : m.recent) {
-    // Only this list holds it, so no other thread can take a new reference to it either.
+    // Only this list holds it, so no other thread can take a new reference to it either. It was
+    // made from this footprint's backdrop (`recent` starts empty at every build) and since then
+    // written inside the footprint only (encodeTile; images leave here as const): outside it,
+    // it still holds the backdrop, and every pixel inside is written again. No copy.
     if (old.use_count() == 1 && old->pixels.size() == m.backdrop.size()) {
-      image = old;
-      break;
+      ++m.recycled;
+      return old;
     }
   }
-  if (!image) {
-    image = std::make_shared<hw::Image>();
-    if (m.recent.size() < kRecent) m.recent.push_back(image);
-  }
+  ++m.made;
+  auto image = std::make_shared<hw::Image>();
+  if (m.recent.size() < kRecent) m.recent.push_back(image);
   image->width = m.footprint.width();
   image->height = m.footprint.height();
   image->format = hw::PixelFormat::kRgb8;
-  if (image->pixels.size() == m.backdrop.size()) {
-    std::memcpy(image->pixels.data(), m.backdrop.data(), m.backdrop.size());
-  } else {
-    image->pixels = m.backdrop;
-  }
+  image->pixels = m.backdrop;
   return image;
 }
 
@@ -142,8 +152,16 @@ void LivePixels::encodeTile(std::size_t module, const Frame& frame, const Module
   }
 }
 
+void LivePixels::forget(std::size_t modules) {
+  for (const Module& m : modules_) {
+    recycledBefore_ += m.recycled;
+    newBefore_ += m.made;
+  }
+  modules_.assign(modules, Module{});
+}
+
 void LivePixels::clear() {
-  modules_.clear();
+  forget(0);
   texturesVersion_ = encodersVersion_ = 0;
   margin_ = 0.0f;
 }

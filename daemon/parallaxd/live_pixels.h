@@ -29,6 +29,8 @@ struct LivePixelsStats {
   long livePixels = 0;       // inside the footprints, all modules
   long pixels = 0;           // all modules
   std::size_t backdropBytes = 0;
+  long recycledImages = 0;  // module images handed out again, the backdrop still in place
+  long newImages = 0;       // made and filled with the backdrop
 
   std::string line() const;  // for --explain and status
 };
@@ -44,9 +46,12 @@ class LivePixels {
                std::uint64_t texturesVersion, const std::vector<ModuleEncoder>& encoders,
                std::uint64_t encodersVersion);
   const SceneFootprint& footprint(std::size_t module) const { return modules_[module].footprint; }
-  // Module i's next image, the backdrop for now: in a buffer of an earlier frame's that nothing
-  // holds any more when there is one (a new 2.4 MB buffer a module and frame cost more in page
-  // faults on `default` than the encode itself). Calls for different modules may run at once.
+  // Module i's next image, the backdrop outside the footprint: a buffer of an earlier frame's
+  // that nothing holds any more when there is one, as it is (a new 2.4 MB buffer a module and
+  // frame cost more in page faults on `default` than the encode itself, and copying the
+  // backdrop in again 170 MB a display frame), else a new copy of the backdrop. Inside the
+  // footprint it holds anything until encodeTile wrote it. Calls for different modules may run
+  // at once.
   std::shared_ptr<hw::Image> startImage(std::size_t module) const;
   // The footprint's pixels in columns [x0, x1) and rows [y0, y1) of `frame` (rendered inside it)
   // encoded into `image` (from startImage): through `encoder`, or the plain sRGB encode when
@@ -55,7 +60,7 @@ class LivePixels {
                   int x1, int y0, int y1, hw::Image* image) const;
   // Forgets everything (a new scene: its box starts afresh).
   void clear();
-  const LivePixelsStats& stats() const { return stats_; }
+  LivePixelsStats stats() const;
 
  private:
   struct Module {
@@ -63,12 +68,16 @@ class LivePixels {
     std::vector<std::uint8_t> backdrop;  // RGB8, the module's whole image
     // The last few images handed out: one that only this holds may be written again.
     mutable std::vector<std::shared_ptr<hw::Image>> recent;
+    mutable long recycled = 0, made = 0;  // images handed out (startImage)
   };
+  // Starts `modules` modules afresh, their counts kept.
+  void forget(std::size_t modules);
   std::vector<Module> modules_;
   std::uint64_t texturesVersion_ = 0, encodersVersion_ = 0;
   Rgb background_ = Rgb::Zero();
   float margin_ = 0.0f;  // of the box's diagonal, on each side (the box: the footprints')
   LivePixelsStats stats_;
+  long recycledBefore_ = 0, newBefore_ = 0;  // of the modules before the last build
 };
 
 }  // namespace parallax::daemon

@@ -62,10 +62,13 @@ struct Played {
   long pixels = 0;
 };
 
-// Plays the script frame by frame, each frame both ways; every earlier frame's images are kept
-// (as the conductor and the link hold them) and must not change afterwards.
+// Plays the script frame by frame, each frame both ways. With `holdEarlier` every earlier
+// frame's images are kept (as the conductor and the link hold them) and must not change
+// afterwards; without, they are let go and their buffers come back, the last frame's pixels
+// inside the footprint.
 Played playBothWays(ScriptedScene& script, int frames, double dt,
-                    const std::vector<ModuleEncoder>& encoders, LivePixels* live) {
+                    const std::vector<ModuleEncoder>& encoders, LivePixels* live,
+                    bool holdEarlier = true) {
   const Display& display = smallDisplay();
   Played played;
   std::vector<std::vector<std::shared_ptr<const hw::Image>>> held;
@@ -91,6 +94,7 @@ Played playBothWays(ScriptedScene& script, int frames, double dt,
     played.outside += fast.counters.outsideFootprint;
     played.pixels += fast.counters.pixels;
     ++played.frames;
+    if (!holdEarlier) continue;
     held.push_back(fast.images);
     heldBytes.emplace_back();
     for (const auto& image : fast.images) heldBytes.back().push_back(image->pixels);
@@ -112,6 +116,18 @@ TEST(LivePixels, OrbitFramesAreThoseOfAFullRender) {
   EXPECT_LE(live.stats().builds, 3);
   EXPECT_LT(live.stats().livePixels, live.stats().pixels / 2);
   EXPECT_EQ(live.stats().backdropBytes, static_cast<size_t>(live.stats().pixels) * 3);
+}
+
+TEST(LivePixels, RecycledImagesAreWrittenWhole) {
+  // Images let go are handed out again with the backdrop in place, not copied in afresh: every
+  // pixel of the footprint must be written over, with each module's own correction.
+  ScriptedScene script(testing::sceneLibrary() + "/orbit.lua", testing::libraryOptions());
+  LivePixels live;
+  const Played p = playBothWays(script, 10, 0.41, correctedEncoders(), &live, false);
+  EXPECT_EQ(p.frames, 10);
+  const LivePixelsStats stats = live.stats();
+  EXPECT_GT(stats.recycledImages, 0);
+  EXPECT_EQ(stats.recycledImages + stats.newImages, 10 * 4);
 }
 
 TEST(LivePixels, EachModuleKeepsItsOwnCorrection) {

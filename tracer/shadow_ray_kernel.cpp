@@ -15,6 +15,7 @@
 #include <cmath>
 #include <limits>
 
+#include "tracer/shadow_block_cull.h"
 #include "tracer/simd_math-inl.h"
 #include "tracer/static_visibility.h"
 
@@ -93,6 +94,21 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
       const float along = normal.x() * light.toLight.x() +
                           (normal.y() * light.toLight.y() + normal.z() * light.toLight.z());
       planeSide[k] = along > 0.0f ? 1 : along < 0.0f ? -1 : 0;
+    }
+  }
+
+  // The meshes these rays may meet (shadow_block_cull.h): a directional light's rays run
+  // parallel, so surfaces far from a mesh leave it out of the loops below. A point light's rays
+  // fan out: every mesh.
+  std::uint8_t active[PhysicalScene::kMaxOccluders];
+  size_t activeCount = 0;
+  if (job.occluders) {
+    if (!kPoint && job.spread) {
+      activeCount = occludersWithin(*job.spread, light.toLight, job.occluders, job.occluderCount,
+                                    planeSide, active);
+    } else {
+      for (size_t k = 0; k < job.occluderCount; ++k) active[k] = static_cast<std::uint8_t>(k);
+      activeCount = job.occluderCount;
     }
   }
 
@@ -198,7 +214,8 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
           hn::IfThenElse(hn::Ne(hn::And(flags, leavesBit), hn::Zero(di)),
                          hn::ShiftRight<LitSurfaces::kMeshShift>(flags), hn::Set(di, -1));
       auto meets = hn::Lt(zero, zero);
-      for (size_t k = 0; k < job.occluderCount; ++k) {
+      for (size_t i = 0; i < activeCount; ++i) {
+        const size_t k = active[i];
         const OccluderBound& bound = job.occluders[k];
         const auto others =
             hn::RebindMask(d, hn::Ne(ownMesh, hn::Set(di, static_cast<std::int32_t>(k))));
@@ -226,7 +243,9 @@ ShadowRayCounts MakeShadowRaysFor(const ShadowRayJob& job) {
       auto blocked = hn::Lt(zero, zero);
       if constexpr (!kPoint) {
         const auto candidates = hn::And(keep, meets);
-        for (size_t k = 0; k < job.occluderCount && !hn::AllFalse(d, candidates); ++k) {
+        // A mesh left out cannot block either: its cores lie inside its bound.
+        for (size_t i = 0; i < activeCount && !hn::AllFalse(d, candidates); ++i) {
+          const size_t k = active[i];
           const OccluderBound& bound = job.occluders[k];
           if (!bound.hasCore()) continue;
           const auto others = hn::And(

@@ -29,6 +29,7 @@
 
 #include "tracer/lit_surfaces.h"
 #include "tracer/physical_scene.h"
+#include "tracer/shadow_block_cull.h"
 #include "tracer/staged_rays.h"
 
 namespace parallax {
@@ -47,6 +48,9 @@ struct ShadowRayJob {
   const OccluderBound* occluders = nullptr;  // occluderCount of them; null: no test
   std::size_t occluderCount = 0;
   bool parkPassing = false;  // rays that pass every bound stay in `rays`, parked
+  // Where the surfaces lie (spreadOf): a directional light's rays are tested only against the
+  // occluders they may meet from there. Null: against every one.
+  const SurfaceSpread* spread = nullptr;
 };
 
 // A parked shadow ray's tfar: below its tnear of 0, so Embree leaves it (and its tfar) alone;

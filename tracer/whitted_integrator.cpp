@@ -142,7 +142,7 @@ class TileRenderer {
   void textureDiffusePacket(size_t packet, unsigned geomID, const PhysicalMesh& mesh,
                             const Material& m, size_t first, RenderCounters* c);
   void makeShadowRays(const PhysicalLight& light, int lightIndex, int generation,
-                      RenderCounters* c);
+                      const SurfaceSpread& spread, RenderCounters* c);
   void traceShadowRays(ShadowBatch& batch, RTCScene scene, bool coherent, int generation,
                        RenderCounters* c, PhaseClock* clock);
   void recordStaticShadows(const ShadowBatch& batch, int lightIndex);
@@ -351,11 +351,13 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
     if (lit_.size() > 0) {
       const bool build = cache_ && cache_->build;
       RTCScene shadowScene = build ? scene_.staticHandle() : scene_.handle();
+      // Worked out once for every light's rays (makeShadowRays).
+      const SurfaceSpread spread = scene_.occluders().empty() ? SurfaceSpread{} : spreadOf(lit_);
       for (size_t k = 0; k < scene_.lights().size(); ++k) {
         const PhysicalLight& light = scene_.lights()[k];
         const int index = static_cast<int>(k);
         if (build && index >= StaticHit::kCachedLights) break;  // never cached
-        makeShadowRays(light, index, generation, c);
+        makeShadowRays(light, index, generation, spread, c);
         traceShadowRays(shadows_, shadowScene, coherent, generation, c, &clock);
         if (build) recordStaticShadows(shadows_, index);
         if (!dynamicShadows_.rays.empty()) {
@@ -378,7 +380,7 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
 // made, whatever the material gives it, so a later frame finds an answer for every ray it
 // makes.
 void TileRenderer::makeShadowRays(const PhysicalLight& light, int lightIndex, int generation,
-                                  RenderCounters* c) {
+                                  const SurfaceSpread& spread, RenderCounters* c) {
   const size_t n = lit_.size();
   const bool build = cache_ && cache_->build;
   // Rays of this light that the cache answers (first generation, a static light that stayed).
@@ -411,6 +413,7 @@ void TileRenderer::makeShadowRays(const PhysicalLight& light, int lightIndex, in
     job.occluders = scene_.occluders().data();
     job.occluderCount = scene_.occluders().size();
     job.parkPassing = parked;
+    job.spread = &spread;
   }
   const ShadowRayCounts counts = parallax::makeShadowRays(job);
   // Parked and blocked rays stay in the batch, untraced.

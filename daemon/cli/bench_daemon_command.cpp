@@ -221,6 +221,18 @@ PlayFigures benchOne(const std::string& display, const BenchDaemonArgs& args, bo
     }
     if (footprint && last.contains("live_pixels"))
       std::cout << last["live_pixels"]["line"].get<std::string>() << "\n";
+    if (first.contains("link") && last.contains("link")) {
+      // What crossed the link in the window: whole frames, and patches of what could change.
+      const auto delta = [&](const char* key) {
+        return last["link"].value(key, 0.0) - first["link"].value(key, 0.0);
+      };
+      const double perFrame = 1.0 / std::max(frames, 1.0) / (1 << 20);
+      std::cout << fmt::format(
+          "  link: {:.1f} MiB a display frame sent, {:.1f} MiB left out by {:.0f} patch frame(s) "
+          "({:.0f} refused, sent whole)\n",
+          delta("bytes_sent") * perFrame, delta("patch_bytes_saved") * perFrame, delta("patches"),
+          delta("patches_refused"));
+    }
     if (!firstRun) {
       askOrNull(socket, {{"request", "shutdown"}});
       ::waitpid(pid, nullptr, 0);

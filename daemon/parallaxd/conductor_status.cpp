@@ -130,6 +130,9 @@ nlohmann::json Conductor::statsJson() const {
                  {"reconnects", l.reconnects},
                  {"hangs", l.hangs},
                  {"bytes_sent", l.payloadBytesSent},
+                 {"patches", l.patches},
+                 {"patches_refused", l.patchesRefused},
+                 {"patch_bytes_saved", l.patchBytesSaved},
                  {"sessions", link_->sessions()}};
   }
   return j;

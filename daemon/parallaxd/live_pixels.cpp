@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstring>
 #include <stdexcept>
@@ -30,6 +31,23 @@ Frame backdropFrame(const RayTextures& textures, const SceneFootprint& footprint
     }
   }
   return frame;
+}
+
+// The footprint's bytes, row by row: the images of one build differ nowhere else. A family
+// number no other build (of any LivePixels) has.
+std::shared_ptr<const hw::ImageRegions> regionsOf(const SceneFootprint& footprint) {
+  static std::atomic<std::uint64_t> families{0};
+  auto regions = std::make_shared<hw::ImageRegions>();
+  regions->family = ++families;
+  const auto rowBytes = static_cast<std::uint32_t>(footprint.width()) * 3;
+  for (int y = 0; y < footprint.height(); ++y) {
+    const FootprintRow& row = footprint.row(y);
+    if (row.begin >= row.end) continue;
+    const std::uint32_t start = static_cast<std::uint32_t>(y) * rowBytes;
+    regions->spans.push_back({start + 3 * static_cast<std::uint32_t>(row.begin),
+                              start + 3 * static_cast<std::uint32_t>(row.end)});
+  }
+  return regions;
 }
 
 }  // namespace
@@ -94,6 +112,7 @@ void LivePixels::prepare(const PhysicalScene& scene, const std::vector<RayTextur
     m.footprint = SceneFootprint(textures[i], boxMin, boxMax);
     const Frame frame = backdropFrame(textures[i], m.footprint, background_);
     m.backdrop = encoders.empty() ? frame.toSrgb8() : encoders[i].encode(frame);
+    m.regions = regionsOf(m.footprint);
   });
   ++stats_.builds;
   stats_.lastBuildMs =
@@ -128,6 +147,7 @@ std::shared_ptr<hw::Image> LivePixels::startImage(std::size_t module) const {
   image->height = m.footprint.height();
   image->format = hw::PixelFormat::kRgb8;
   image->pixels = m.backdrop;
+  image->regions = m.regions;
   return image;
 }
 

@@ -69,6 +69,8 @@ class LivePixels {
     // The last few images handed out: one that only this holds may be written again.
     mutable std::vector<std::shared_ptr<hw::Image>> recent;
     mutable long recycled = 0, made = 0;  // images handed out (startImage)
+    // The bytes inside the footprint: all that can differ between this build's images.
+    std::shared_ptr<const hw::ImageRegions> regions;
   };
   // Starts `modules` modules afresh, their counts kept.
   void forget(std::size_t modules);

@@ -7,9 +7,18 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
+#include <utility>
 
 namespace parallax::hw {
 
 uint64_t contentHash64(const void* data, size_t size);
+
+// The content hash of a frame made from the frame of hash `base` by writing `data`'s bytes
+// [begin, end) of each range over it: a hash of the base's hash, the ranges and their bytes.
+// Equal hashes still mean equal bytes (to the odds above); equal bytes reached another way may
+// hash differently, which only costs a frame sent that could have been skipped.
+uint64_t patchContentHash(uint64_t base, const uint8_t* data,
+                          std::span<const std::pair<uint32_t, uint32_t>> ranges);
 
 }  // namespace parallax::hw

@@ -61,6 +61,9 @@ struct LinkOptions {
   // whole stall limit.
   int downRetryBudgetMs = 500;
   bool skipUnchanged = true;  // content hash: unchanged frames are not re-sent
+  // A display frame whose image says which bytes can differ from the one the module shows
+  // (Image::regions, same family) is sent as a patch of those bytes only (PROTOCOL.md).
+  bool patchFrames = true;
 
   // Throws InputError naming the field (the [link] key of parallax.toml).
   void validate() const;
@@ -85,7 +88,10 @@ struct LinkStats {
   uint64_t submitted = 0, delivered = 0, skipped = 0, failed = 0, superseded = 0;
   uint64_t attempts = 0, retries = 0, nacks = 0, timeouts = 0, reconnects = 0;
   uint64_t payloadBytesSent = 0, staleAcks = 0, keepAlives = 0;
-  uint64_t hangs = 0;  // times the device answered nothing within stallLimitMs
+  uint64_t hangs = 0;            // times the device answered nothing within stallLimitMs
+  uint64_t patches = 0;          // frames first sent as patches (the bytes that could change)
+  uint64_t patchesRefused = 0;   // of those, answered "not showing the patch's base": sent whole
+  uint64_t patchBytesSaved = 0;  // bytes of frames the patches did not send
 };
 
 struct ModuleLinkInfo {
@@ -157,7 +163,13 @@ class LinkClient {
     uint32_t frameCrc = 0;
     uint32_t displayFrame = 0;
     bool reuse = false;               // the first attempt tells the module to keep what it shows
-    std::vector<uint32_t> chunkCrcs;  // of the data of each chunk
+    std::vector<uint32_t> chunkCrcs;  // of the data of each chunk (of the whole frame)
+    // The first attempt as a patch of the frame of hash baseHash: these byte ranges (each one
+    // chunk), their CRCs and the CRC of their data together. Empty: sent whole.
+    std::vector<std::pair<uint32_t, uint32_t>> patch;
+    std::vector<uint32_t> patchCrcs;
+    uint32_t patchCrc = 0;
+    uint64_t baseHash = 0;
     int attempts = 0;
     bool done = false;
     std::chrono::steady_clock::time_point deadline;
@@ -183,6 +195,13 @@ class LinkClient {
   // flight; when it cannot, fails every pending frame with the reason. False if still down.
   bool reconnect(const std::string& why);
   TransportStatus sendFrame(Pending& p);
+  // The chunks of a patch of `frame` for `module` (empty: send it whole): when the module was
+  // last given an image of the same family, accepted so far, and the bytes that can differ
+  // are fewer than three quarters of the frame.
+  std::vector<std::pair<uint32_t, uint32_t>> patchFor(int module, const Image& frame,
+                                                      uint32_t displayFrame) const;
+  // The CRCs of the whole frame's chunks (a patch sent whole works them out when it must).
+  void wholeFrameCrcs(Pending& p) const;
   // Receives for up to timeoutMs, applies acks, handles deadlines and a lost link.
   TransportStatus pump(int timeoutMs);
   void waitForProgress();
@@ -207,9 +226,10 @@ class LinkClient {
   std::deque<Pending> pending_;          // sent, awaiting ack
   std::vector<uint64_t> submittedHash_;  // per module: content of the last accepted submit
   std::vector<bool> hashValid_;
-  std::vector<uint64_t> latestTicket_;    // per module: the newest submitted frame
-  std::vector<uint32_t> readyFrame_;      // per module: the display frame it acknowledged last
-  std::vector<uint32_t> submittedFrame_;  // per module: the display frame of the newest submit
+  std::vector<uint64_t> submittedFamily_;  // per module: ImageRegions::family of it (0: none)
+  std::vector<uint64_t> latestTicket_;     // per module: the newest submitted frame
+  std::vector<uint32_t> readyFrame_;       // per module: the display frame it acknowledged last
+  std::vector<uint32_t> submittedFrame_;   // per module: the display frame of the newest submit
   std::vector<FrameOutcome> outcomes_;
   std::vector<ReceivedPacket> inbox_;  // control replies that arrived while pumping
   std::vector<HeaderBytes> scratchHeaders_;

@@ -74,6 +74,8 @@ std::string_view ackStatusName(AckStatus status) {
       return "bad frame";
     case AckStatus::kUnsupported:
       return "unsupported";
+    case AckStatus::kBaseMismatch:
+      return "not showing the patch's base";
   }
   return "unknown ack status";
 }
@@ -233,6 +235,7 @@ std::vector<uint8_t> encodeFrameBegin(const FrameBegin& f) {
   put32(&b[20], f.frameCrc);
   put64(&b[24], f.contentHash);
   put32(&b[32], f.displayFrame);
+  put64(&b[40], f.baseHash);
   return b;
 }
 
@@ -242,7 +245,8 @@ ProtocolError decodeFrameBegin(std::span<const uint8_t> body, FrameBegin* f) {
   if (!allZero(b + 36, 4)) return ProtocolError::kReservedNonZero;
   if (!isKnownPixelFormat(b[8]) || b[9] > 1) return ProtocolError::kBadBody;
   f->flags = get16(b + 10);
-  if ((f->flags & ~kFrameReuse) != 0) return ProtocolError::kBadBody;
+  if ((f->flags & ~(kFrameReuse | kFramePatch)) != 0 || f->flags == (kFrameReuse | kFramePatch))
+    return ProtocolError::kBadBody;
   f->width = get32(b);
   f->height = get32(b + 4);
   f->format = static_cast<PixelFormat>(b[8]);
@@ -252,6 +256,7 @@ ProtocolError decodeFrameBegin(std::span<const uint8_t> body, FrameBegin* f) {
   f->frameCrc = get32(b + 20);
   f->contentHash = get64(b + 24);
   f->displayFrame = get32(b + 32);
+  f->baseHash = get64(b + 40);
   // The size must be exactly what the resolution says (computed in 64 bits: no overflow).
   const uint64_t expected = static_cast<uint64_t>(f->width) * f->height * bytesPerPixel(f->format);
   if (f->width == 0 || f->height == 0 || expected != f->totalSize) return ProtocolError::kBadBody;
@@ -262,6 +267,9 @@ ProtocolError decodeFrameBegin(std::span<const uint8_t> body, FrameBegin* f) {
   } else if (f->chunkCount == 0 || f->chunkCount > f->totalSize) {
     return ProtocolError::kBadBody;
   }
+  // A patch belongs to a display frame, like a reuse; only a patch names a base.
+  if ((f->flags & kFramePatch) != 0 ? f->displayFrame == 0 : f->baseHash != 0)
+    return ProtocolError::kBadBody;
   return ProtocolError::kOk;
 }
 
@@ -291,7 +299,7 @@ ProtocolError decodeAck(std::span<const uint8_t> body, Ack* a) {
   if (auto e = checkSize(body, kAckSize); e != ProtocolError::kOk) return e;
   const uint8_t* b = body.data();
   if (!allZero(b + 5, 3)) return ProtocolError::kReservedNonZero;
-  if (b[4] > static_cast<uint8_t>(AckStatus::kUnsupported)) return ProtocolError::kBadBody;
+  if (b[4] > static_cast<uint8_t>(AckStatus::kBaseMismatch)) return ProtocolError::kBadBody;
   a->ackedSequence = get32(b);
   a->status = static_cast<AckStatus>(b[4]);
   a->detail = get32(b + 8);

@@ -1,5 +1,5 @@
 #pragma once
-// The Parallax link protocol, version 2 (hw/link/PROTOCOL.md is the normative description; this
+// The Parallax link protocol, version 3 (hw/link/PROTOCOL.md is the normative description; this
 // header is its executable form). Every packet is a 32-byte little-endian header followed by
 // `payloadSize` bytes whose CRC-32C the header carries; the header has its own CRC so that a
 // corrupted length can never desynchronise a stream silently.
@@ -19,8 +19,9 @@ namespace parallax::hw {
 
 constexpr uint32_t kLinkMagic = 0x4C584C50u;  // bytes "PLXL" on the wire
 // Version 2 separates upload from presentation (swap lock): a frame for display frame N is
-// acknowledged when complete and shown only on Present(N). Version 1 peers are refused.
-constexpr uint16_t kLinkVersion = 2;
+// acknowledged when complete and shown only on Present(N). Version 3 adds patch frames: only
+// the bytes that changed since the frame the module shows. Other versions are refused.
+constexpr uint16_t kLinkVersion = 3;
 constexpr size_t kHeaderSize = 32;
 constexpr uint32_t kMaxPayloadSize = 16u << 20;  // larger packets are hostile
 constexpr uint16_t kAllModules = 0xFFFF;         // module field of broadcast requests
@@ -105,21 +106,26 @@ constexpr size_t kSerialBytes = 40;
 // FrameBegin flag: no chunks follow; the frame is the one the module shows (same content hash),
 // acknowledged for `displayFrame` without its bytes crossing the link again.
 constexpr uint16_t kFrameReuse = 1;
+// FrameBegin flag: the frame is the one the module shows (content hash `baseHash`) with the
+// chunks' bytes written over it; the chunks come in order without overlap, gaps between them
+// keep the shown bytes, and frameCrc covers the chunks' data only.
+constexpr uint16_t kFramePatch = 2;
 
-struct FrameBegin {  // 40 bytes
+struct FrameBegin {  // 48 bytes
   uint32_t width = 0, height = 0;
   PixelFormat format = PixelFormat::kRgb8;
   DisplayMode mode = DisplayMode::kPlayback;
-  uint16_t flags = 0;      // kFrameReuse or 0
+  uint16_t flags = 0;      // kFrameReuse, kFramePatch or 0
   uint32_t totalSize = 0;  // width · height · bytesPerPixel
   uint32_t chunkCount = 0;
-  uint32_t frameCrc = 0;     // CRC-32C of the whole frame, checked end to end
+  uint32_t frameCrc = 0;     // CRC-32C of the whole frame (a patch: of its chunks' data)
   uint64_t contentHash = 0;  // the host's content hash (the device keeps it; kFrameReuse checks it)
   // The display frame this upload belongs to: held after its Ack until Present(displayFrame).
   // 0: shown as soon as it is complete (patterns, single frames, restoring a restarted module).
   uint32_t displayFrame = 0;
+  uint64_t baseHash = 0;  // kFramePatch: the content hash of the frame patched; else 0
 };
-constexpr size_t kFrameBeginSize = 40;
+constexpr size_t kFrameBeginSize = 48;
 
 struct Present {  // 8 bytes: u32 displayFrame, 4 reserved
   uint32_t displayFrame = 0;
@@ -133,6 +139,7 @@ enum class AckStatus : uint8_t {
   kMissingChunks = 2,  // FrameEnd before every byte arrived
   kBadFrame = 3,       // FrameBegin rejected (size, format, resolution)
   kUnsupported = 4,    // request not supported by this device
+  kBaseMismatch = 5,   // a patch whose base is not the frame the module shows
 };
 std::string_view ackStatusName(AckStatus status);
 

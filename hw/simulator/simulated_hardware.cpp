@@ -299,7 +299,19 @@ SimAction SimulatedHardware::frameBegin(Module& m, const PacketHeader& header,
   u.covered = 0;
   u.chunks = 0;
   u.outOfOrder = false;
+  u.next = 0;
   u.runningCrc = 0;
+  u.baseMismatch = false;
+  if ((begin.flags & kFramePatch) != 0) {
+    // The chunks are written over the frame shown, if it is the patch's base (else the frame
+    // fails at its FrameEnd, and the host sends it whole).
+    u.baseMismatch = m.shown.empty() || m.shownHash != begin.baseHash ||
+                     m.shown.pixels.size() != begin.totalSize;
+    if (!u.baseMismatch) {
+      u.buffer.assign(m.shown.pixels.begin(), m.shown.pixels.end());
+      return action;
+    }
+  }
   if ((begin.flags & kFrameReuse) == 0) u.buffer.resize(begin.totalSize);
   return action;
 }
@@ -358,12 +370,15 @@ SimAction SimulatedHardware::finishChunk(const PacketHeader& header, uint32_t fr
   // Chunks must arrive in order, each where the previous one ended (PROTOCOL.md): coverage is
   // then exact — no overlap can pass stale buffer bytes off as received — and the whole-frame
   // CRC builds up as chunks come, without a second pass over the frame at FrameEnd.
-  if (offset != u.covered) {
+  // A patch's chunks may leave gaps (the base's bytes stay there), never go back.
+  const bool patch = (u.begin.flags & kFramePatch) != 0;
+  if (patch ? offset < u.next : offset != u.covered) {
     u.outOfOrder = true;
     return action;
   }
-  u.runningCrc = u.covered == 0 ? dataCrc : crc32cCombine(u.runningCrc, dataCrc, data.size());
+  u.runningCrc = u.chunks == 0 ? dataCrc : crc32cCombine(u.runningCrc, dataCrc, data.size());
   u.covered += data.size();
+  u.next = static_cast<uint64_t>(offset) + data.size();
   ++u.chunks;
   return action;
 }
@@ -384,11 +399,14 @@ void SimulatedHardware::frameEnd(Module& m, const PacketHeader& header,
   if ((u.begin.flags & kFrameReuse) != 0) {
     // No bytes came: the frame is the one shown, if the module still shows that content.
     if (m.shown.empty() || m.shownHash != u.begin.contentHash) status = AckStatus::kMissingChunks;
+  } else if (u.baseMismatch) {
+    status = AckStatus::kBaseMismatch;
   } else if (u.damaged) {
     // Every byte came exactly once, in order, in a verified chunk; the end-to-end CRC then
     // checks the frame against what the host declared.
     status = AckStatus::kCrcMismatch;
-  } else if (u.outOfOrder || u.covered != u.begin.totalSize || u.chunks != u.begin.chunkCount) {
+  } else if (u.outOfOrder || u.chunks != u.begin.chunkCount ||
+             ((u.begin.flags & kFramePatch) == 0 && u.covered != u.begin.totalSize)) {
     status = AckStatus::kMissingChunks;
   } else if (u.runningCrc != u.begin.frameCrc) {
     status = AckStatus::kCrcMismatch;

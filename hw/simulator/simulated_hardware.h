@@ -130,8 +130,11 @@ class SimulatedHardware {
     uint64_t covered = 0;      // bytes received in verified chunks
     bool hasRejected = false;  // the FrameBegin of `rejectedSequence` was refused
     uint32_t rejectedSequence = 0;
-    bool outOfOrder = false;  // a verified chunk did not start where the previous one ended
-    uint32_t runningCrc = 0;  // CRC-32C of the first `covered` bytes
+    bool outOfOrder = false;    // a verified chunk did not start where the previous one ended
+                                // (a patch's: before it ended)
+    uint64_t next = 0;          // where the previous verified chunk ended
+    bool baseMismatch = false;  // a patch of a frame the module does not show
+    uint32_t runningCrc = 0;    // CRC-32C of the verified chunks' data, in order
     uint32_t chunks = 0;
     std::vector<uint8_t> buffer;
   };

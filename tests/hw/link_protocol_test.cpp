@@ -102,6 +102,23 @@ TEST(LinkProtocol, BodiesRejectOutOfRangeFields) {
   body.push_back(0);
   EXPECT_EQ(decodeFrameBegin(body, &out), ProtocolError::kOversized);
 
+  // A patch names its base and belongs to a display frame; nothing else names a base.
+  FrameBegin patch = f;
+  patch.flags = kFramePatch;
+  patch.baseHash = 0x0123456789ABCDEFull;
+  patch.displayFrame = 3;
+  ASSERT_EQ(decodeFrameBegin(encodeFrameBegin(patch), &out), ProtocolError::kOk);
+  EXPECT_EQ(out.baseHash, 0x0123456789ABCDEFull);
+  EXPECT_EQ(out.flags, kFramePatch);
+  patch.displayFrame = 0;
+  EXPECT_EQ(decodeFrameBegin(encodeFrameBegin(patch), &out), ProtocolError::kBadBody);
+  patch.displayFrame = 3;
+  patch.flags = kFramePatch | kFrameReuse;
+  EXPECT_EQ(decodeFrameBegin(encodeFrameBegin(patch), &out), ProtocolError::kBadBody);
+  FrameBegin named = f;
+  named.baseHash = 1;
+  EXPECT_EQ(decodeFrameBegin(encodeFrameBegin(named), &out), ProtocolError::kBadBody);
+
   // Width x height x 3 must not overflow into a small accepted size.
   f.width = 0x10000;
   f.height = 0x10000;

@@ -35,10 +35,18 @@ struct Chunk {
   uint32_t offset, size;
 };
 
-// Feeds one frame as packets; returns the Ack status (or nullopt when none came).
+// A patch frame's fields: its base's content hash, the display frame it belongs to.
+struct PatchOf {
+  uint64_t baseHash = 0;
+  uint32_t displayFrame = 0;
+};
+
+// Feeds one frame as packets; returns the Ack status (or nullopt when none came). With `patch`,
+// a patch frame of those chunks (frameCrc over their data).
 std::optional<AckStatus> upload(SimulatedHardware& sim, uint32_t seq,
                                 const std::vector<uint8_t>& frame, const std::vector<Chunk>& chunks,
-                                uint32_t declaredChunks = 0) {
+                                uint32_t declaredChunks = 0, std::optional<PatchOf> patch = {},
+                                uint64_t contentHash = 0) {
   std::vector<uint8_t> replies;
   FrameBegin b;
   b.width = kW;
@@ -46,6 +54,16 @@ std::optional<AckStatus> upload(SimulatedHardware& sim, uint32_t seq,
   b.totalSize = kSize;
   b.chunkCount = declaredChunks ? declaredChunks : static_cast<uint32_t>(chunks.size());
   b.frameCrc = crc32c(frame.data(), frame.size());
+  b.contentHash = contentHash;
+  if (patch) {
+    b.flags = kFramePatch;
+    b.baseHash = patch->baseHash;
+    b.displayFrame = patch->displayFrame;
+    std::vector<uint8_t> sent;
+    for (const Chunk& c : chunks)
+      sent.insert(sent.end(), frame.begin() + c.offset, frame.begin() + c.offset + c.size);
+    b.frameCrc = crc32c(sent.data(), sent.size());
+  }
   sim.handlePacket({PacketType::kFrameBegin, 0, 0, seq, kFrameBeginSize,
                     crc32c(encodeFrameBegin(b).data(), kFrameBeginSize)},
                    encodeFrameBegin(b), &replies);
@@ -90,6 +108,35 @@ TEST(SimulatedHardware, IncompleteOrOverlappingFramesNeverShow) {
   EXPECT_EQ(upload(sim, 4, bad, {{0, 192}, {0, 192}}, 2), AckStatus::kMissingChunks);
   EXPECT_EQ(sim.shownFrame(0).pixels, good);
   EXPECT_EQ(sim.counters(0).framesRejected, 3u);
+}
+
+TEST(SimulatedHardware, APatchWritesItsChunksOverTheFrameShownAndNothingElse) {
+  SimulatedHardware sim = makeSim();
+  const std::vector<uint8_t> base = pixels(1);
+  ASSERT_EQ(upload(sim, 1, base, {{0, 384}}, 0, {}, 0xABC), AckStatus::kOk);
+  // Bytes 40..79 and 200..259 change; the rest is the base's.
+  std::vector<uint8_t> next = base;
+  for (uint32_t i = 40; i < 80; ++i) next[i] ^= 0x5A;
+  for (uint32_t i = 200; i < 260; ++i) next[i] = static_cast<uint8_t>(i);
+  const std::vector<Chunk> chunks = {{40, 40}, {200, 60}};
+  // Not the base the module shows: refused, and the module keeps showing the base.
+  EXPECT_EQ(upload(sim, 2, next, chunks, 0, PatchOf{0xABD, 1}, 0xDEF), AckStatus::kBaseMismatch);
+  // Chunks that go back, or fewer than declared: never shown.
+  EXPECT_EQ(upload(sim, 3, next, {{200, 60}, {40, 40}}, 0, PatchOf{0xABC, 1}, 0xDEF),
+            AckStatus::kMissingChunks);
+  EXPECT_EQ(upload(sim, 4, next, chunks, 3, PatchOf{0xABC, 1}, 0xDEF), AckStatus::kMissingChunks);
+  std::vector<uint8_t> replies;
+  sim.handlePacket({PacketType::kPresent, 0, kAllModules, 5, kPresentSize,
+                    crc32c(encodePresent({1}).data(), kPresentSize)},
+                   encodePresent({1}), &replies);
+  EXPECT_EQ(sim.shownFrame(0).pixels, base);
+  // The right base: shown on its Present, byte for byte the new frame.
+  EXPECT_EQ(upload(sim, 6, next, chunks, 0, PatchOf{0xABC, 2}, 0xDEF), AckStatus::kOk);
+  sim.handlePacket({PacketType::kPresent, 0, kAllModules, 7, kPresentSize,
+                    crc32c(encodePresent({2}).data(), kPresentSize)},
+                   encodePresent({2}), &replies);
+  EXPECT_EQ(sim.shownFrame(0).pixels, next);
+  EXPECT_EQ(sim.shownContentHash(0), 0xDEFu);
 }
 
 TEST(SimulatedHardware, WrongResolutionIsOneBadFrameAck) {

@@ -288,7 +288,8 @@ void readCluster(TableReader& r, ClusterConfig* c) {
   r.refuseUnknownKeys();
 }
 
-// The link's timeouts ([link]): each key in its range here, with its line; what spans keys
+// The link's timeouts and patch frames ([link]): each key in its range here, with its line; what
+// spans keys
 // (link_down_retry_max_ms below link_down_retry_ms) is LinkOptions::validate's, named the same.
 void readLink(TableReader& r, hw::LinkOptions* l) {
   r.readInt("ack_timeout_ms", &l->ackTimeoutMs, 1, 600000);
@@ -301,6 +302,7 @@ void readLink(TableReader& r, hw::LinkOptions* l) {
   r.readInt("link_down_retry_ms", &l->linkDownRetryMs, 0, 3600000);
   r.readInt("link_down_retry_max_ms", &l->linkDownRetryMaxMs, 0, 3600000);
   r.readInt("down_retry_budget_ms", &l->downRetryBudgetMs, 1, 3600000);
+  r.readBool("patch_frames", &l->patchFrames);
   r.refuseUnknownKeys();
   try {
     l->validate();

@@ -123,7 +123,7 @@ TEST(DaemonConfig, LinkTimeoutsAreRead) {
       "[link]\nack_timeout_ms = 500\nmax_retries = 1\nstall_limit_ms = 1500\n"
       "capture_timeout_ms = 60000\nreconnect_attempts = 2\nreconnect_delay_ms = 10\n"
       "link_down_retry_ms = 200\nlink_down_retry_max_ms = 4000\nconnect_timeout_ms = 5000\n"
-      "down_retry_budget_ms = 250\n",
+      "down_retry_budget_ms = 250\npatch_frames = false\n",
       "parallax.toml");
   EXPECT_EQ(c.link.ackTimeoutMs, 500);
   EXPECT_EQ(c.link.maxRetries, 1);
@@ -135,6 +135,8 @@ TEST(DaemonConfig, LinkTimeoutsAreRead) {
   EXPECT_EQ(c.link.linkDownRetryMaxMs, 4000);
   EXPECT_EQ(c.link.connectTimeoutMs, 5000);
   EXPECT_EQ(c.link.downRetryBudgetMs, 250);
+  EXPECT_FALSE(c.link.patchFrames);
+  EXPECT_TRUE(defaults.link.patchFrames);
   EXPECT_EQ(c.link.chunkSize, hw::LinkOptions{}.chunkSize);
   // A change needs a restart (the link is made once).
   EXPECT_EQ(sectionsNeedingRestart(defaults, c), std::vector<std::string>{"link"});

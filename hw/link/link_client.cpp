@@ -218,13 +218,12 @@ uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame, uint
   p.displayFrame = displayFrame;
   p.reuse = unchanged;
   if (patching && !unchanged) {
-    // One CRC pass over the bytes the patch sends.
+    // The CRC of the bytes the patch sends, chained from chunk to chunk: a patch's chunks are
+    // small (a few KiB), where another pass of the CRC instruction costs less than combining
+    // CRCs (crc32cCombine: ~200 ns); each chunk's own is worked out as it is sent.
     p.baseHash = submittedHash_[module];
-    for (const auto& [begin, end] : patch) {
-      const uint32_t crc = crc32c(p.frame->pixels.data() + begin, end - begin);
-      p.patchCrc = p.patchCrcs.empty() ? crc : crc32cCombine(p.patchCrc, crc, end - begin);
-      p.patchCrcs.push_back(crc);
-    }
+    for (const auto& [begin, end] : patch)
+      p.patchCrc = crc32c(p.frame->pixels.data() + begin, end - begin, p.patchCrc);
     p.patch = std::move(patch);
   } else if (!unchanged) {
     wholeFrameCrcs(p);
@@ -340,7 +339,6 @@ TransportStatus LinkClient::sendFrame(Pending& p) {
     const size_t offset = patch ? p.patch[c].first : c * chunkSize_;
     const size_t n =
         patch ? p.patch[c].second - p.patch[c].first : std::min<size_t>(chunkSize_, size - offset);
-    const uint32_t dataCrc = patch ? p.patchCrcs[c] : p.chunkCrcs[c];
     sentBytes += n;
     scratchPrefixes_[c] = encodeChunkPrefix(p.sequence, static_cast<uint32_t>(offset));
     PacketHeader h{PacketType::kFrameChunk,
@@ -349,7 +347,11 @@ TransportStatus LinkClient::sendFrame(Pending& p) {
                    p.sequence,
                    static_cast<uint32_t>(kChunkPrefixSize + n),
                    0};
-    h.payloadCrc = crc32cCombine(crc32c(scratchPrefixes_[c].data(), kChunkPrefixSize), dataCrc, n);
+    // A patch's chunk: its prefix and data in one chained pass; a whole frame's (a MiB): its
+    // data's CRC, worked out at submit, combined with the prefix's.
+    const uint32_t prefixCrc = crc32c(scratchPrefixes_[c].data(), kChunkPrefixSize);
+    h.payloadCrc = patch ? crc32c(f.pixels.data() + offset, n, prefixCrc)
+                         : crc32cCombine(prefixCrc, p.chunkCrcs[c], n);
     scratchHeaders_[c + 1] = encodeHeaderRaw(h);
     iov.push_back({scratchHeaders_[c + 1].data(), kHeaderSize});
     iov.push_back({scratchPrefixes_[c].data(), kChunkPrefixSize});

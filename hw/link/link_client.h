@@ -165,9 +165,8 @@ class LinkClient {
     bool reuse = false;               // the first attempt tells the module to keep what it shows
     std::vector<uint32_t> chunkCrcs;  // of the data of each chunk (of the whole frame)
     // The first attempt as a patch of the frame of hash baseHash: these byte ranges (each one
-    // chunk), their CRCs and the CRC of their data together. Empty: sent whole.
+    // chunk) and the CRC of their data together. Empty: sent whole.
     std::vector<std::pair<uint32_t, uint32_t>> patch;
-    std::vector<uint32_t> patchCrcs;
     uint32_t patchCrc = 0;
     uint64_t baseHash = 0;
     int attempts = 0;

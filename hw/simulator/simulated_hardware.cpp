@@ -325,6 +325,11 @@ uint8_t* SimulatedHardware::chunkDestination(const PacketHeader& header, uint32_
   return u.buffer.data() + offset;
 }
 
+namespace {
+// Chunks below this size have their CRCs chained rather than combined.
+constexpr size_t kChainBelow = 16 << 10;
+}  // namespace
+
 SimAction SimulatedHardware::finishChunk(const PacketHeader& header, uint32_t frameSequence,
                                          uint32_t offset, std::span<uint8_t> data,
                                          std::vector<uint8_t>* replies) {
@@ -352,11 +357,16 @@ SimAction SimulatedHardware::finishChunk(const PacketHeader& header, uint32_t fr
     ++m.counters.bytesFlipped;
     data[data.size() / 2] ^= 0x10;
   }
-  // The packet CRC covers prefix + data; the data was read in place, so combine the two.
+  // The packet CRC covers prefix + data; the data was read in place. A small chunk (a patch's)
+  // is run through the CRC instruction twice, chained from the prefix and from the frame's
+  // running CRC; a large one once, its CRC combined with both (crc32cCombine costs ~200 ns, a
+  // pass over a few KiB less).
   const auto prefix = encodeChunkPrefix(frameSequence, offset);
-  const uint32_t dataCrc = crc32c(data.data(), data.size());
-  const bool crcOk = crc32cCombine(crc32c(prefix.data(), prefix.size()), dataCrc, data.size()) ==
-                     header.payloadCrc;
+  const bool small = data.size() < kChainBelow;
+  const uint32_t prefixCrc = crc32c(prefix.data(), prefix.size());
+  const uint32_t dataCrc = small ? 0 : crc32c(data.data(), data.size());
+  const bool crcOk = (small ? crc32c(data.data(), data.size(), prefixCrc)
+                            : crc32cCombine(prefixCrc, dataCrc, data.size())) == header.payloadCrc;
   if (!u.active || frameSequence != u.sequence || header.sequence != u.sequence ||
       static_cast<uint64_t>(offset) + data.size() > u.buffer.size()) {
     // A chunk for no frame in progress (its FrameBegin was rejected, or it is a stray from an
@@ -376,7 +386,11 @@ SimAction SimulatedHardware::finishChunk(const PacketHeader& header, uint32_t fr
     u.outOfOrder = true;
     return action;
   }
-  u.runningCrc = u.chunks == 0 ? dataCrc : crc32cCombine(u.runningCrc, dataCrc, data.size());
+  if (small) {
+    u.runningCrc = crc32c(data.data(), data.size(), u.chunks == 0 ? 0 : u.runningCrc);
+  } else {
+    u.runningCrc = u.chunks == 0 ? dataCrc : crc32cCombine(u.runningCrc, dataCrc, data.size());
+  }
   u.covered += data.size();
   u.next = static_cast<uint64_t>(offset) + data.size();
   ++u.chunks;

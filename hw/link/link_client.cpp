@@ -252,12 +252,14 @@ std::vector<std::pair<uint32_t, uint32_t>> LinkClient::patchFor(int module, cons
       !hashValid_[module] || submittedFamily_[module] != regions->family)
     return chunks;
   // Spans closer than this are sent as one chunk, the bytes between included: a chunk costs
-  // 40 bytes of header and prefix and a packet's handling at both ends, about what 2 KiB more
-  // of a chunk cost here. bench daemon on demo (orbit, rows of 1536 bytes, spans 20-25% of a
-  // row): 512 sent 2.0 MiB a display frame in 290 chunks a module, push 3.7 ms, simulator 0.08
-  // cores; 2048 sent 5.1 MiB (rows merged), push 2.2-2.7 ms, simulator 0.05; whole frames
-  // 9.0 MiB, push 2.7-4.0 ms, simulator 0.06.
-  constexpr uint32_t kMergeGap = 2048;
+  // 40 bytes of header and prefix and a packet's handling at both ends. bench daemon, orbit.lua
+  // (rows of 1536 bytes on demo, 3072 on default; spans a fifth to a quarter of a row), CRCs
+  // chained: 2048 sent 5.1 MiB a display frame on demo and 70.6 on default (rows merged), push
+  // 2.2-2.4 and 40-43 ms; 768 sent 2.4 and 36.8 MiB, push 2.2 and 46-48 ms, the same fps and CPU
+  // within the noise. Half the bytes for a few ms more on a simulated link: on a real one (USB,
+  // ~400 MB/s) the bytes are what limits. (Before the CRCs were chained, 512 cost 3.7 ms on demo
+  // against 2.7-4.0 for whole frames.)
+  constexpr uint32_t kMergeGap = 768;
   const auto size = static_cast<uint32_t>(frame.pixels.size());
   uint64_t bytes = 0;
   uint32_t previousEnd = 0;

@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 
@@ -186,12 +187,13 @@ uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame, uint
   ++stats_.submitted;
   const uint64_t ticket = ++ticket_;
   // A patch's hash is worked out from its base's and the bytes it sends, not from every byte.
-  std::vector<std::pair<uint32_t, uint32_t>> patch = patchFor(module, *frame, displayFrame);
-  const bool patching = !patch.empty() && patch.front().first < patch.front().second;
+  std::optional<std::vector<std::pair<uint32_t, uint32_t>>> patch =
+      patchFor(module, *frame, displayFrame);
+  const bool patching = patch && !patch->empty();
   uint64_t hash = 0;
   if (patching) {
-    hash = patchContentHash(submittedHash_[module], frame->pixels.data(), patch);
-  } else if (!patch.empty()) {
+    hash = patchContentHash(submittedHash_[module], frame->pixels.data(), *patch);
+  } else if (patch) {
     hash = submittedHash_[module];  // nothing can differ from what the module shows
   } else {
     hash = contentHash64(frame->pixels.data(), frame->pixels.size());
@@ -222,9 +224,9 @@ uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame, uint
     // small (a few KiB), where another pass of the CRC instruction costs less than combining
     // CRCs (crc32cCombine: ~200 ns); each chunk's own is worked out as it is sent.
     p.baseHash = submittedHash_[module];
-    for (const auto& [begin, end] : patch)
+    for (const auto& [begin, end] : *patch)
       p.patchCrc = crc32c(p.frame->pixels.data() + begin, end - begin, p.patchCrc);
-    p.patch = std::move(patch);
+    p.patch = std::move(*patch);
   } else if (!unchanged) {
     wholeFrameCrcs(p);
   }
@@ -244,13 +246,13 @@ uint64_t LinkClient::submit(int module, std::shared_ptr<const Image> frame, uint
   return ticket;
 }
 
-std::vector<std::pair<uint32_t, uint32_t>> LinkClient::patchFor(int module, const Image& frame,
-                                                                uint32_t displayFrame) const {
-  std::vector<std::pair<uint32_t, uint32_t>> chunks;
+std::optional<std::vector<std::pair<uint32_t, uint32_t>>> LinkClient::patchFor(
+    int module, const Image& frame, uint32_t displayFrame) const {
   const ImageRegions* regions = frame.regions.get();
   if (!options_.patchFrames || displayFrame == 0 || !regions || regions->family == 0 ||
       !hashValid_[module] || submittedFamily_[module] != regions->family)
-    return chunks;
+    return std::nullopt;
+  std::vector<std::pair<uint32_t, uint32_t>> chunks;
   // Spans closer than this are sent as one chunk, the bytes between included: a chunk costs
   // 40 bytes of header and prefix and a packet's handling at both ends. bench daemon, orbit.lua
   // (rows of 1536 bytes on demo, 3072 on default; spans a fifth to a quarter of a row), CRCs
@@ -265,7 +267,7 @@ std::vector<std::pair<uint32_t, uint32_t>> LinkClient::patchFor(int module, cons
   uint32_t previousEnd = 0;
   for (const auto& [begin, end] : regions->spans) {
     if (begin >= end) continue;
-    if (begin < previousEnd || end > size) return {};  // not sorted, or past the frame: whole
+    if (begin < previousEnd || end > size) return std::nullopt;  // not sorted, or past the end
     previousEnd = end;
     if (!chunks.empty() && begin - chunks.back().second < kMergeGap &&
         end - chunks.back().first <= chunkSize_) {
@@ -278,9 +280,7 @@ std::vector<std::pair<uint32_t, uint32_t>> LinkClient::patchFor(int module, cons
       bytes += chunks.back().second - at;
     }
   }
-  if (bytes > size / 4 * 3) return {};  // as good as whole: sent whole
-  // Nothing can have changed: one empty range says so (the caller treats it as unchanged).
-  if (chunks.empty()) chunks.push_back({0, 0});
+  if (bytes > size / 4 * 3) return std::nullopt;  // as good as whole: sent whole
   return chunks;
 }
 

@@ -18,6 +18,7 @@
 #include <deque>
 #include <initializer_list>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -194,11 +195,11 @@ class LinkClient {
   // flight; when it cannot, fails every pending frame with the reason. False if still down.
   bool reconnect(const std::string& why);
   TransportStatus sendFrame(Pending& p);
-  // The chunks of a patch of `frame` for `module` (empty: send it whole): when the module was
-  // last given an image of the same family, accepted so far, and the bytes that can differ
-  // are fewer than three quarters of the frame.
-  std::vector<std::pair<uint32_t, uint32_t>> patchFor(int module, const Image& frame,
-                                                      uint32_t displayFrame) const;
+  // The chunks of a patch of `frame` for `module`, when the module was last given an image of
+  // the same family, accepted so far, and the bytes that can differ are fewer than three
+  // quarters of the frame; none: nothing can differ. nullopt: send it whole.
+  std::optional<std::vector<std::pair<uint32_t, uint32_t>>> patchFor(int module, const Image& frame,
+                                                                     uint32_t displayFrame) const;
   // The CRCs of the whole frame's chunks (a patch sent whole works them out when it must).
   void wholeFrameCrcs(Pending& p) const;
   // Receives for up to timeoutMs, applies acks, handles deadlines and a lost link.

@@ -159,12 +159,6 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox,
   RTCDevice device = embreeDevice();
   // The partial scenes take the same flags: the same leaf layout, so a ray meets a triangle
   // with the same arithmetic (the same u, v, t to the bit) in any of them.
-  auto newScene = [&] {
-    RTCScene s = rtcNewScene(device);
-    rtcSetSceneFlags(s, animated_ ? RTC_SCENE_FLAG_DYNAMIC : RTC_SCENE_FLAG_NONE);
-    rtcSetSceneBuildQuality(s, animated_ ? RTC_BUILD_QUALITY_MEDIUM : RTC_BUILD_QUALITY_HIGH);
-    return s;
-  };
   scene_ = newScene();
   if (split()) dynamicScene_ = newScene();
   boundsMin_ = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
@@ -207,20 +201,17 @@ PhysicalScene::PhysicalScene(const Scene& scene, const Box3& displayableBox,
     rtcCommitGeometry(geometry);
     const unsigned id = rtcAttachGeometry(scene_, geometry);
     PARALLAX_CHECK_OP(id, ==, static_cast<unsigned>(g));
-    if (split()) {
-      if (dynamicInstances_[static_cast<size_t>(meshInstances_[g])]) {
-        rtcAttachGeometryByID(dynamicScene_, geometry, id);
-      }
-      geometries_.push_back(geometry);  // kept for buildStaticScene
-    } else {
-      rtcReleaseGeometry(geometry);
+    if (split() && dynamicInstances_[static_cast<size_t>(meshInstances_[g])]) {
+      rtcAttachGeometryByID(dynamicScene_, geometry, id);
     }
+    geometries_.push_back(geometry);  // kept for the partial scenes
   }
   rtcCommitScene(scene_);
   if (dynamicScene_) rtcCommitScene(dynamicScene_);
   if (split()) boundDynamicMeshes();
   boundOccluders();
   markBareFaces();
+  buildWithoutMeshScenes();
   throwIfEmbreeFailed("the scene build");
   if (counters_.trianglesBuilt == 0) {
     boundsMin_ = boundsMax_ = Eigen::Vector3f::Zero();
@@ -236,6 +227,8 @@ PhysicalScene::~PhysicalScene() {
   if (scene_) rtcReleaseScene(scene_);
   if (dynamicScene_) rtcReleaseScene(dynamicScene_);
   if (staticScene_) rtcReleaseScene(staticScene_);
+  for (RTCScene s : withoutMesh_)
+    if (s) rtcReleaseScene(s);
   for (RTCGeometry g : geometries_) rtcReleaseGeometry(g);
 }
 
@@ -414,15 +407,53 @@ void PhysicalScene::boundOccluders() {
   }
 }
 
+std::vector<bool> PhysicalScene::withoutMeshCandidates() const {
+  std::vector<bool> candidates(meshes_.size(), false);
+  if (meshes_.size() < 2) return candidates;  // nothing else to meet: the background
+  size_t count = 0;
+  for (size_t g = 0; g < meshes_.size() && count < kMaxWithoutMeshScenes; ++g) {
+    const MaterialKind kind = materials_[static_cast<size_t>(meshes_[g].material)].kind;
+    if (kind != MaterialKind::kMirror && kind != MaterialKind::kDielectric) continue;
+    candidates[g] = true;
+    ++count;
+  }
+  if (static_cast<long>(count) * counters_.trianglesBuilt > kMaxWithoutMeshTriangles)
+    candidates.assign(meshes_.size(), false);
+  return candidates;
+}
+
+void PhysicalScene::buildWithoutMeshScenes() {
+  withoutMesh_.assign(meshes_.size(), nullptr);
+  withoutMeshScenes_ = 0;
+  const std::vector<bool> candidates = withoutMeshCandidates();
+  for (size_t g = 0; g < meshes_.size(); ++g) {
+    const std::vector<std::int32_t>& bare = meshes_[g].bareFaces;
+    if (!candidates[g] || std::none_of(bare.begin(), bare.end(), [](std::int32_t b) { return b; }))
+      continue;
+    RTCScene s = newScene();
+    for (size_t other = 0; other < geometries_.size(); ++other) {
+      if (other != g) rtcAttachGeometryByID(s, geometries_[other], static_cast<unsigned>(other));
+    }
+    rtcCommitScene(s);
+    withoutMesh_[g] = s;
+    ++withoutMeshScenes_;
+  }
+  throwIfEmbreeFailed("the scenes without one mesh");
+}
+
 void PhysicalScene::markBareFaces() {
-  if (occluders_.empty()) return;
   // Every triangle against every vertex: bounded, so a dense mesh costs no more than this.
   constexpr double kMaxWork = 1 << 20;
   constexpr double kEpsilon = std::numeric_limits<float>::epsilon();
-  for (PhysicalMesh& mesh : meshes_) {
+  const std::vector<bool> specular = withoutMeshCandidates();
+  for (size_t g = 0; g < meshes_.size(); ++g) {
+    PhysicalMesh& mesh = meshes_[g];
     mesh.bareFaces.clear();
-    // Shadow rays leave diffuse surfaces only.
-    if (materials_[static_cast<size_t>(mesh.material)].kind != MaterialKind::kDiffuse) continue;
+    // Shadow rays leave diffuse surfaces, with occluders to test them against; reflection and
+    // refraction rays leave mirrors and glass, with a scene without their mesh.
+    const bool diffuse =
+        materials_[static_cast<size_t>(mesh.material)].kind == MaterialKind::kDiffuse;
+    if (!(diffuse && !occluders_.empty()) && !specular[g]) continue;
     std::vector<std::uint8_t> used(mesh.positions.size(), 0);
     for (const auto& t : mesh.triangles)
       for (std::uint32_t index : t) used[index] = 1;
@@ -460,13 +491,17 @@ void PhysicalScene::markBareFaces() {
   }
 }
 
+RTCScene PhysicalScene::newScene() const {
+  RTCScene s = rtcNewScene(embreeDevice());
+  rtcSetSceneFlags(s, animated_ ? RTC_SCENE_FLAG_DYNAMIC : RTC_SCENE_FLAG_NONE);
+  rtcSetSceneBuildQuality(s, animated_ ? RTC_BUILD_QUALITY_MEDIUM : RTC_BUILD_QUALITY_HIGH);
+  return s;
+}
+
 void PhysicalScene::buildStaticScene() {
   PARALLAX_CHECK(split());
   if (staticScene_) return;
-  staticScene_ = rtcNewScene(embreeDevice());
-  rtcSetSceneFlags(staticScene_, animated_ ? RTC_SCENE_FLAG_DYNAMIC : RTC_SCENE_FLAG_NONE);
-  rtcSetSceneBuildQuality(staticScene_,
-                          animated_ ? RTC_BUILD_QUALITY_MEDIUM : RTC_BUILD_QUALITY_HIGH);
+  staticScene_ = newScene();
   for (size_t g = 0; g < geometries_.size(); ++g) {
     if (!dynamicInstances_[static_cast<size_t>(meshInstances_[g])])
       rtcAttachGeometryByID(staticScene_, geometries_[g], static_cast<unsigned>(g));

@@ -50,8 +50,9 @@ struct PhysicalMesh {
   // Per triangle, the faces (kFrontBare: the CCW side, kBackBare: the other) the whole mesh lies
   // behind, as far as float rounding tells: a shadow ray that leaves such a face cannot meet
   // this mesh again. A flat mesh's triangles are bare on both sides, a convex mesh's on the
-  // outside, a torus's on the outside of its outer half. Only for the meshes of a scene with
-  // occluders() that a shadow ray can leave (diffuse ones); empty otherwise (none bare).
+  // outside, a torus's on the outside of its outer half. For the meshes of a scene with
+  // occluders() that a shadow ray can leave (diffuse ones), and for those with a withoutMesh()
+  // scene; empty otherwise (none bare).
   static constexpr std::int32_t kFrontBare = 1, kBackBare = 2;
   std::vector<std::int32_t> bareFaces;
   // Mesh::interior in physical space, when the instance's transform keeps spheres spheres and
@@ -129,6 +130,16 @@ class PhysicalScene {
   // more than kMaxDynamicSpheres. Empty unless split.
   static constexpr size_t kMaxDynamicSpheres = 8;
   const std::vector<Eigen::Vector4f>& dynamicSpheres() const { return dynamicSpheres_; }
+  // For a mirror's or glass's mesh with a bare face (PhysicalMesh::bareFaces): a BVH of every
+  // other mesh, under the same IDs, for the reflection and refraction rays that leave a bare face
+  // of it. They cannot meet that mesh again, and Embree's walk down the mesh they start on was
+  // about half of what such a ray cost. Null for other meshes, and for all when building them
+  // would pass kMaxWithoutMeshTriangles (they are built with the scene, every frame of an
+  // animated one).
+  static constexpr size_t kMaxWithoutMeshScenes = 4;
+  static constexpr long kMaxWithoutMeshTriangles = 1 << 17;
+  RTCScene withoutMesh(unsigned mesh) const { return withoutMesh_[mesh]; }
+  bool hasWithoutMeshScenes() const { return withoutMeshScenes_ > 0; }
   // Every mesh's bound (OccluderBound), in mesh order, when the scene has at most
   // kMaxOccluders meshes; empty otherwise (the shadow rays then all go to Embree).
   static constexpr size_t kMaxOccluders = 8;
@@ -178,6 +189,13 @@ class PhysicalScene {
   RTCScene dynamicScene_ = nullptr;
   RTCScene staticScene_ = nullptr;
   std::vector<RTCGeometry> geometries_;  // retained while a partial scene may still attach them
+  std::vector<RTCScene> withoutMesh_;    // per mesh
+  int withoutMeshScenes_ = 0;
+  // The meshes that get a withoutMesh() scene, if their faces turn out bare.
+  std::vector<bool> withoutMeshCandidates() const;
+  void buildWithoutMeshScenes();
+  // An empty scene with this scene's flags and build quality.
+  RTCScene newScene() const;
   std::vector<bool> dynamicInstances_;
   std::vector<Eigen::Vector4f> dynamicSpheres_;
   void boundDynamicMeshes();

@@ -189,6 +189,34 @@ void intersectPackets(RTCScene scene, RayHitPackets& rays, Traversal traversal, 
       [](RTCRayHit16& p) -> RTCRay16& { return p.ray; });
 }
 
+void intersectPackets(const RTCScene* scenes, RayHitPackets& rays, Traversal traversal,
+                      bool coherent) {
+  RTCIntersectContext context = intersectContext(coherent);
+  if (traversal == Traversal::kSingle) {
+    for (size_t i = 0; i < rays.size(); ++i) {
+      RTCRayHit r = rays.get(i);
+      rtcIntersect1(scenes[i], &context, &r);
+      rays.set(i, r);
+    }
+    return;
+  }
+  alignas(64) int valid[16];
+  for (size_t p = 0; p < rays.packetCount(); ++p) {
+    const RTCScene* lanes = scenes + 16 * p;
+    const size_t count = std::min<size_t>(16, rays.size() - 16 * p);
+    unsigned traced = 0;  // a bit per lane
+    for (size_t lead = 0; lead < count; ++lead) {
+      if (traced >> lead & 1u) continue;
+      for (size_t lane = 0; lane < 16; ++lane) {
+        const bool with = lane < count && lanes[lane] == lanes[lead];
+        valid[lane] = with ? -1 : 0;
+        if (with) traced |= 1u << lane;
+      }
+      rtcIntersect16(valid, lanes[lead], &context, &rays.packets()[p]);
+    }
+  }
+}
+
 void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal, bool coherent) {
   ShadowQueryContext query = shadowQueryContext(coherent);
   occludedPackets(scene, rays, traversal, &query);

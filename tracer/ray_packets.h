@@ -155,6 +155,10 @@ class OcclusionPackets {
 // one masked), kStream one rtcIntersectNM over all packets (the unused lanes of the last packet
 // made inactive, tnear > tfar), kSingle one rtcIntersect1 per ray.
 void intersectPackets(RTCScene scene, RayHitPackets& rays, Traversal traversal, bool coherent);
+// Ray i against scenes[i]: kSingle one rtcIntersect1 per ray; kPacket16 and kStream one
+// rtcIntersect16 per packet and scene its lanes name, the other lanes masked off.
+void intersectPackets(const RTCScene* scenes, RayHitPackets& rays, Traversal traversal,
+                      bool coherent);
 // Glass blocks these (no transmittance states).
 void occludedPackets(RTCScene scene, OcclusionPackets& rays, Traversal traversal, bool coherent);
 // With the caller's context: its transmittance states (if any) are indexed by push order.

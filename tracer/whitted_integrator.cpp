@@ -112,6 +112,9 @@ struct ShadowBatch {
 struct TileBuffers {
   PathVector paths, nextPaths;
   RayHitPackets rays, nextRays;
+  // Per ray of a later generation, the scene it is traced against: the whole one, or one
+  // without the mesh it leaves (PhysicalScene::withoutMesh). Kept only when the scene has those.
+  std::vector<RTCScene> scenes, nextScenes;
   LitSurfaces lit;
   // Shadow rays are made and traced light after light: a packet then holds neighbouring
   // pixels' rays toward the same light, which traverse the BVH together. With the frame cache,
@@ -141,10 +144,13 @@ class TileRenderer {
         texturesUsed_(scene.features().texturePass()),
         boxMargin_(0.01f * (scene.boundsMax() - scene.boundsMin()).norm()),
         glassShadows_(scene.glassShadows()),
+        skipMeshLeft_(options.skipMeshLeft && scene.hasWithoutMeshScenes()),
         paths_(buffers->paths),
         nextPaths_(buffers->nextPaths),
         rays_(buffers->rays),
         nextRays_(buffers->nextRays),
+        scenes_(buffers->scenes),
+        nextScenes_(buffers->nextScenes),
         lit_(buffers->lit),
         shadows_(buffers->shadows),
         dynamicShadows_(buffers->dynamicShadows),
@@ -180,7 +186,10 @@ class TileRenderer {
   Rgb textureColor(const Material& m, const HitInfo& h, const Path& path, float t,
                    const Eigen::Vector3f& d, RenderCounters* c) const;
   void pushBranch(const Path& parent, const Rgb& weight, const Eigen::Vector3f& origin,
-                  const Eigen::Vector3f& dir, int inside, float coneWidth, RenderCounters* c);
+                  const Eigen::Vector3f& dir, int inside, float coneWidth, int meshLeft,
+                  RenderCounters* c);
+  int meshLeft(unsigned geomID, unsigned prim, bool frontSide, const Eigen::Vector3f& side,
+               const Eigen::Vector3f& dir) const;
   void logBatch(int generation, const RayHitPackets& rays);
   void logBatch(int generation, const OcclusionPackets& rays);
   void logBatch(bool occlusion, int generation, std::vector<RTCRay> rays);
@@ -194,11 +203,16 @@ class TileRenderer {
   const bool texturesUsed_;  // the scene samples a texture (ray footprints are needed)
   const float boxMargin_;    // primary rays start this far (metres) before the scene's box
   const bool glassShadows_;  // shadow rays pass through glass (glass_shadows.h)
+  // Reflection and refraction rays that leave a bare face of their mesh are traced without it
+  // (RenderOptions::skipMeshLeft, and the scene has such meshes).
+  const bool skipMeshLeft_;
 
   PathVector& paths_;
   PathVector& nextPaths_;
   RayHitPackets& rays_;
   RayHitPackets& nextRays_;
+  std::vector<RTCScene>& scenes_;
+  std::vector<RTCScene>& nextScenes_;
   LitSurfaces& lit_;  // this generation's diffuse hits
   ShadowBatch& shadows_;
   ShadowBatch& dynamicShadows_;
@@ -347,8 +361,13 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
     const bool coherent = generation == 0;
     if (generation == 0 && cache_ && !cache_->build) limitToStaticHits();
     if (log_) logBatch(generation, rays_);
-    intersectPackets(generation == 0 ? primaryScene() : scene_.handle(), rays_, options_.traversal,
-                     coherent);
+    if (generation == 0) {
+      intersectPackets(primaryScene(), rays_, options_.traversal, coherent);
+    } else if (skipMeshLeft_) {
+      intersectPackets(scenes_.data(), rays_, options_.traversal, coherent);
+    } else {
+      intersectPackets(scene_.handle(), rays_, options_.traversal, coherent);
+    }
     if (generation == 0 && cache_) {
       if (cache_->build) {
         recordStaticHits();
@@ -358,6 +377,7 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
     }
     clock.lap(RenderPhase::kIntersect);
     nextPaths_.clear();
+    nextScenes_.clear();
     nextRays_.clear();
     lit_.reset(rays_.size());
     for (size_t first = 0; first < rays_.size(); first += 16) {
@@ -386,6 +406,7 @@ void TileRenderer::render(int x0, int x1, int y0, int y1, RenderCounters* c) {
     clock.lap(RenderPhase::kShade);
     std::swap(paths_, nextPaths_);
     std::swap(rays_, nextRays_);
+    std::swap(scenes_, nextScenes_);
   }
 }
 
@@ -608,7 +629,7 @@ Rgb TileRenderer::textureColor(const Material& m, const HitInfo& h, const Path& 
 }
 
 void TileRenderer::pushBranch(const Path& parent, const Rgb& weight, const Eigen::Vector3f& origin,
-                              const Eigen::Vector3f& dir, int inside, float coneWidth,
+                              const Eigen::Vector3f& dir, int inside, float coneWidth, int meshLeft,
                               RenderCounters* c) {
   if (weight.maxCoeff() < options_.minWeight) {
     ++c->pruned;
@@ -620,6 +641,26 @@ void TileRenderer::pushBranch(const Path& parent, const Rgb& weight, const Eigen
   child.coneWidth = coneWidth;
   nextPaths_.push_back(child);
   nextRays_.push(origin, dir);
+  if (!skipMeshLeft_) return;
+  if (meshLeft >= 0) {
+    nextScenes_.push_back(scene_.withoutMesh(static_cast<unsigned>(meshLeft)));
+    ++c->withoutMeshLeft;
+  } else {
+    nextScenes_.push_back(scene_.handle());
+  }
+}
+
+// The mesh a reflection or refraction ray leaves, when it may be traced without it: the ray
+// starts on the `frontSide` (the CCW side) of triangle `prim`, offset along `side` (that side's
+// unit normal), and moves away from the triangle's plane, on whose other side the whole mesh
+// lies (a bare face, PhysicalMesh::bareFaces), so it cannot meet the mesh again. -1 otherwise,
+// or when the mesh has no scene without it.
+int TileRenderer::meshLeft(unsigned geomID, unsigned prim, bool frontSide,
+                           const Eigen::Vector3f& side, const Eigen::Vector3f& dir) const {
+  if (!skipMeshLeft_ || !scene_.withoutMesh(geomID)) return -1;
+  const std::int32_t bare = scene_.meshes()[geomID].bareFaces[prim] &
+                            (frontSide ? PhysicalMesh::kFrontBare : PhysicalMesh::kBackBare);
+  return bare != 0 && dir.dot(side) > 0.0f ? static_cast<int>(geomID) : -1;
 }
 
 // With the frame cache, a first-generation diffuse hit's answers for the static lights (its
@@ -693,8 +734,9 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
       if (!canBranch) return;
       ++c->reflection;
       const Eigen::Vector3f above = offsetRayOrigin(h.position, h.geometricNormal);
-      pushBranch(path, weight.cwiseProduct(m.reflectance), above, reflect(d, h.shadingNormal),
-                 path.inside, coneWidth, c);
+      const Eigen::Vector3f reflected = reflect(d, h.shadingNormal);
+      pushBranch(path, weight.cwiseProduct(m.reflectance), above, reflected, path.inside, coneWidth,
+                 meshLeft(geomID, rays_.primID(i), h.frontFace, h.geometricNormal, reflected), c);
       return;
     }
     case MaterialKind::kDielectric: {
@@ -709,13 +751,17 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
       const bool transmits = refract(d, n, eta, &refracted, &cosT);
       const float reflectance = transmits ? fresnelDielectric(cosI, cosT, eta) : 1.0f;
       ++c->reflection;
+      const unsigned prim = rays_.primID(i);
       const Eigen::Vector3f above = offsetRayOrigin(h.position, h.geometricNormal);
-      pushBranch(path, weight * reflectance, above, reflect(d, n), path.inside, coneWidth, c);
+      const Eigen::Vector3f reflected = reflect(d, n);
+      pushBranch(path, weight * reflectance, above, reflected, path.inside, coneWidth,
+                 meshLeft(geomID, prim, h.frontFace, h.geometricNormal, reflected), c);
       if (transmits) {
         ++c->refraction;
         const Eigen::Vector3f below = offsetRayOrigin(h.position, -h.geometricNormal);
         pushBranch(path, weight * (1.0f - reflectance), below, refracted,
-                   h.frontFace ? mesh.material : -1, coneWidth, c);
+                   h.frontFace ? mesh.material : -1, coneWidth,
+                   meshLeft(geomID, prim, !h.frontFace, -h.geometricNormal, refracted), c);
       }
       return;
     }
@@ -952,6 +998,7 @@ RenderCounters& RenderCounters::operator+=(const RenderCounters& o) {
   outsideFootprint += o.outsideFootprint;
   shadowBlockedByCores += o.shadowBlockedByCores;
   textureLookups += o.textureLookups;
+  withoutMeshLeft += o.withoutMeshLeft;
   cache += o.cache;
   deepest = std::max(deepest, o.deepest);
   for (int i = 0; i < kRenderPhases; ++i) phaseThreadMs[i] += o.phaseThreadMs[i];
@@ -974,6 +1021,11 @@ std::vector<std::string> RenderCounters::lines() const {
                   "of a closed convex object (blocked)",
                   shadowPassedBounds, shadowBlockedByCores),
   };
+  if (withoutMeshLeft > 0) {
+    out.push_back(fmt::format(
+        "  reflection and refraction rays traced without the mirror or glass they leave: {}",
+        withoutMeshLeft));
+  }
   if (outsideFootprint > 0) {
     out.push_back(fmt::format(
         "  pixels outside the scene's footprint (neither read nor written, their bytes kept from "

@@ -48,6 +48,10 @@ struct RenderOptions {
   // Embree (PhysicalScene::occluders). false:
   // every ray is traced (the reference the test compares with, bit for bit).
   bool boundShadowRays = true;
+  // A mirror's or glass's reflection or refraction ray that leaves a bare face of its mesh is
+  // traced against the scene without that mesh (PhysicalScene::withoutMesh), which it cannot
+  // meet. false: against the whole scene (the reference the test compares with, bit for bit).
+  bool skipMeshLeft = true;
 
   // Throws InputError naming the option.
   void validate() const;
@@ -80,6 +84,9 @@ struct RenderCounters {
   long shadowPassedBounds = 0;
   // Shadow rays not traced: they go through a closed convex mesh's core (OccluderBound::core).
   long shadowBlockedByCores = 0;
+  // Reflection and refraction rays traced against the scene without the mesh they leave
+  // (RenderOptions::skipMeshLeft).
+  long withoutMeshLeft = 0;
   // Pixels outside the scene's footprint (scene_footprint.h): counted among masked and
   // missedBounds too, yet not even read.
   long outsideFootprint = 0;

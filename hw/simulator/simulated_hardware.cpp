@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstring>
 #include <fstream>
 #include <stdexcept>
 #include <utility>
@@ -302,18 +303,51 @@ SimAction SimulatedHardware::frameBegin(Module& m, const PacketHeader& header,
   u.next = 0;
   u.runningCrc = 0;
   u.baseMismatch = false;
+  u.written.clear();
+  // Whatever this upload writes, the buffer no longer holds a known frame until it completes.
+  const uint64_t holds = m.uploadHolds;
+  m.uploadHolds = 0;
   if ((begin.flags & kFramePatch) != 0) {
     // The chunks are written over the frame shown, if it is the patch's base (else the frame
     // fails at its FrameEnd, and the host sends it whole).
     u.baseMismatch = m.shown.empty() || m.shownHash != begin.baseHash ||
                      m.shown.pixels.size() != begin.totalSize;
     if (!u.baseMismatch) {
-      u.buffer.assign(m.shown.pixels.begin(), m.shown.pixels.end());
+      copyPatchBase(m, holds);
       return action;
     }
   }
   if ((begin.flags & kFrameReuse) == 0) u.buffer.resize(begin.totalSize);
   return action;
+}
+
+void SimulatedHardware::copyPatchBase(Module& m, uint64_t holds) {
+  Upload& u = m.upload;
+  const std::vector<uint8_t>& shown = m.shown.pixels;
+  // The patches from the frame the buffer holds to the one shown, newest first.
+  std::vector<const PatchRecord*> since;
+  bool known = holds != 0 && u.buffer.size() == shown.size();
+  for (uint64_t at = m.shownHash; known && at != holds;) {
+    const auto r = std::find_if(m.patches.begin(), m.patches.end(),
+                                [&](const PatchRecord& p) { return p.hash == at; });
+    if (r == m.patches.end() || since.size() == kPatchRecords) {
+      known = false;
+    } else {
+      since.push_back(&*r);
+      at = r->base;
+    }
+  }
+  if (!known) {
+    u.buffer.assign(shown.begin(), shown.end());
+    m.counters.patchBaseBytes += shown.size();
+    return;
+  }
+  for (const PatchRecord* r : since) {
+    for (const auto& [offset, size] : r->written) {
+      std::memcpy(u.buffer.data() + offset, shown.data() + offset, size);
+      m.counters.patchBaseBytes += size;
+    }
+  }
 }
 
 uint8_t* SimulatedHardware::chunkDestination(const PacketHeader& header, uint32_t frameSequence,
@@ -394,6 +428,7 @@ SimAction SimulatedHardware::finishChunk(const PacketHeader& header, uint32_t fr
   u.covered += data.size();
   u.next = static_cast<uint64_t>(offset) + data.size();
   ++u.chunks;
+  if (patch) u.written.emplace_back(offset, data.size());
   return action;
 }
 
@@ -435,6 +470,10 @@ void SimulatedHardware::frameEnd(Module& m, const PacketHeader& header,
   if (status != AckStatus::kOk) {
     ++m.counters.framesRejected;
   } else if (!(stalls && u.begin.displayFrame != 0)) {  // a hung module holds nothing either
+    if ((u.begin.flags & kFramePatch) != 0) {
+      m.patches.push_back({u.begin.contentHash, u.begin.baseHash, std::move(u.written)});
+      if (m.patches.size() > kPatchRecords) m.patches.pop_front();
+    }
     complete(m, u);
   }
   if (!stalls) ack(header.module, header.sequence, status, detail, replies);
@@ -448,6 +487,7 @@ void SimulatedHardware::complete(Module& m, Upload& u) {
     m.shown.height = static_cast<int>(u.begin.height);
     m.shown.format = u.begin.format;
     std::swap(m.shown.pixels, u.buffer);
+    m.uploadHolds = m.shownHash;
     m.shownHash = u.begin.contentHash;
     m.shownFrame = m.presented;
     ++m.counters.framesShown;
@@ -456,12 +496,17 @@ void SimulatedHardware::complete(Module& m, Upload& u) {
   }
   if (u.begin.displayFrame <= m.presented) {  // its Present has passed: never shown
     ++m.counters.framesLate;
+    if (!reuse) m.uploadHolds = u.begin.contentHash;
     return;
   }
   m.ready.displayFrame = u.begin.displayFrame;
   m.ready.reuse = reuse;
   m.ready.begin = u.begin;
-  if (!reuse) std::swap(m.ready.pixels, u.buffer);
+  if (!reuse) {
+    std::swap(m.ready.pixels, u.buffer);
+    m.uploadHolds = m.readyHolds;
+    m.readyHolds = u.begin.contentHash;
+  }
 }
 
 void SimulatedHardware::present(Module& m, int index, uint32_t displayFrame, int64_t nowNs) {
@@ -474,6 +519,7 @@ void SimulatedHardware::present(Module& m, int index, uint32_t displayFrame, int
       m.shown.height = static_cast<int>(m.ready.begin.height);
       m.shown.format = m.ready.begin.format;
       std::swap(m.shown.pixels, m.ready.pixels);
+      m.readyHolds = m.shownHash;
       m.shownHash = m.ready.begin.contentHash;
       ++m.counters.framesShown;  // new content (a reused frame is the one already counted)
     }

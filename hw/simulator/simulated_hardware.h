@@ -15,6 +15,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "hw/link/image.h"
@@ -54,6 +55,9 @@ struct ModuleCounters {
   uint64_t framesLate = 0;      // complete only after their Present: never shown
   uint64_t presentsMissed = 0;  // a Present came without this module's frame
   uint64_t blanked = 0;         // went dark rather than lag two display frames
+  // Bytes of the shown frame copied under patches: only what changed since the frame the
+  // upload buffer held, or the whole frame when that is not known.
+  uint64_t patchBaseBytes = 0;
 };
 
 // What one module shows after one Present: the swap lock's record (the tests read it, and
@@ -122,6 +126,7 @@ class SimulatedHardware {
   const SimulatedHardwareOptions& options() const { return options_; }
 
  private:
+  using ByteSpan = std::pair<uint64_t, uint64_t>;  // offset, size
   struct Upload {
     bool active = false;
     bool damaged = false;  // a chunk failed its CRC
@@ -137,7 +142,15 @@ class SimulatedHardware {
     uint32_t runningCrc = 0;    // CRC-32C of the verified chunks' data, in order
     uint32_t chunks = 0;
     std::vector<uint8_t> buffer;
+    std::vector<ByteSpan> written;  // a patch's verified chunks, in order
   };
+  // A patch frame completed: its content (the hash it declared) is its base's with `written`
+  // replaced.
+  struct PatchRecord {
+    uint64_t hash = 0, base = 0;
+    std::vector<ByteSpan> written;
+  };
+  static constexpr size_t kPatchRecords = 4;
   // A complete frame waiting for its Present.
   struct Ready {
     uint32_t displayFrame = 0;  // 0: none
@@ -153,6 +166,12 @@ class SimulatedHardware {
     uint32_t presented = 0;   // the last Present this module saw
     Ready ready;
     Upload upload;
+    // The content each pixel buffer holds, as the hash its frame declared (0: unknown, or an
+    // upload that did not complete). A patch then brings the upload buffer to its base by
+    // copying only what the patches since that buffer's frame wrote (the buffers rotate:
+    // upload, ready, shown), not the whole frame shown.
+    uint64_t readyHolds = 0, uploadHolds = 0;
+    std::deque<PatchRecord> patches;  // the latest, newest last
     ArmedFaults faults;
     ModuleCounters counters;
   };
@@ -167,6 +186,9 @@ class SimulatedHardware {
   // Puts a verified upload on screen now (displayFrame 0) or holds it for its Present.
   void complete(Module& m, Upload& u);
   void present(Module& m, int index, uint32_t displayFrame, int64_t nowNs);
+  // The upload buffer made the frame shown, the base of the patch starting; `holds`: what the
+  // buffer held.
+  void copyPatchBase(Module& m, uint64_t holds);
   ProtocolError capture(const PacketHeader& header, std::span<const uint8_t> payload,
                         std::vector<uint8_t>* replies);
 

@@ -313,7 +313,7 @@ SimAction SimulatedHardware::frameBegin(Module& m, const PacketHeader& header,
     u.baseMismatch = m.shown.empty() || m.shownHash != begin.baseHash ||
                      m.shown.pixels.size() != begin.totalSize;
     if (!u.baseMismatch) {
-      copyPatchBase(m, holds);
+      startPatchBase(m, holds);
       return action;
     }
   }
@@ -321,33 +321,74 @@ SimAction SimulatedHardware::frameBegin(Module& m, const PacketHeader& header,
   return action;
 }
 
-void SimulatedHardware::copyPatchBase(Module& m, uint64_t holds) {
+namespace {
+
+using ByteSpan = std::pair<uint64_t, uint64_t>;  // offset, size
+
+// The union of two lists of sorted, disjoint spans, sorted and disjoint.
+std::vector<ByteSpan> unite(const std::vector<ByteSpan>& a, const std::vector<ByteSpan>& b) {
+  std::vector<ByteSpan> both(a.size() + b.size()), out;
+  std::merge(a.begin(), a.end(), b.begin(), b.end(), both.begin());
+  for (const auto& [offset, size] : both) {
+    if (!out.empty() && offset <= out.back().first + out.back().second) {
+      out.back().second =
+          std::max(out.back().first + out.back().second, offset + size) - out.back().first;
+    } else {
+      out.emplace_back(offset, size);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+void SimulatedHardware::startPatchBase(Module& m, uint64_t holds) {
   Upload& u = m.upload;
   const std::vector<uint8_t>& shown = m.shown.pixels;
-  // The patches from the frame the buffer holds to the one shown, newest first.
-  std::vector<const PatchRecord*> since;
+  u.stale.clear();
+  // The patches from the frame the buffer holds to the one shown: the buffer differs from the
+  // frame shown only where they wrote.
   bool known = holds != 0 && u.buffer.size() == shown.size();
-  for (uint64_t at = m.shownHash; known && at != holds;) {
+  int steps = 0;
+  for (uint64_t at = m.shownHash; known && at != holds; ++steps) {
     const auto r = std::find_if(m.patches.begin(), m.patches.end(),
                                 [&](const PatchRecord& p) { return p.hash == at; });
-    if (r == m.patches.end() || since.size() == kPatchRecords) {
+    if (r == m.patches.end() || steps == static_cast<int>(kPatchRecords)) {
       known = false;
     } else {
-      since.push_back(&*r);
+      u.stale = unite(u.stale, r->written);
       at = r->base;
     }
   }
   if (!known) {
+    u.stale.clear();
     u.buffer.assign(shown.begin(), shown.end());
     m.counters.patchBaseBytes += shown.size();
-    return;
   }
-  for (const PatchRecord* r : since) {
-    for (const auto& [offset, size] : r->written) {
-      std::memcpy(u.buffer.data() + offset, shown.data() + offset, size);
-      m.counters.patchBaseBytes += size;
+}
+
+void SimulatedHardware::finishPatchBase(Module& m) {
+  Upload& u = m.upload;
+  const std::vector<uint8_t>& shown = m.shown.pixels;
+  // Where the buffer is stale and no chunk wrote: the base's bytes (the chunks, in order, are
+  // sorted and disjoint, as the stale spans are).
+  auto chunk = u.written.begin();
+  for (auto [offset, size] : u.stale) {
+    uint64_t at = offset;
+    const uint64_t end = offset + size;
+    while (at < end) {
+      while (chunk != u.written.end() && chunk->first + chunk->second <= at) ++chunk;
+      const uint64_t until = chunk == u.written.end() ? end : std::min(end, chunk->first);
+      if (until > at) {
+        std::memcpy(u.buffer.data() + at, shown.data() + at, until - at);
+        m.counters.patchBaseBytes += until - at;
+        at = until;
+      } else {
+        at = std::min(end, chunk->first + chunk->second);
+      }
     }
   }
+  u.stale.clear();
 }
 
 uint8_t* SimulatedHardware::chunkDestination(const PacketHeader& header, uint32_t frameSequence,
@@ -448,7 +489,10 @@ void SimulatedHardware::frameEnd(Module& m, const PacketHeader& header,
   if ((u.begin.flags & kFrameReuse) != 0) {
     // No bytes came: the frame is the one shown, if the module still shows that content.
     if (m.shown.empty() || m.shownHash != u.begin.contentHash) status = AckStatus::kMissingChunks;
-  } else if (u.baseMismatch) {
+  } else if (u.baseMismatch ||
+             ((u.begin.flags & kFramePatch) != 0 &&
+              (m.shownHash != u.begin.baseHash || m.shown.pixels.size() != u.buffer.size()))) {
+    // (The frame shown may have changed under the upload: a Present, or the module going dark.)
     status = AckStatus::kBaseMismatch;
   } else if (u.damaged) {
     // Every byte came exactly once, in order, in a verified chunk; the end-to-end CRC then
@@ -471,6 +515,7 @@ void SimulatedHardware::frameEnd(Module& m, const PacketHeader& header,
     ++m.counters.framesRejected;
   } else if (!(stalls && u.begin.displayFrame != 0)) {  // a hung module holds nothing either
     if ((u.begin.flags & kFramePatch) != 0) {
+      finishPatchBase(m);
       m.patches.push_back({u.begin.contentHash, u.begin.baseHash, std::move(u.written)});
       if (m.patches.size() > kPatchRecords) m.patches.pop_front();
     }

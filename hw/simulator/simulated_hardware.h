@@ -143,6 +143,9 @@ class SimulatedHardware {
     uint32_t chunks = 0;
     std::vector<uint8_t> buffer;
     std::vector<ByteSpan> written;  // a patch's verified chunks, in order
+    // A patch's: where the buffer may differ from its base (the frame shown), sorted; the
+    // base's bytes are copied there at FrameEnd, except where a chunk wrote.
+    std::vector<ByteSpan> stale;
   };
   // A patch frame completed: its content (the hash it declared) is its base's with `written`
   // replaced.
@@ -168,8 +171,8 @@ class SimulatedHardware {
     Upload upload;
     // The content each pixel buffer holds, as the hash its frame declared (0: unknown, or an
     // upload that did not complete). A patch then brings the upload buffer to its base by
-    // copying only what the patches since that buffer's frame wrote (the buffers rotate:
-    // upload, ready, shown), not the whole frame shown.
+    // copying only what the patches since that buffer's frame wrote and its own chunks do not
+    // (the buffers rotate: upload, ready, shown), not the whole frame shown.
     uint64_t readyHolds = 0, uploadHolds = 0;
     std::deque<PatchRecord> patches;  // the latest, newest last
     ArmedFaults faults;
@@ -186,9 +189,11 @@ class SimulatedHardware {
   // Puts a verified upload on screen now (displayFrame 0) or holds it for its Present.
   void complete(Module& m, Upload& u);
   void present(Module& m, int index, uint32_t displayFrame, int64_t nowNs);
-  // The upload buffer made the frame shown, the base of the patch starting; `holds`: what the
-  // buffer held.
-  void copyPatchBase(Module& m, uint64_t holds);
+  // A patch starts: the upload buffer, which holds `holds`, is made the frame shown (its base)
+  // at once when the patches between are not known, else where they wrote at FrameEnd
+  // (finishPatchBase), outside this patch's chunks.
+  void startPatchBase(Module& m, uint64_t holds);
+  void finishPatchBase(Module& m);
   ProtocolError capture(const PacketHeader& header, std::span<const uint8_t> payload,
                         std::vector<uint8_t>* replies);
 

@@ -201,6 +201,51 @@ TEST(SimulatedHardware, PatchesOverRotatingBuffersShowEveryFrameExactly) {
   EXPECT_GE(partial, 9);
 }
 
+// The base is laid under a patch's chunks at its FrameEnd: a module whose frame shown changed
+// in between (here it went dark, two display frames behind) answers that it does not show the
+// patch's base, and shows nothing of it.
+TEST(SimulatedHardware, APatchWhoseBaseWentAwayBeforeItsEndIsRefused) {
+  SimulatedHardware sim = makeSim();
+  const std::vector<uint8_t> base = pixels(2);
+  std::vector<uint8_t> next = base;
+  for (uint32_t i = 100; i < 140; ++i) next[i] ^= 0x3C;
+  ASSERT_EQ(upload(sim, 1, base, {{0, 384}}, 0, std::nullopt, 0x100), AckStatus::kOk);
+  ASSERT_EQ(upload(sim, 2, next, {{100, 40}}, 0, PatchOf{0x100, 1}, 0x101), AckStatus::kOk);
+  present(sim, 3, 1);
+  ASSERT_EQ(sim.shownContentHash(0), 0x101u);
+  // The patch for display frame 2 starts; Present(3) comes before its end: the module lags two
+  // display frames and goes dark.
+  std::vector<uint8_t> replies;
+  FrameBegin b;
+  b.width = kW;
+  b.height = kH;
+  b.totalSize = kSize;
+  b.chunkCount = 1;
+  b.flags = kFramePatch;
+  b.baseHash = 0x101;
+  b.displayFrame = 2;
+  b.contentHash = 0x102;
+  b.frameCrc = crc32c(base.data() + 100, 40);
+  const auto body = encodeFrameBegin(b);
+  sim.handlePacket(
+      {PacketType::kFrameBegin, 0, 0, 4, kFrameBeginSize, crc32c(body.data(), kFrameBeginSize)},
+      body, &replies);
+  present(sim, 5, 3);
+  EXPECT_EQ(sim.shownContentHash(0), 0u);  // dark
+  const auto prefix = encodeChunkPrefix(4, 100);
+  std::vector<uint8_t> payload(prefix.begin(), prefix.end());
+  payload.insert(payload.end(), base.begin() + 100, base.begin() + 140);
+  sim.handlePacket({PacketType::kFrameChunk, 0, 0, 4, static_cast<uint32_t>(payload.size()),
+                    crc32c(payload.data(), payload.size())},
+                   payload, &replies);
+  replies.clear();
+  sim.handlePacket({PacketType::kFrameEnd, 0, 0, 4, 0, 0}, {}, &replies);
+  ASSERT_EQ(replies.size(), kHeaderSize + kAckSize);
+  Ack ack;
+  ASSERT_EQ(decodeAck({replies.data() + kHeaderSize, kAckSize}, &ack), ProtocolError::kOk);
+  EXPECT_EQ(ack.status, AckStatus::kBaseMismatch);
+}
+
 TEST(SimulatedHardware, WrongResolutionIsOneBadFrameAck) {
   SimulatedHardware sim = makeSim();
   std::vector<uint8_t> replies;

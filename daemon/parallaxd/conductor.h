@@ -13,6 +13,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <deque>
+#include <exception>
 #include <functional>
 #include <future>
 #include <map>
@@ -81,6 +82,13 @@ struct ConductorOptions {
 // acknowledged, rejected), kDown when no module answers or there is no connection.
 enum class LinkHealth { kUp, kStalled, kDown };
 std::string_view linkHealthName(LinkHealth health);
+
+// How a frame's images reached the link before Conductor::push: not at all, or as they were
+// rendered (renderWhileSending), with what stopped that if something did.
+struct SentAhead {
+  bool already = false;
+  std::exception_ptr error;
+};
 
 class Conductor {
  public:
@@ -178,10 +186,12 @@ class Conductor {
   // Sends this rank's frames: for display frame `displayFrame` (held by the modules until it is
   // presented; waits for their acknowledgements until the deadline), or with 0 shown at once
   // (restoring a reconnected link's modules).
-  void push(const std::vector<std::shared_ptr<const hw::Image>>& images, uint32_t displayFrame);
+  void push(const std::vector<std::shared_ptr<const hw::Image>>& images, uint32_t displayFrame,
+            const SentAhead& sent = {});
   // The swap lock: every rank pushes its part of the next display frame, they agree, and every
   // rank presents it on its link. Called on every rank for the same frames.
-  void pushAndPresent(const std::vector<std::shared_ptr<const hw::Image>>& images);
+  void pushAndPresent(const std::vector<std::shared_ptr<const hw::Image>>& images,
+                      const SentAhead& sent = {});
   // The display's modules that missed the last display frame's deadline, on every rank.
   std::vector<int> laggingModules() const;
   void countFailedModuleFrame(int module,

@@ -8,6 +8,7 @@
 #include "daemon/parallaxd/conductor.h"
 #include "daemon/parallaxd/installer_patterns.h"
 #include "daemon/parallaxd/module_renderer.h"
+#include "daemon/parallaxd/render_while_sending.h"
 
 // The conductor's render loop: frame pacing, rendering, pushing to the modules, keeping the
 // link alive and knowing whether it works.
@@ -108,6 +109,7 @@ double Conductor::playTurn(const nlohmann::json& plan) {
 void Conductor::renderAndPush(Clock::time_point workStarted) {
   const auto started = Clock::now();
   DisplayFrame frame;
+  SentAhead sent;
   std::string failure;
   try {
     if (!script_)
@@ -138,9 +140,25 @@ void Conductor::renderAndPush(Clock::time_point workStarted) {
     const double prepareMs =
         std::chrono::duration<double, std::milli>(Clock::now() - prepareStart).count();
     const double cpuStart = processCpuMs();
-    frame =
-        renderDisplayFrame(physical, textures_, options_.render, encoders_,
-                           cached ? &frameCache_ : nullptr, useFootprint ? &livePixels_ : nullptr);
+    const auto render = [&](const ModuleDone* done) {
+      return renderDisplayFrame(physical, textures_, options_.render, encoders_,
+                                cached ? &frameCache_ : nullptr,
+                                useFootprint ? &livePixels_ : nullptr, done);
+    };
+    if (link_) {
+      // Each module's image goes to the link as soon as it is done, numbered as pushAndPresent
+      // will present it; the modules hold it until then (a frame that fails is not presented).
+      const uint32_t displayFrame = presentedFrame_ + 1;
+      frame = renderWhileSending([&](const ModuleDone& done) { return render(&done); },
+                                 [&](size_t module, std::shared_ptr<const hw::Image> image) {
+                                   link_->submit(static_cast<int>(module), std::move(image),
+                                                 displayFrame);
+                                 },
+                                 &sent.error);
+      sent.already = true;
+    } else {
+      frame = render(nullptr);
+    }
     if (cached) frameCache_.count(frame.counters);
     // The cache's trial compares frames through it with full re-traces by their CPU time, which
     // hardly moves with what else the machine runs.
@@ -177,17 +195,18 @@ void Conductor::renderAndPush(Clock::time_point workStarted) {
   lastCounters_ = frame.counters;
   currentImages_ = std::move(frame.images);
   renderedTexturesVersion_ = texturesVersion_;
-  pushAndPresent(currentImages_);
+  pushAndPresent(currentImages_, sent);
   // This rank's own part of the frame: its render and its push (not the waits for the others).
   work_.add(renderPartMs + (link_ ? stats_.push.lastMs : 0.0));
   if (link_)
     stats_.latency.add(std::chrono::duration<double, std::milli>(Clock::now() - started).count());
 }
 
-void Conductor::pushAndPresent(const std::vector<std::shared_ptr<const hw::Image>>& images) {
+void Conductor::pushAndPresent(const std::vector<std::shared_ptr<const hw::Image>>& images,
+                               const SentAhead& sent) {
   const uint32_t n = ++presentedFrame_;
   if (link_) {
-    push(images, n);
+    push(images, n, sent);
   } else {
     needsPush_ = true;
   }
@@ -202,12 +221,15 @@ void Conductor::pushAndPresent(const std::vector<std::shared_ptr<const hw::Image
 }
 
 void Conductor::push(const std::vector<std::shared_ptr<const hw::Image>>& images,
-                     uint32_t displayFrame) {
+                     uint32_t displayFrame, const SentAhead& sent) {
   const auto started = Clock::now();
   needsPush_ = false;
   try {
-    for (size_t i = 0; i < images.size(); ++i)
-      link_->submit(static_cast<int>(i), images[i], displayFrame);
+    if (sent.error) std::rethrow_exception(sent.error);
+    if (!sent.already) {
+      for (size_t i = 0; i < images.size(); ++i)
+        link_->submit(static_cast<int>(i), images[i], displayFrame);
+    }
     if (displayFrame == 0) {
       link_->flush();
     } else {

@@ -98,7 +98,7 @@ DisplayFrame renderDisplayFrame(const PhysicalScene& scene,
                                 const std::vector<RayTextures>& textures,
                                 const RenderOptions& options,
                                 const std::vector<ModuleEncoder>& encoders, FrameCache* cache,
-                                const LivePixels* live) {
+                                const LivePixels* live, const ModuleDone* done) {
   DisplayFrame out;
   const size_t n = textures.size();
   if (!encoders.empty() && encoders.size() != n)
@@ -120,6 +120,7 @@ DisplayFrame renderDisplayFrame(const PhysicalScene& scene,
                                  : renderModule(scene, textures[i], options, encoder, cache, i,
                                                 &scratch, &counters[i]);
       out.images[i] = m.image;
+      if (done) (*done)(i, m.image);
       renderNs += m.renderNs;
       encodeNs += m.encodeNs;
     });

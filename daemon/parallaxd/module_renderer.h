@@ -1,8 +1,10 @@
 #pragma once
 // One display frame: every module traced in parallel through its ray textures and encoded to
 // the 8-bit sRGB image the link carries. Nothing is pushed from here: the caller gets either
-// the whole set or an exception, so a half-rendered display never reaches the modules.
+// the whole set or an exception. It may send each module's image as soon as it is done
+// (ModuleDone), since a module holds a frame until it is presented: only a whole set is.
 
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -42,10 +44,16 @@ Frame frameShownBy(const hw::Image& image);
 // `cache`: the frame cache, prepared for this frame and scene (frame_cache.h), or null.
 // `live`: prepared for this frame and scene (live_pixels.h): only the footprints are traced and
 // encoded, the same bytes; null: every pixel.
+// Called with a module's index and image as soon as the module is rendered and encoded, on the
+// thread that did it (modules run in parallel).
+using ModuleDone = std::function<void(size_t module, std::shared_ptr<const hw::Image> image)>;
+
+// `done`: null, or called for every module as above.
 DisplayFrame renderDisplayFrame(const PhysicalScene& scene,
                                 const std::vector<RayTextures>& textures,
                                 const RenderOptions& options,
                                 const std::vector<ModuleEncoder>& encoders = {},
-                                FrameCache* cache = nullptr, const LivePixels* live = nullptr);
+                                FrameCache* cache = nullptr, const LivePixels* live = nullptr,
+                                const ModuleDone* done = nullptr);
 
 }  // namespace parallax::daemon

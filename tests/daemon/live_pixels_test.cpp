@@ -17,27 +17,15 @@
 #include "daemon/parallaxd/module_renderer.h"
 #include "scripts/scripted_scene.h"
 #include "tests/scripts/script_test_util.h"
+#include "tests/scripts/small_display.h"
 
 namespace parallax::daemon {
 namespace {
 
-struct Display {
-  DisplayModel model;
-  std::vector<RayTextures> textures;
-};
+using Display = testing::SmallDisplay;
 
 const Display& smallDisplay() {
-  static const Display display = [] {
-    NominalDisplayOptions options;
-    options.preset = "demo";
-    options.modules = 4;
-    options.width = 128;
-    options.height = 96;
-    Display d;
-    d.model = makeNominalDisplay(options);
-    for (int m = 0; m < options.modules; ++m) d.textures.push_back(generateRayTextures(d.model, m));
-    return d;
-  }();
+  static const Display display = testing::makeSmallDisplay(128, 4);
   return display;
 }
 

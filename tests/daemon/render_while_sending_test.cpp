@@ -14,30 +14,14 @@
 #include <stdexcept>
 #include <thread>
 
-#include "calibration/display/display_presets.h"
+#include "tests/scripts/small_display.h"
 #include "tracer/scene_fixtures.h"
 
 namespace parallax::daemon {
 namespace {
 
-struct Display {
-  DisplayModel model;
-  std::vector<RayTextures> textures;
-};
-
-const Display& display() {
-  static const Display d = [] {
-    NominalDisplayOptions options;
-    options.preset = "demo";
-    options.modules = 8;
-    options.width = 64;
-    options.height = 48;
-    Display out;
-    out.model = makeNominalDisplay(options);
-    for (int i = 0; i < options.modules; ++i)
-      out.textures.push_back(generateRayTextures(out.model, i));
-    return out;
-  }();
+const testing::SmallDisplay& display() {
+  static const testing::SmallDisplay d = testing::makeSmallDisplay(64, 8);
   return d;
 }
 

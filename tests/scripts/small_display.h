@@ -1,6 +1,6 @@
 #pragma once
-// A few modules of the demo screen with their ray textures, small enough for the scripts tests
-// that render whole animations twice (frame cache, shadow-ray bounds).
+// A few modules of the demo screen with their ray textures, small enough for the tests that
+// render whole animations twice (frame cache, shadow-ray bounds) or whole display frames.
 
 #include <vector>
 
@@ -14,11 +14,11 @@ struct SmallDisplay {
   std::vector<RayTextures> textures;
 };
 
-// Three modules of `demo`, each width × 96.
-inline SmallDisplay makeSmallDisplay(int width) {
+// `modules` modules of `demo`, each width × 96.
+inline SmallDisplay makeSmallDisplay(int width, int modules = 3) {
   NominalDisplayOptions options;
   options.preset = "demo";
-  options.modules = 3;
+  options.modules = modules;
   options.width = width;
   options.height = 96;
   SmallDisplay d;

@@ -193,14 +193,19 @@ class PhysicalScene {
   int withoutMeshScenes_ = 0;
   // The meshes that get a withoutMesh() scene, if their faces turn out bare.
   std::vector<bool> withoutMeshCandidates() const;
-  void buildWithoutMeshScenes();
+  void buildWithoutMeshScenes(const std::vector<bool>& candidates);
+  void dropWithoutMeshScenesOfMeshesWithoutBareFaces();
   // An empty scene with this scene's flags and build quality.
   RTCScene newScene() const;
   std::vector<bool> dynamicInstances_;
   std::vector<Eigen::Vector4f> dynamicSpheres_;
   void boundDynamicMeshes();
   void boundOccluders();
-  void markBareFaces();
+  // `specular`: withoutMeshCandidates().
+  void markBareFaces(const std::vector<bool>& specular);
+  // PhysicalMesh::bareFaces of triangle t: against every corner, within `tolerance`.
+  static std::int32_t bareSidesOf(const PhysicalMesh& mesh, size_t t,
+                                  const std::vector<Eigen::Vector3d>& corners, double tolerance);
   std::vector<OccluderBound> occluders_;
   std::vector<int> instanceMeshes_;
   std::vector<int> meshInstances_;  // per mesh: its Scene instance

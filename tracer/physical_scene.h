@@ -55,6 +55,11 @@ struct PhysicalMesh {
   // scene; empty otherwise (none bare).
   static constexpr std::int32_t kFrontBare = 1, kBackBare = 2;
   std::vector<std::int32_t> bareFaces;
+  // Whether triangle `prim` is bare on its CCW side (`frontSide`) or the other; false when the
+  // faces were not worked out.
+  bool bareOn(unsigned prim, bool frontSide) const {
+    return !bareFaces.empty() && (bareFaces[prim] & (frontSide ? kFrontBare : kBackBare)) != 0;
+  }
   // Mesh::interior in physical space, when the instance's transform keeps spheres spheres and
   // every triangle was built whole (none clipped or dropped); else empty.
   std::vector<Eigen::Vector4f> interior;

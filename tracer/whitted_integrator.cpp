@@ -658,9 +658,9 @@ void TileRenderer::pushBranch(const Path& parent, const Rgb& weight, const Eigen
 int TileRenderer::meshLeft(unsigned geomID, unsigned prim, bool frontSide,
                            const Eigen::Vector3f& side, const Eigen::Vector3f& dir) const {
   if (!skipMeshLeft_ || !scene_.withoutMesh(geomID)) return -1;
-  const std::int32_t bare = scene_.meshes()[geomID].bareFaces[prim] &
-                            (frontSide ? PhysicalMesh::kFrontBare : PhysicalMesh::kBackBare);
-  return bare != 0 && dir.dot(side) > 0.0f ? static_cast<int>(geomID) : -1;
+  return scene_.meshes()[geomID].bareOn(prim, frontSide) && dir.dot(side) > 0.0f
+             ? static_cast<int>(geomID)
+             : -1;
 }
 
 // With the frame cache, a first-generation diffuse hit's answers for the static lights (its
@@ -719,9 +719,7 @@ void TileRenderer::shade(size_t i, int generation, RenderCounters* c) {
       const std::uint8_t staticLights =
           generation == 0 && cache_ ? cachedStaticLights(i, path.pixel) : 0;
       const unsigned prim = rays_.primID(i);
-      const bool leavesMesh = !mesh.bareFaces.empty() &&
-                              (mesh.bareFaces[prim] & (h.frontFace ? PhysicalMesh::kFrontBare
-                                                                   : PhysicalMesh::kBackBare)) != 0;
+      const bool leavesMesh = mesh.bareOn(prim, h.frontFace);
       lit_.push(h.position, h.shadingNormal, h.geometricNormal, weightedAlbedo, path.pixel,
                 staticLights, LitSurfaces::meshFlags(geomID, leavesMesh));
       if (m.specular.maxCoeff() > 0.0f) {
@@ -1060,7 +1058,7 @@ struct TileBounds {
   int x0, x1, y0, y1;
 };
 
-// The tiles (options' size, in the grid a whole-frame render uses) that hold some column of the
+// The tiles (options' size, laid from the frame's top-left corner) that hold some column of the
 // footprint's rows, and in `outside` the counts of every pixel outside it (masked or missing
 // the scene's box), with the pixels of the tiles left out.
 std::vector<TileBounds> footprintTiles(const SceneFootprint& footprint,

@@ -323,7 +323,7 @@ SimAction SimulatedHardware::frameBegin(Module& m, const PacketHeader& header,
 
 namespace {
 
-using ByteSpan = std::pair<uint64_t, uint64_t>;  // offset, size
+using ByteSpan = SimulatedHardware::ByteSpan;
 
 // The union of two lists of sorted, disjoint spans, sorted and disjoint.
 std::vector<ByteSpan> unite(const std::vector<ByteSpan>& a, const std::vector<ByteSpan>& b) {
@@ -462,7 +462,7 @@ SimAction SimulatedHardware::finishChunk(const PacketHeader& header, uint32_t fr
     return action;
   }
   if (small) {
-    u.runningCrc = crc32c(data.data(), data.size(), u.chunks == 0 ? 0 : u.runningCrc);
+    u.runningCrc = crc32c(data.data(), data.size(), u.runningCrc);  // 0 at FrameBegin
   } else {
     u.runningCrc = u.chunks == 0 ? dataCrc : crc32cCombine(u.runningCrc, dataCrc, data.size());
   }

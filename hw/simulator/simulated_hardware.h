@@ -79,6 +79,8 @@ struct SimAction {
 
 class SimulatedHardware {
  public:
+  using ByteSpan = std::pair<uint64_t, uint64_t>;  // offset, size (a patch's chunk)
+
   explicit SimulatedHardware(SimulatedHardwareOptions options,
                              std::unique_ptr<CameraPhysics> physics = nullptr);
 
@@ -126,7 +128,6 @@ class SimulatedHardware {
   const SimulatedHardwareOptions& options() const { return options_; }
 
  private:
-  using ByteSpan = std::pair<uint64_t, uint64_t>;  // offset, size
   struct Upload {
     bool active = false;
     bool damaged = false;  // a chunk failed its CRC

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "calibration/display/ray_textures.h"
+#include "render_both_ways.h"
 #include "script_test_util.h"
 #include "scripts/scripted_scene.h"
 #include "small_display.h"
@@ -29,8 +30,6 @@ const testing::SmallDisplay& smallDisplay() {
 }
 
 struct Tally {
-  long pixels = 0;
-  long differing = 0;
   long withoutMesh = 0;  // rays traced without the mesh they leave
   long secondary = 0;    // reflection and refraction rays
   int scenesWithout = 0;
@@ -38,36 +37,23 @@ struct Tally {
 
 // Every frame of the script rendered both ways; the pixels compared as floats.
 Tally playBothWays(const std::string& path, int frames, double dt) {
-  ScriptOptions scriptOptions;
-  scriptOptions.libraryRoot = testing::sceneLibrary();
-  scriptOptions.quiet = true;
-  ScriptedScene script(path, scriptOptions);
-  const testing::SmallDisplay& display = smallDisplay();
   RenderOptions skipping, whole;
   whole.skipMeshLeft = false;
   Tally tally;
-  for (int f = 0; f < frames; ++f) {
-    EXPECT_TRUE(script.setTime(f * dt)) << script.lastError();
-    const PhysicalScene scene(script.scene(), display.model.displayableBox);
-    for (unsigned m = 0; m < scene.meshes().size(); ++m)
-      tally.scenesWithout += !!scene.withoutMesh(m);
-    for (const RayTextures& textures : display.textures) {
-      RenderCounters a, b;
-      const Frame skipped = renderFrame(scene, textures, skipping, &a);
-      const Frame full = renderFrame(scene, textures, whole, &b);
-      for (size_t p = 0; p < skipped.pixels.size(); ++p) {
-        ++tally.pixels;
-        tally.differing += skipped.pixels[p] == full.pixels[p] ? 0 : 1;
-      }
-      EXPECT_EQ(b.withoutMeshLeft, 0);
-      EXPECT_EQ(a.reflection, b.reflection) << path;
-      EXPECT_EQ(a.refraction, b.refraction) << path;
-      EXPECT_EQ(a.shadow, b.shadow) << path;
-      tally.withoutMesh += a.withoutMeshLeft;
-      tally.secondary += a.reflection + a.refraction;
-    }
-  }
-  EXPECT_EQ(tally.differing, 0) << tally.differing << " of " << tally.pixels << " pixels, " << path;
+  testing::renderBothWays(
+      path, frames, dt, smallDisplay(), skipping, whole,
+      [&](const PhysicalScene& scene) {
+        for (unsigned m = 0; m < scene.meshes().size(); ++m)
+          tally.scenesWithout += !!scene.withoutMesh(m);
+      },
+      [&](const RenderCounters& a, const RenderCounters& b) {
+        EXPECT_EQ(b.withoutMeshLeft, 0);
+        EXPECT_EQ(a.reflection, b.reflection) << path;
+        EXPECT_EQ(a.refraction, b.refraction) << path;
+        EXPECT_EQ(a.shadow, b.shadow) << path;
+        tally.withoutMesh += a.withoutMeshLeft;
+        tally.secondary += a.reflection + a.refraction;
+      });
   return tally;
 }
 
@@ -119,10 +105,8 @@ TEST(MeshLeft, MirrorsAndGlassOfEveryShapeEqualTracingTheWholeScene) {
 // and a mirror in a scene too large to build again without it.
 TEST(MeshLeft, NoSceneWithoutAMeshWhereItWouldBeEmptyOrCostTooMuch) {
   TempFolder folder;
-  ScriptOptions scriptOptions;
-  scriptOptions.quiet = true;
   const auto physical = [&](const std::string& name, const std::string& source) {
-    ScriptedScene script(folder.write(name, source), scriptOptions);
+    ScriptedScene script(folder.write(name, source), testing::libraryOptions());
     return std::make_unique<PhysicalScene>(script.scene(), smallDisplay().model.displayableBox);
   };
   const auto alone = physical("alone.lua", R"(

@@ -19,6 +19,7 @@
 
 #include "calibration/display/display_presets.h"
 #include "calibration/display/ray_textures.h"
+#include "render_both_ways.h"
 #include "script_test_util.h"
 #include "scripts/scripted_scene.h"
 #include "small_display.h"
@@ -42,8 +43,6 @@ const Display& smallDisplay() {
 }
 
 struct Tally {
-  long pixels = 0;
-  long differing = 0;
   long passed = 0;   // shadow rays not traced: nothing blocks them
   long blocked = 0;  // shadow rays not traced: a core blocks them
   long traced = 0;   // shadow rays traced with the bounds, and without them
@@ -52,35 +51,20 @@ struct Tally {
 
 // Every frame of the script rendered both ways; the pixels compared as floats.
 Tally playBothWays(const std::string& path, int frames, double dt) {
-  ScriptOptions scriptOptions;
-  scriptOptions.libraryRoot = testing::sceneLibrary();
-  scriptOptions.quiet = true;
-  ScriptedScene script(path, scriptOptions);
-  const Display& display = smallDisplay();
   RenderOptions bounded, everyRay;
   everyRay.boundShadowRays = false;
   Tally tally;
-  for (int f = 0; f < frames; ++f) {
-    EXPECT_TRUE(script.setTime(f * dt)) << script.lastError();
-    const PhysicalScene scene(script.scene(), display.model.displayableBox);
-    EXPECT_FALSE(scene.occluders().empty()) << path;
-    for (const RayTextures& textures : display.textures) {
-      RenderCounters withBounds, without;
-      const Frame a = renderFrame(scene, textures, bounded, &withBounds);
-      const Frame b = renderFrame(scene, textures, everyRay, &without);
-      for (size_t p = 0; p < a.pixels.size(); ++p) {
-        ++tally.pixels;
-        tally.differing += a.pixels[p] == b.pixels[p] ? 0 : 1;
-      }
-      EXPECT_EQ(without.shadowPassedBounds, 0);
-      EXPECT_EQ(without.shadowBlockedByCores, 0);
-      tally.passed += withBounds.shadowPassedBounds;
-      tally.blocked += withBounds.shadowBlockedByCores;
-      tally.traced += withBounds.shadow;
-      tally.tracedAll += without.shadow;
-    }
-  }
-  EXPECT_EQ(tally.differing, 0) << tally.differing << " of " << tally.pixels << " pixels, " << path;
+  testing::renderBothWays(
+      path, frames, dt, smallDisplay(), bounded, everyRay,
+      [&](const PhysicalScene& scene) { EXPECT_FALSE(scene.occluders().empty()) << path; },
+      [&](const RenderCounters& withBounds, const RenderCounters& without) {
+        EXPECT_EQ(without.shadowPassedBounds, 0);
+        EXPECT_EQ(without.shadowBlockedByCores, 0);
+        tally.passed += withBounds.shadowPassedBounds;
+        tally.blocked += withBounds.shadowBlockedByCores;
+        tally.traced += withBounds.shadow;
+        tally.tracedAll += without.shadow;
+      });
   // Every ray left out is one the full trace made, and found unblocked or blocked.
   EXPECT_EQ(tally.traced + tally.passed + tally.blocked, tally.tracedAll) << path;
   return tally;
